@@ -1,0 +1,108 @@
+"""Train a batched tabular agent on a vector env until every env has finished its episodes.
+
+The loop assumes the vector env's NEXT_STEP autoreset (gymnasium's default and the pool's): after
+env ``i`` returns ``terminated`` or ``truncated``, its next ``step`` ignores the action, resets the
+env and returns the first observation of the new episode with reward 0. That transition is not part
+of any episode, so it is neither learned from nor counted. An env that has finished its
+``n_episodes`` keeps being stepped with the others, but its transitions are ignored.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import gymnasium
+import numpy as np
+from gymnasium.vector import AutoresetMode, SyncVectorEnv, VectorEnv
+
+from modelicagym.agents.qlearning import QLearningAgent
+
+__all__ = ["TrainingLog", "train"]
+
+
+@dataclass
+class TrainingLog:
+    """What happened during :func:`train`, per env.
+
+    ``lengths[i, k]`` and ``returns[i, k]`` are the number of steps and the sum of rewards of
+    episode ``k`` of env ``i``; ``env_steps[i]`` counts the steps learned from (the sum of
+    ``lengths[i]``); ``vector_steps`` counts calls to the vector env's ``step``; ``agent_seconds``
+    is the time spent in the agent (discretising, acting, learning).
+    """
+
+    lengths: np.ndarray
+    returns: np.ndarray
+    env_steps: np.ndarray
+    vector_steps: int
+    agent_seconds: float
+
+
+def _as_vector_env(env: gymnasium.Env | VectorEnv) -> VectorEnv:
+    """A vector env as is; a single env wrapped as a vector env of one."""
+    if isinstance(env, VectorEnv):
+        return env
+    return SyncVectorEnv([lambda: env], autoreset_mode=AutoresetMode.NEXT_STEP)
+
+
+def train(
+    envs: gymnasium.Env | VectorEnv,
+    agent: QLearningAgent,
+    n_episodes: int,
+    *,
+    seed: int | Sequence[int] | None = None,
+    on_episodes: Callable[[int], None] | None = None,
+) -> TrainingLog:
+    """Run ``agent`` on ``envs`` until each env has completed ``n_episodes`` episodes.
+
+    ``seed`` is passed to the first ``reset``. ``on_episodes(k)`` is called whenever ``k > 0``
+    episodes have just been completed (for progress reporting).
+    """
+    envs = _as_vector_env(envs)
+    mode = AutoresetMode(envs.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP))
+    if mode is not AutoresetMode.NEXT_STEP:
+        raise ValueError(f"train() needs a vector env with NEXT_STEP autoreset, got {mode}")
+    n = envs.num_envs
+    if agent.n_envs != n:
+        raise ValueError(f"the agent has {agent.n_envs} Q-tables for {n} envs")
+    if n_episodes < 1:
+        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
+
+    lengths = np.zeros((n, n_episodes), dtype=np.int64)
+    returns = np.zeros((n, n_episodes), dtype=np.float64)
+    finished = np.zeros(n, dtype=np.int64)
+    episode_length = np.zeros(n, dtype=np.int64)
+    episode_return = np.zeros(n, dtype=np.float64)
+    resetting = np.zeros(n, dtype=bool)
+    vector_steps = 0
+    agent_seconds = 0.0
+
+    observations, _ = envs.reset(seed=seed)
+    clock = time.perf_counter()
+    states = agent.states(observations)
+    while np.any(finished < n_episodes):
+        actions = agent.act(states)
+        agent_seconds += time.perf_counter() - clock
+        observations, rewards, terminated, truncated, _ = envs.step(actions)
+        vector_steps += 1
+        clock = time.perf_counter()
+        next_states = agent.states(observations)
+        live = ~resetting & (finished < n_episodes)
+        agent.learn(states, actions, rewards, next_states, terminated, truncated, mask=live)
+
+        episode_length += live
+        episode_return += np.where(live, rewards, 0.0)
+        ended = np.flatnonzero(live & (terminated | truncated))
+        if ended.size:
+            lengths[ended, finished[ended]] = episode_length[ended]
+            returns[ended, finished[ended]] = episode_return[ended]
+            finished[ended] += 1
+            episode_length[ended] = 0
+            episode_return[ended] = 0.0
+            if on_episodes is not None:
+                on_episodes(int(ended.size))
+        resetting = terminated | truncated
+        states = next_states
+    agent_seconds += time.perf_counter() - clock
+    return TrainingLog(lengths, returns, lengths.sum(axis=1), vector_steps, agent_seconds)
