@@ -1,0 +1,31 @@
+"""The FMI runtime: everything that touches an FMU, nothing about reinforcement learning.
+
+``open_fmu`` reads what an FMU declares (`FMUDescription`); `FMUInstance` runs one instance of it.
+"""
+
+from modelicagym.fmu.description import FMUDescription, open_fmu
+from modelicagym.fmu.errors import (
+    FMUCallError,
+    FMUError,
+    FMUNotFoundError,
+    InvalidFMUError,
+    PlatformNotSupportedError,
+    UnsupportedFeatureError,
+    VariableError,
+)
+from modelicagym.fmu.instance import FMUInstance
+from modelicagym.fmu.variables import Variable
+
+__all__ = [
+    "FMUCallError",
+    "FMUDescription",
+    "FMUError",
+    "FMUInstance",
+    "FMUNotFoundError",
+    "InvalidFMUError",
+    "PlatformNotSupportedError",
+    "UnsupportedFeatureError",
+    "Variable",
+    "VariableError",
+    "open_fmu",
+]

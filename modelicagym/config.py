@@ -1,0 +1,83 @@
+"""The configuration of an `FMUEnv`: a few lines that turn an FMU into an environment.
+
+A config is keyword arguments or a dict (so a JSON/TOML file works), checked once when the
+environment is made. Unknown keys are an error with a suggestion, like unknown variable names.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from gymnasium import spaces
+
+Bounds = Mapping[str, Sequence[float]]
+
+
+@dataclass
+class FMUEnvConfig:
+    """Everything `FMUEnv` needs to know about an FMU.
+
+    Attributes:
+        fmu: path of the ``.fmu`` file (or extracted folder).
+        inputs: input variables driven by the action, in order.
+        outputs: variables observed after every step, in order.
+        parameters: values (or callables ``f(np_random) -> value``) applied at every reset.
+        time_step: seconds per environment step; default: the model's ``defaultExperiment stepSize``.
+        start_time: default: the model's ``defaultExperiment startTime``.
+        max_episode_steps: truncate an episode after this many steps (None: never).
+        positive_reward / negative_reward: the paper's default reward — ``positive_reward`` for
+            every step the episode goes on, ``negative_reward`` on the step it terminates.
+        termination: ``{variable: (low, high)}``: the episode terminates when an output leaves
+            its interval; or a callable ``f(env, observation) -> bool``.
+        reward: a callable ``f(env, observation, action, terminated) -> float`` replacing the
+            default reward.
+        action_space / observation_space: override the spaces derived from the model description.
+        mode: ``"cs"`` or ``"me"``; default: co-simulation when the FMU offers it.
+        reset_rung, solver, tolerance, solver_step, validate, logging_on: passed to `FMUInstance`.
+    """
+
+    fmu: str | os.PathLike[str]
+    inputs: Sequence[str] = ()
+    outputs: Sequence[str] = ()
+    parameters: Mapping[str, Any] = field(default_factory=dict)
+    time_step: float | None = None
+    start_time: float | None = None
+    max_episode_steps: int | None = None
+    positive_reward: float = 1.0
+    negative_reward: float = -100.0
+    termination: Bounds | Callable[..., bool] | None = None
+    reward: Callable[..., float] | None = None
+    action_space: spaces.Space | None = None
+    observation_space: spaces.Space | None = None
+    mode: str | None = None
+    reset_rung: str = "auto"
+    solver: str = "cvode"
+    tolerance: float | None = None
+    solver_step: float | None = None
+    validate: bool = True
+    logging_on: bool = False
+
+    @classmethod
+    def from_mapping(cls, mapping: Mapping[str, Any]) -> FMUEnvConfig:
+        """Build a config from a dict, with a clear error for unknown or missing keys."""
+        known = [f.name for f in fields(cls)]
+        for key in mapping:
+            if key not in known:
+                close = difflib.get_close_matches(key, known, n=2)
+                hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+                raise TypeError(f"unknown FMUEnv config key {key!r}.{hint} Known keys: {', '.join(known)}")
+        if "fmu" not in mapping:
+            raise TypeError("an FMUEnv config needs 'fmu': the path of the .fmu file")
+        config = cls(**mapping)
+        config.inputs = list([config.inputs] if isinstance(config.inputs, str) else config.inputs)
+        config.outputs = list([config.outputs] if isinstance(config.outputs, str) else config.outputs)
+        config.parameters = dict(config.parameters)
+        if config.time_step is not None and not config.time_step > 0:
+            raise ValueError(f"time_step must be positive, got {config.time_step}")
+        if config.max_episode_steps is not None and config.max_episode_steps < 1:
+            raise ValueError(f"max_episode_steps must be at least 1, got {config.max_episode_steps}")
+        return config

@@ -1,0 +1,209 @@
+"""`FMUEnv`: any FMU as a Gymnasium environment, from a few lines of config.
+
+The step contract, stated once:
+
+* ``reset(seed, options)`` starts an episode at ``start_time`` with the config's parameters,
+  updated by ``options["parameters"]`` for that episode only; it returns the outputs as the
+  first observation and an empty info.
+* ``step(action)`` checks the action (a clear ``ValueError`` otherwise), maps it to input values
+  (`action_to_inputs`), advances the FMU by ``time_step`` and returns
+  ``(observation, reward, terminated, truncated, info)``:
+  ``terminated`` when `is_terminal` says so or the FMU itself ended the simulation
+  (``info["fmu_terminated"]``); ``truncated`` after ``max_episode_steps``, or when the FMU
+  failed (status Error/Fatal): then ``info["fmu_error"]`` holds its message and the next reset
+  re-instantiates the FMU. Infos are empty on ordinary steps.
+* time is ``start_time + k * time_step``, read as ``env.time``.
+
+Subclasses override what the paper's users override: `compute_reward`, `is_terminal`,
+`action_to_inputs`, `make_action_space` / `make_observation_space` (with `observation`), and
+`render`.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from modelicagym.config import FMUEnvConfig
+from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
+from modelicagym.spaces import Observer, check_action, space_for, write_values
+
+logger = logging.getLogger(__name__)
+
+
+class FMUEnv(gym.Env):
+    """A Gymnasium environment around one FMU instance.
+
+    Example::
+
+        from modelicagym import FMUEnv
+        from modelicagym.models.cartpole import cartpole_fmu
+
+        env = FMUEnv(
+            fmu=cartpole_fmu(),
+            inputs=["f"],
+            outputs=["x", "x_dot", "theta", "theta_dot"],
+            parameters={"m_cart": 10.0},
+            time_step=0.05,
+            termination={"x": (-2.4, 2.4)},
+            max_episode_steps=500,
+        )
+        observation, info = env.reset(seed=0)
+        observation, reward, terminated, truncated, info = env.step(np.array([5.0]))
+
+    ``config`` may be a dict (e.g. loaded from a file); keyword arguments override it. See
+    `FMUEnvConfig` for every key.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+
+    def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
+        self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
+        self.render_mode = render_mode
+        self.description = description = open_fmu(cfg.fmu, validate=cfg.validate)
+        if not cfg.outputs:
+            raise ValueError(f"{description.name}: 'outputs' is empty; outputs of this FMU: "
+                             f"{', '.join(v.name for v in description.outputs) or 'none'}")
+        for name in cfg.parameters:
+            description.settable_variable(name)
+        self.time_step = float(cfg.time_step or description.default_experiment.step_size or 0.0)
+        if not self.time_step > 0:
+            raise ValueError(f"{description.name} declares no default step size: give 'time_step'")
+        self.fmu = FMUInstance(
+            description,
+            mode=cfg.mode,
+            inputs=cfg.inputs,
+            outputs=cfg.outputs,
+            start_time=cfg.start_time,
+            reset_rung=cfg.reset_rung,
+            solver=cfg.solver,
+            tolerance=cfg.tolerance,
+            solver_step=cfg.solver_step,
+            validate=cfg.validate,
+            logging_on=cfg.logging_on,
+        )
+        self.action_space = cfg.action_space or self.make_action_space()
+        self.observation_space = cfg.observation_space or self.make_observation_space()
+        self._observer = Observer(space_for(self.fmu.output_variables), self.fmu.outputs)
+        self._bounds = self._termination_bounds(cfg.termination)
+        self.max_episode_steps = cfg.max_episode_steps
+        self.positive_reward = float(cfg.positive_reward)
+        self.negative_reward = float(cfg.negative_reward)
+        self.elapsed_steps = 0
+        self.episode_parameters: dict[str, Any] = {}
+
+    # -- the Gymnasium API -----------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        super().reset(seed=seed)
+        options = options or {}
+        overrides = options.get("parameters") or {}
+        for name in overrides:
+            self.description.settable_variable(name)
+        parameters = {**self.config.parameters, **overrides}
+        self.episode_parameters = {
+            name: value(self.np_random) if callable(value) else value for name, value in parameters.items()
+        }
+        self.fmu.reset(self.episode_parameters)
+        self.elapsed_steps = 0
+        return self.observation(), {}
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        check_action(self.action_space, action)
+        write_values(self.fmu.inputs, self.action_to_inputs(action))
+        info: dict[str, Any] = {}
+        try:
+            model_terminated = self.fmu.step(self.time_step)
+        except (FMUCallError, FMUError) as error:
+            logger.warning("%s: episode truncated at t=%g: %s", self.description.name, self.fmu.time, error)
+            self.elapsed_steps += 1
+            return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
+        observation = self.observation()
+        terminated = self.is_terminal(observation)
+        if model_terminated:
+            terminated = True
+            info["fmu_terminated"] = True
+        self.elapsed_steps += 1
+        truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
+        return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
+
+    def close(self) -> None:
+        fmu = getattr(self, "fmu", None)
+        if fmu is not None:
+            fmu.close()
+
+    # -- what subclasses override ----------------------------------------------------------------
+
+    def make_action_space(self) -> gym.Space:
+        """The action space; default: derived from the input variables (see `modelicagym.spaces`)."""
+        if not self.fmu.input_variables:
+            raise ValueError(f"{self.description.name}: 'inputs' is empty; inputs of this FMU: "
+                             f"{', '.join(v.name for v in self.description.inputs) or 'none'}")
+        return space_for(self.fmu.input_variables)
+
+    def make_observation_space(self) -> gym.Space:
+        """The observation space; default: derived from the output variables."""
+        return space_for(self.fmu.output_variables)
+
+    def observation(self) -> Any:
+        """The observation from the FMU's current outputs (override with a custom observation space)."""
+        return self._observer.observe()
+
+    def action_to_inputs(self, action: Any) -> Any:
+        """Input values for a (checked) action: an array-like in input order, or ``{name: value}``."""
+        return action
+
+    def is_terminal(self, observation: Any) -> bool:
+        """Whether the episode is over; default: the config's ``termination`` bounds or callable."""
+        termination = self.config.termination
+        if callable(termination):
+            return bool(termination(self, observation))
+        if self._bounds:
+            values = self.fmu.outputs.views
+            return any(not (low <= float(values[name]) <= high) for name, low, high in self._bounds)
+        return False
+
+    def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
+        """The reward of a step; default: the config's ``reward`` callable, else the paper's rule."""
+        if self.config.reward is not None:
+            return float(self.config.reward(self, observation, action, terminated))
+        return self.negative_reward if terminated else self.positive_reward
+
+    # -- timing, for the pool --------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        """Simulation time of the FMU."""
+        return self.fmu.time
+
+    @property
+    def fmu_time_ns(self) -> int:
+        """Nanoseconds spent inside FMU calls since `measure_fmu_time` was switched on."""
+        return self.fmu.fmu_time_ns
+
+    @property
+    def measure_fmu_time(self) -> bool:
+        return self.fmu.measure_time
+
+    @measure_fmu_time.setter
+    def measure_fmu_time(self, on: bool) -> None:
+        self.fmu.measure_time = bool(on)
+
+    # -- helpers ---------------------------------------------------------------------------------
+
+    def _termination_bounds(self, termination: Any) -> list[tuple[str, float, float]]:
+        if termination is None or callable(termination):
+            return []
+        bounds = []
+        for name, (low, high) in dict(termination).items():
+            if name not in self.fmu.outputs.views:
+                self.description.variable(name)
+                raise ValueError(f"{self.description.name}: termination bound on {name!r}, which is not in 'outputs'")
+            bounds.append((name, float(low), float(high)))
+        return bounds

@@ -1,0 +1,211 @@
+"""A version-neutral, thin layer over one FMU's C API.
+
+`FMIBinding` loads the FMU's shared library through fmpy (which declares every FMI function's
+ctypes signature) and then calls the raw C functions itself: fmpy's convenience methods build
+ctypes arrays on every call and raise on warnings, while the runtime needs preallocated arrays on
+the hot path and its own status handling. `fmi2.py` and `fmi3.py` fill in what differs between
+the two standards; everything above them (`instance.py`, `model_exchange.py`) is version-neutral.
+
+Status codes are the FMI ones (fmi2Status and fmi3Status share their values). ``do_step``
+collapses the "did the model end the simulation" question that the two versions answer
+differently into one extra code, `TERMINATED`.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+from collections.abc import Callable
+from functools import partial
+from typing import Any
+
+import numpy as np
+
+from modelicagym.fmu.description import FMUDescription
+from modelicagym.fmu.errors import FMUCallError, FMUError
+from modelicagym.fmu.logs import FMULog
+
+logger = logging.getLogger(__name__)
+
+OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
+TERMINATED = 10
+"""Returned by ``do_step`` when the model asked to end the simulation (discard + terminated)."""
+
+
+class FMIBinding:
+    """One loaded FMU library and at most one live instance of it.
+
+    Subclasses set ``TYPE_FUNCTIONS``: for every FMI value type, the suffix of its get/set
+    functions and the ctypes type of its values.
+    """
+
+    TYPE_FUNCTIONS: dict[str, tuple[str, Any]] = {}
+    PREFIX = ""
+
+    def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None):
+        self.description = description
+        self.mode = mode
+        self.fmu_name = description.name
+        self.instance_name = instance_name or description.interface(mode).modelIdentifier
+        library = description.library_path(mode)
+        try:
+            self._fmu = self._load_library(str(library))
+        except Exception as error:
+            raise FMUError(f"{self.fmu_name}: cannot load {library}: {error}") from error
+        self.raw: dict[str, Any] = self._fmu._functions
+        self.component: Any = None
+        self.log = FMULog(description.model_name, self.instance_name)
+
+    def _load_library(self, library: str) -> Any:
+        raise NotImplementedError
+
+    # -- status handling -------------------------------------------------------------------------
+
+    def fail(self, function: str, status: int) -> FMUCallError:
+        """The error for a failed call, carrying what the FMU logged just before."""
+        return FMUCallError(f"{self.fmu_name} ({self.instance_name})", function, status, self.log.take_recent())
+
+    def call(self, function: str, *args: Any) -> int:
+        """Call ``function`` on the live instance; raise `FMUCallError` unless it returns OK/Warning."""
+        status = self.raw[self.PREFIX + function](self.component, *args)
+        if status > WARNING:
+            raise self.fail(self.PREFIX + function, status)
+        return status
+
+    # -- values ----------------------------------------------------------------------------------
+
+    def value_ctype(self, fmi_type: str) -> Any:
+        try:
+            return self.TYPE_FUNCTIONS[fmi_type][1]
+        except KeyError:
+            raise FMUError(f"{self.fmu_name}: values of type {fmi_type} are not supported") from None
+
+    def accessors(self, fmi_type: str, refs: Any, values: Any, n_values: int) -> tuple[Callable[[], int], Callable[[], int]]:
+        """Zero-argument ``(get, set)`` calls moving ``values`` for value references ``refs``.
+
+        Everything is bound in advance, so a call allocates nothing; rebind after re-instantiating.
+        """
+        suffix = self.TYPE_FUNCTIONS[fmi_type][0]
+        getter, setter = self.raw[self.PREFIX + "Get" + suffix], self.raw[self.PREFIX + "Set" + suffix]
+        extra = self._value_count_args(n_values)
+        return (
+            partial(getter, self.component, refs, len(refs), values, *extra),
+            partial(setter, self.component, refs, len(refs), values, *extra),
+        )
+
+    def _value_count_args(self, n_values: int) -> tuple[int, ...]:
+        return ()
+
+    def set_values(self, values: dict[str, Any]) -> None:
+        """Set variables by name (slow path: parameters and start values)."""
+        for name, value in values.items():
+            variable = self.description.variables[name]
+            array = np.asarray(value).ravel()
+            if variable.kind == "string":
+                self._set_strings(variable.value_reference, [str(v) for v in array])
+                continue
+            ctype = self.value_ctype(variable.fmi_type)
+            refs = (ctypes.c_uint * 1)(variable.value_reference)
+            buffer = (ctype * array.size)(*array.tolist())
+            _, setter = self.accessors(variable.fmi_type, refs, buffer, array.size)
+            status = setter()
+            if status > WARNING:
+                raise FMUCallError(
+                    f"{self.fmu_name} ({self.instance_name})",
+                    f"{self.PREFIX}Set{self.TYPE_FUNCTIONS[variable.fmi_type][0]}({name}={value!r})",
+                    status,
+                    self.log.take_recent(),
+                )
+
+    def get_values(self, names: list[str]) -> dict[str, Any]:
+        """Read variables by name (slow path, for inspection and tests)."""
+        result: dict[str, Any] = {}
+        for name in names:
+            variable = self.description.variables[name]
+            ctype = self.value_ctype(variable.fmi_type)
+            refs = (ctypes.c_uint * 1)(variable.value_reference)
+            buffer = (ctype * variable.size)()
+            getter, _ = self.accessors(variable.fmi_type, refs, buffer, variable.size)
+            status = getter()
+            if status > WARNING:
+                raise self.fail(f"{self.PREFIX}Get{self.TYPE_FUNCTIONS[variable.fmi_type][0]}({name})", status)
+            values = list(buffer)
+            result[name] = values[0] if not variable.shape else np.reshape(values, variable.shape)
+        return result
+
+    def _set_strings(self, value_reference: int, values: list[str]) -> None:
+        refs = (ctypes.c_uint * 1)(value_reference)
+        buffer = (ctypes.c_char_p * len(values))(*(v.encode() for v in values))
+        self.call("SetString", refs, 1, buffer, *self._value_count_args(len(values)))
+
+    # -- lifecycle (per version) -----------------------------------------------------------------
+
+    def instantiate(self, logging_on: bool = False) -> None:
+        raise NotImplementedError
+
+    def free_instance(self) -> None:
+        """Free the instance but keep the library loaded, so it can be instantiated again."""
+        if self.component is not None:
+            self.raw[self.PREFIX + "FreeInstance"](self.component)
+            self.component = None
+
+    def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
+        raise NotImplementedError
+
+    def exit_initialization(self) -> None:
+        self.call("ExitInitializationMode")
+
+    def terminate(self) -> None:
+        self.call("Terminate")
+
+    def reset(self) -> None:
+        self.call("Reset")
+
+    def do_step_call(self) -> Callable[[float, float], int]:
+        """A fast ``(t, h) -> status`` co-simulation step returning OK, TERMINATED, DISCARD, ERROR or FATAL."""
+        raise NotImplementedError
+
+    # -- state snapshots -------------------------------------------------------------------------
+
+    def get_state(self, state: Any = None) -> Any:
+        """Snapshot the instance; pass an earlier snapshot to overwrite it in place."""
+        state = ctypes.c_void_p() if state is None else state
+        self.call(self._state_name("Get"), ctypes.byref(state))
+        return state
+
+    def set_state(self, state: Any) -> None:
+        self.call(self._state_name("Set"), state)
+
+    def free_state(self, state: Any) -> None:
+        if self.component is not None and state:
+            self.raw[self.PREFIX + self._state_name("Free")](self.component, ctypes.byref(state))
+
+    def _state_name(self, verb: str) -> str:
+        raise NotImplementedError
+
+    # -- model exchange (per version) --------------------------------------------------------------
+
+    def enter_event_mode(self) -> None:
+        self.call("EnterEventMode")
+
+    def enter_continuous_time_mode(self) -> None:
+        self.call("EnterContinuousTimeMode")
+
+    def update_discrete_states(self) -> tuple[bool, bool, bool, float | None]:
+        """One event iteration: ``(needs_more, terminate, states_changed, next_event_time)``."""
+        raise NotImplementedError
+
+    def completed_integrator_step(self) -> tuple[bool, bool]:
+        """``(enter_event_mode, terminate)`` after an accepted integrator step."""
+        raise NotImplementedError
+
+    def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
+        """Raw ``(pointer, n)`` calls bound to this instance: set_time (``(t)``), get_x, set_x, get_dx, get_z, get_nominals."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Free the instance and release the log route; the library is left to the OS."""
+        try:
+            self.free_instance()
+        finally:
+            self.log.close()

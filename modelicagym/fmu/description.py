@@ -1,0 +1,271 @@
+"""Open an FMU once: check it, extract it once, read its model description.
+
+`open_fmu` is the entry point. It accepts a ``.fmu`` file or an already extracted folder, fails
+with a clear message on anything that is not a usable FMU, and extracts each FMU file once into
+a cache folder keyed by the file's path, size and modification time, so every instance in every
+process reuses the same extraction (DESIGN.md: never re-extract).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import shutil
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import fmpy
+from fmpy.model_description import read_model_description
+
+from modelicagym.fmu.errors import (
+    FMUNotFoundError,
+    InvalidFMUError,
+    PlatformNotSupportedError,
+    UnsupportedFeatureError,
+    VariableError,
+    unknown_variable,
+)
+from modelicagym.fmu.variables import Variable, from_fmpy
+
+logger = logging.getLogger(__name__)
+
+MODES = ("cs", "me")
+_MODE_NAMES = {"cs": "co-simulation", "me": "model exchange"}
+
+
+def cache_root() -> Path:
+    """Where modelicagym keeps built and extracted FMUs: ``$MODELICAGYM_CACHE`` or ``~/.cache/modelicagym``."""
+    return Path(os.environ.get("MODELICAGYM_CACHE") or Path.home() / ".cache" / "modelicagym")
+
+
+@dataclass(frozen=True)
+class DefaultExperiment:
+    start_time: float = 0.0
+    stop_time: float | None = None
+    step_size: float | None = None
+    tolerance: float | None = None
+
+
+class FMUDescription:
+    """What an FMU declares: variables by name, interface types, capabilities, platforms.
+
+    Reading it never loads the FMU's binary, so it is cheap and safe in any process (the pool
+    reads spaces from it in the parent).
+    """
+
+    def __init__(self, path: Path, unzip_dir: Path, model_description: Any):
+        self.path = path
+        self.unzip_dir = unzip_dir
+        self.raw = model_description
+        self.name = path.name
+        self.variables: dict[str, Variable] = {v.name: from_fmpy(v) for v in model_description.modelVariables}
+
+    def __repr__(self) -> str:
+        return f"FMUDescription({str(self.path)!r}, fmi={self.fmi_version}, modes={self.modes})"
+
+    @property
+    def fmi_version(self) -> int:
+        """2 or 3 (FMI 1.0 is not supported)."""
+        return int(self.raw.fmiVersion.split(".")[0])
+
+    @property
+    def model_name(self) -> str:
+        return self.raw.modelName
+
+    @property
+    def guid(self) -> str:
+        return self.raw.guid
+
+    @property
+    def modes(self) -> tuple[str, ...]:
+        """The interface types this FMU supports: ``"cs"`` (co-simulation), ``"me"`` (model exchange)."""
+        return tuple(m for m in MODES if self._interface_or_none(m) is not None)
+
+    def _interface_or_none(self, mode: str) -> Any:
+        return self.raw.coSimulation if mode == "cs" else self.raw.modelExchange
+
+    def interface(self, mode: str) -> Any:
+        """fmpy's interface-type record for ``mode``; a clear error if the FMU does not support it."""
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        interface = self._interface_or_none(mode)
+        if interface is None:
+            raise UnsupportedFeatureError(
+                f"{self.name} does not support {_MODE_NAMES[mode]} (mode={mode!r}); it supports: "
+                + (", ".join(f"{_MODE_NAMES[m]} ({m!r})" for m in self.modes) or "nothing")
+            )
+        return interface
+
+    def default_mode(self) -> str:
+        """Co-simulation when available (one call per step), else model exchange."""
+        if not self.modes:
+            raise UnsupportedFeatureError(f"{self.name} supports neither co-simulation nor model exchange")
+        return self.modes[0]
+
+    def can_snapshot(self, mode: str) -> bool:
+        """Whether the FMU can save and restore its state (``canGetAndSetFMUstate``)."""
+        return bool(self.interface(mode).canGetAndSetFMUstate)
+
+    def once_per_process(self, mode: str | None = None) -> bool:
+        """Whether only one instance may live in a process (``canBeInstantiatedOnlyOncePerProcess``)."""
+        modes = [mode] if mode else self.modes
+        return any(self.interface(m).canBeInstantiatedOnlyOncePerProcess for m in modes)
+
+    @property
+    def default_experiment(self) -> DefaultExperiment:
+        d = self.raw.defaultExperiment
+        if d is None:
+            return DefaultExperiment()
+
+        def num(x: Any) -> float | None:
+            return None if x is None else float(x)
+
+        return DefaultExperiment(num(d.startTime) or 0.0, num(d.stopTime), num(d.stepSize), num(d.tolerance))
+
+    @property
+    def number_of_states(self) -> int:
+        return int(self.raw.numberOfContinuousStates)
+
+    @property
+    def number_of_event_indicators(self) -> int:
+        return int(self.raw.numberOfEventIndicators)
+
+    @property
+    def platform_dir(self) -> str:
+        """The ``binaries/`` sub-folder this machine needs (``linux64`` / ``x86_64-linux`` ...)."""
+        return fmpy.platform if self.fmi_version == 2 else fmpy.platform_tuple
+
+    @cached_property
+    def platforms(self) -> tuple[str, ...]:
+        """Platforms the FMU ships binaries for (folder names under ``binaries/``)."""
+        binaries = self.unzip_dir / "binaries"
+        if not binaries.is_dir():
+            return ()
+        return tuple(sorted(p.name for p in binaries.iterdir() if p.is_dir() and any(p.iterdir())))
+
+    @property
+    def has_sources(self) -> bool:
+        return (self.unzip_dir / "sources").is_dir()
+
+    def library_path(self, mode: str) -> Path:
+        """The shared library for ``mode`` on this platform; a clear error when it is missing."""
+        identifier = self.interface(mode).modelIdentifier
+        library = self.unzip_dir / "binaries" / self.platform_dir / (identifier + fmpy.sharedLibraryExtension)
+        if not library.is_file():
+            hint = (
+                " It contains C sources: build a binary with `modelicagym build "
+                f"{self.path}` (or fmpy.util.compile_platform_binary)." if self.has_sources else ""
+            )
+            raise PlatformNotSupportedError(
+                f"{self.name} has no binary for this platform ({self.platform_dir}): expected "
+                f"binaries/{self.platform_dir}/{library.name}. It has binaries for: "
+                f"{', '.join(self.platforms) or 'no platform'}.{hint}"
+            )
+        return library
+
+    # -- variables -------------------------------------------------------------------------------
+
+    def variable(self, name: str) -> Variable:
+        """The variable called ``name``; a `VariableError` suggesting close matches if there is none."""
+        try:
+            return self.variables[name]
+        except KeyError:
+            raise unknown_variable(name, self.variables, self.name) from None
+
+    def _with_causality(self, *causalities: str) -> list[Variable]:
+        return [v for v in self.variables.values() if v.causality in causalities]
+
+    @property
+    def inputs(self) -> list[Variable]:
+        return self._with_causality("input")
+
+    @property
+    def outputs(self) -> list[Variable]:
+        return self._with_causality("output")
+
+    @property
+    def parameters(self) -> list[Variable]:
+        return [v for v in self._with_causality("parameter", "structuralParameter") if v.settable]
+
+    def input_variable(self, name: str) -> Variable:
+        """``name`` checked to be an input, so it can be driven by an action."""
+        variable = self.variable(name)
+        if not variable.is_input:
+            raise VariableError(
+                f"{self.name}: {name!r} cannot be an action: it has causality {variable.causality!r}, "
+                f"not 'input'. Inputs are: {', '.join(v.name for v in self.inputs) or 'none'}"
+            )
+        return variable
+
+    def observable_variable(self, name: str) -> Variable:
+        """``name`` checked to be readable while the model runs (anything but an independent variable)."""
+        variable = self.variable(name)
+        if variable.kind in ("binary", "clock", "string"):
+            raise VariableError(f"{self.name}: {name!r} is of type {variable.fmi_type}, which cannot be an observation")
+        return variable
+
+    def settable_variable(self, name: str) -> Variable:
+        """``name`` checked to be settable as a parameter or start value."""
+        variable = self.variable(name)
+        if not variable.settable:
+            raise VariableError(
+                f"{self.name}: {name!r} cannot be set (causality {variable.causality!r}, variability "
+                f"{variable.variability!r}, initial {variable.initial!r}). Settable parameters: "
+                f"{', '.join(v.name for v in self.parameters) or 'none'}"
+            )
+        return variable
+
+
+def open_fmu(path: str | os.PathLike[str] | FMUDescription, validate: bool = True) -> FMUDescription:
+    """Check and open an FMU (a ``.fmu`` file or an extracted folder), extracting it once.
+
+    ``validate=False`` skips fmpy's schema validation: some FMUs in the wild fail it and run fine.
+    """
+    if isinstance(path, FMUDescription):
+        return path
+    path = Path(path).expanduser()
+    if not path.exists():
+        raise FMUNotFoundError(f"FMU not found: {path} (resolved to {path.resolve()})")
+    unzip_dir = path if path.is_dir() else _extract(path)
+    if not (unzip_dir / "modelDescription.xml").is_file():
+        raise InvalidFMUError(f"{path} is not an FMU: it has no modelDescription.xml at its top level")
+    try:
+        model_description = read_model_description(str(unzip_dir), validate=validate)
+    except Exception as error:
+        hint = " (pass validate=False to skip schema validation)" if validate else ""
+        raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: {error}{hint}") from error
+    if model_description.fmiVersion.startswith("1."):
+        raise InvalidFMUError(f"{path} is an FMI 1.0 FMU; modelicagym supports FMI 2.0 and 3.0")
+    return FMUDescription(path, unzip_dir, model_description)
+
+
+def _extract(path: Path) -> Path:
+    """Extract ``path`` into the cache, once per (path, size, mtime); safe across processes."""
+    if not zipfile.is_zipfile(path):
+        raise InvalidFMUError(f"{path} is not an FMU: an FMU is a zip archive, and this file is not one")
+    stat = path.stat()
+    key = hashlib.sha256(f"{path.resolve()}|{stat.st_size}|{stat.st_mtime_ns}".encode()).hexdigest()[:20]
+    target = cache_root() / "extracted" / f"{path.stem}-{key}"
+    if (target / "modelDescription.xml").is_file():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{path.stem}-", dir=target.parent))
+    try:
+        with zipfile.ZipFile(path) as archive:
+            if "modelDescription.xml" not in archive.namelist():
+                raise InvalidFMUError(f"{path} is not an FMU: the zip archive has no modelDescription.xml")
+            archive.extractall(staging)
+        try:
+            os.rename(staging, target)
+            logger.debug("extracted %s to %s", path, target)
+        except OSError:
+            if not (target / "modelDescription.xml").is_file():
+                raise
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return target

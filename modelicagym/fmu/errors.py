@@ -1,0 +1,70 @@
+"""Exceptions raised by the FMI runtime.
+
+Every error names the FMU (and, where it applies, the variable or FMI function) so that a user
+who wraps an unknown FMU can tell from the message alone what went wrong and where.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+STATUS_NAMES = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+
+
+def status_name(status: int) -> str:
+    """The FMI name of a status code (``fmi2Status`` and ``fmi3Status`` share their values)."""
+    return STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"illegal status {status}"
+
+
+class FMUError(Exception):
+    """Base class of every error the FMI runtime raises."""
+
+
+class FMUNotFoundError(FMUError, FileNotFoundError):
+    """The FMU path does not exist."""
+
+
+class InvalidFMUError(FMUError, ValueError):
+    """The file exists but is not a usable FMU (not a zip, no modelDescription.xml, ...)."""
+
+
+class PlatformNotSupportedError(FMUError):
+    """The FMU has no binary for this platform."""
+
+
+class UnsupportedFeatureError(FMUError):
+    """The FMU lacks a capability that was asked for (an interface type, state snapshots, ...)."""
+
+
+class VariableError(FMUError, KeyError):
+    """A variable name is unknown, or the variable cannot be used the way it was asked to."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0])
+
+
+def unknown_variable(name: str, known: Iterable[str], fmu: str, role: str = "variable") -> VariableError:
+    """A `VariableError` for ``name``, suggesting close matches among ``known``."""
+    known = list(known)
+    close = difflib.get_close_matches(name, known, n=3, cutoff=0.6)
+    if not close:
+        lowered = {k.lower(): k for k in known}
+        close = [lowered[k] for k in difflib.get_close_matches(name.lower(), lowered, n=3, cutoff=0.6)]
+    hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+    return VariableError(f"{fmu}: no {role} named {name!r}.{hint}")
+
+
+class FMUCallError(FMUError):
+    """An FMI function returned Error or Fatal (or Discard where that is not allowed).
+
+    ``messages`` holds what the FMU logged just before, which is usually the real reason.
+    """
+
+    def __init__(self, fmu: str, function: str, status: int, messages: list[str] | None = None):
+        self.fmu = fmu
+        self.function = function
+        self.status = status
+        self.messages = list(messages or [])
+        detail = f": {' | '.join(self.messages)}" if self.messages else ""
+        super().__init__(f"{fmu}: {function} returned {status_name(status)}{detail}")

@@ -1,0 +1,114 @@
+"""FMI 3.0 specifics of `FMIBinding`."""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Callable
+from functools import partial
+from typing import Any
+
+from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3IntermediateUpdateCallback
+
+from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
+from modelicagym.fmu.errors import FMUError
+from modelicagym.fmu.logs import FMI3_LOGGER
+
+_NO_INTERMEDIATE_UPDATE = fmi3IntermediateUpdateCallback()
+
+
+class FMI3Binding(FMIBinding):
+    PREFIX = "fmi3"
+    TYPE_FUNCTIONS = {
+        "Float64": ("Float64", ctypes.c_double),
+        "Float32": ("Float32", ctypes.c_float),
+        "Int8": ("Int8", ctypes.c_int8),
+        "UInt8": ("UInt8", ctypes.c_uint8),
+        "Int16": ("Int16", ctypes.c_int16),
+        "UInt16": ("UInt16", ctypes.c_uint16),
+        "Int32": ("Int32", ctypes.c_int32),
+        "UInt32": ("UInt32", ctypes.c_uint32),
+        "Int64": ("Int64", ctypes.c_int64),
+        "UInt64": ("UInt64", ctypes.c_uint64),
+        "Enumeration": ("Int64", ctypes.c_int64),
+        "Boolean": ("Boolean", ctypes.c_bool),
+        "String": ("String", ctypes.c_char_p),
+    }
+
+    def _load_library(self, library: str) -> Any:
+        cls = FMU3Slave if self.mode == "cs" else FMU3Model
+        interface = self.description.interface(self.mode)
+        return cls(
+            guid=self.description.guid,
+            modelIdentifier=interface.modelIdentifier,
+            unzipDirectory=str(self.description.unzip_dir),
+            instanceName=self.instance_name,
+        )
+
+    def _value_count_args(self, n_values: int) -> tuple[int, ...]:
+        return (n_values,)
+
+    def instantiate(self, logging_on: bool = False) -> None:
+        resources = str(self.description.unzip_dir / "resources") + "/"
+        common = (self.instance_name.encode(), self.description.guid.encode(), resources.encode(), False, logging_on)
+        if self.mode == "cs":
+            self.component = self.raw["fmi3InstantiateCoSimulation"](
+                *common, False, False, None, 0, self.log.environment, FMI3_LOGGER, _NO_INTERMEDIATE_UPDATE
+            )
+        else:
+            self.component = self.raw["fmi3InstantiateModelExchange"](*common, self.log.environment, FMI3_LOGGER)
+        if not self.component:
+            self.component = None
+            messages = " | ".join(self.log.take_recent())
+            raise FMUError(f"{self.fmu_name}: fmi3Instantiate failed{': ' + messages if messages else ''}")
+
+    def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
+        self.call(
+            "EnterInitializationMode",
+            tolerance is not None,
+            tolerance or 0.0,
+            start_time,
+            stop_time is not None,
+            stop_time or 0.0,
+        )
+
+    def do_step_call(self) -> Callable[[float, float], int]:
+        flags = [ctypes.c_bool(False) for _ in range(3)]
+        last_time = ctypes.c_double(0.0)
+        terminate = flags[1]
+        do_step = partial(self.raw["fmi3DoStep"], self.component)
+        refs = [ctypes.byref(f) for f in flags] + [ctypes.byref(last_time)]
+
+        def step(t: float, h: float) -> int:
+            terminate.value = False
+            status = do_step(t, h, True, *refs)
+            if terminate.value and status in (0, 1, DISCARD):
+                return TERMINATED
+            return 0 if status <= WARNING else status
+
+        return step
+
+    def _state_name(self, verb: str) -> str:
+        return f"{verb}FMUState"
+
+    def update_discrete_states(self) -> tuple[bool, bool, bool, float | None]:
+        flags = [ctypes.c_bool(False) for _ in range(5)]
+        next_time = ctypes.c_double(0.0)
+        self.call("UpdateDiscreteStates", *[ctypes.byref(f) for f in flags], ctypes.byref(next_time))
+        needs_update, terminate, _, values_changed, time_defined = (f.value for f in flags)
+        return needs_update, terminate, values_changed, next_time.value if time_defined else None
+
+    def completed_integrator_step(self) -> tuple[bool, bool]:
+        enter_event_mode, terminate = ctypes.c_bool(False), ctypes.c_bool(False)
+        self.call("CompletedIntegratorStep", True, ctypes.byref(enter_event_mode), ctypes.byref(terminate))
+        return enter_event_mode.value, terminate.value
+
+    def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
+        c, raw = self.component, self.raw
+        return {
+            "set_time": partial(raw["fmi3SetTime"], c),
+            "get_x": partial(raw["fmi3GetContinuousStates"], c),
+            "set_x": partial(raw["fmi3SetContinuousStates"], c),
+            "get_dx": partial(raw["fmi3GetContinuousStateDerivatives"], c),
+            "get_z": partial(raw["fmi3GetEventIndicators"], c),
+            "get_nominals": partial(raw["fmi3GetNominalsOfContinuousStates"], c),
+        }

@@ -1,0 +1,358 @@
+"""One live FMU instance: initialize, step, reset, snapshot — fast and hard to misuse.
+
+`FMUInstance` is what the environment drives. Inputs and outputs move through preallocated
+`ValueBuffer` arrays; ``step(dt)`` writes the inputs, advances the FMU (``doStep`` in
+co-simulation, a solver in model exchange) and reads the outputs. Simulation time is
+``origin + k * dt`` from an integer step count, so it does not drift.
+
+Resets climb down the ladder of DESIGN.md and remember the rung that worked:
+
+``"snapshot"``
+    restore the state saved right after initialization (``canGetAndSetFMUstate``), when the
+    episode's values equal the snapshot's;
+``"reset"``
+    ``fmiReset``, re-apply parameters and start values, re-initialize;
+``"reinstantiate"``
+    free the instance and instantiate again from the same extraction and loaded library.
+
+``reset_rung`` forces a rung (and those below it); ``"auto"`` starts at the best one the FMU
+declares. The first time a rung serves an episode whose values were seen fresh before, the
+outputs are compared with the fresh ones and a rung that gives different values is dropped, with
+a warning: exporters ship broken ``fmiReset`` and inexact snapshots.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time as _time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from modelicagym.fmu.binding import DISCARD, TERMINATED, FMIBinding
+from modelicagym.fmu.buffers import ValueBuffer
+from modelicagym.fmu.description import FMUDescription, open_fmu
+from modelicagym.fmu.errors import FMUCallError, FMUError, UnsupportedFeatureError
+from modelicagym.fmu.fmi2 import FMI2Binding
+from modelicagym.fmu.fmi3 import FMI3Binding
+from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
+
+logger = logging.getLogger(__name__)
+
+RUNGS = ("snapshot", "reset", "reinstantiate")
+
+_BINDINGS: dict[int, type[FMIBinding]] = {2: FMI2Binding, 3: FMI3Binding}
+
+
+def _freeze(values: Mapping[str, Any]) -> tuple:
+    return tuple(sorted((k, np.asarray(v).tobytes()) for k, v in values.items()))
+
+
+class FMUInstance:
+    """A live instance of an FMU, with inputs and outputs bound for fast stepping.
+
+    Example::
+
+        from modelicagym.fmu import FMUInstance
+        from modelicagym.models.cartpole import cartpole_fmu
+
+        fmu = FMUInstance(cartpole_fmu(), inputs=["f"], outputs=["x", "theta"])
+        fmu.reset({"m_cart": 5.0})
+        fmu.inputs.flat[:] = 10.0
+        fmu.step(0.05)
+        print(fmu.time, fmu.outputs.flat)
+
+    Parameters:
+        fmu: path of a ``.fmu`` file or extracted folder, or an opened `FMUDescription`.
+        mode: ``"cs"`` (co-simulation) or ``"me"`` (model exchange); default: co-simulation if offered.
+        inputs / outputs: variable names bound to ``self.inputs`` / ``self.outputs``.
+        start_time: default: the model's ``defaultExperiment startTime``.
+        reset_rung: ``"auto"``, or the best rung to use (``"snapshot"``, ``"reset"``, ``"reinstantiate"``).
+        solver, tolerance, solver_step: model exchange only (see `ModelExchangeIntegrator`).
+        validate: validate ``modelDescription.xml`` against the schema.
+        logging_on: ask the FMU for debug logging (routed to Python ``logging``).
+    """
+
+    def __init__(
+        self,
+        fmu: str | os.PathLike[str] | FMUDescription,
+        *,
+        mode: str | None = None,
+        inputs: Sequence[str] = (),
+        outputs: Sequence[str] = (),
+        start_time: float | None = None,
+        stop_time: float | None = None,
+        reset_rung: str = "auto",
+        solver: str = "cvode",
+        tolerance: float | None = None,
+        solver_step: float | None = None,
+        instance_name: str | None = None,
+        validate: bool = True,
+        logging_on: bool = False,
+    ):
+        self.description = description = open_fmu(fmu, validate=validate)
+        self.mode = mode or description.default_mode()
+        interface = description.interface(self.mode)
+        self.input_variables = [description.input_variable(n) for n in inputs]
+        self.output_variables = [description.observable_variable(n) for n in outputs]
+        self.start_time = description.default_experiment.start_time if start_time is None else float(start_time)
+        self.stop_time = stop_time
+        self.tolerance = tolerance
+        self.logging_on = logging_on
+        self.reset_rung = self._first_rung(reset_rung)
+
+        self._binding = _BINDINGS[description.fmi_version](description, self.mode, instance_name)
+        self.inputs = ValueBuffer(self._binding, self.input_variables)
+        self.outputs = ValueBuffer(self._binding, self.output_variables)
+        self._integrator: ModelExchangeIntegrator | None = None
+        if self.mode == "me":
+            self._integrator = ModelExchangeIntegrator(
+                self._binding,
+                description.number_of_states,
+                description.number_of_event_indicators,
+                bool(interface.needsCompletedIntegratorStep),
+                solver=solver,
+                tolerance=tolerance or 1e-8,
+                step_size=solver_step,
+            )
+
+        self.time = self.start_time
+        self.steps = 0
+        self.terminated = False
+        self.broken = False
+        self.initialized = False
+        self.measure_time = False
+        self.fmu_time_ns = 0
+        self._origin = self.start_time
+        self._dt = 0.0
+        self._snapshot: Any = None
+        self._snapshot_key: tuple | None = None
+        self._fresh: tuple[tuple, np.ndarray] | None = None
+        self._verified: set[str] = set()
+        self._instantiate()
+
+    # -- public API ------------------------------------------------------------------------------
+
+    @property
+    def fmu_name(self) -> str:
+        return self.description.name
+
+    def reset(self, values: Mapping[str, Any] | None = None) -> None:
+        """Start a new episode at ``start_time`` with parameters/start values ``values`` applied.
+
+        Uses the cheapest working rung of the reset ladder (see the module docstring).
+        """
+        values = dict(values or {})
+        self._check_settable(values)
+        key = _freeze(values)
+        self.inputs.fill_start_values()
+        if self.broken or not self.initialized:
+            self._restart(values, fresh=not self.initialized and not self.broken)
+        elif self.reset_rung == "snapshot" and key == self._snapshot_key:
+            self._restore_snapshot(values)
+        elif self.reset_rung in ("snapshot", "reset"):
+            self._reset_and_initialize(values)
+        else:
+            self._restart(values, fresh=True)
+        self._verify(key, values)
+
+    def step(self, dt: float) -> bool:
+        """Write inputs, advance by ``dt``, read outputs. Returns True if the model ended the episode.
+
+        Raises `FMUCallError` when the FMU returns Error/Fatal (the instance is then ``broken``
+        and the next `reset` re-instantiates it).
+        """
+        if dt != self._dt:
+            self._origin, self._dt, self.steps = self.time, dt, 0
+        now = self.time
+        target = self._origin + (self.steps + 1) * dt
+        started = _time.perf_counter_ns() if self.measure_time else 0
+        status = self.inputs.write()
+        if status > 1:
+            self._broken_by("set inputs", status)
+        if self._integrator is None:
+            status = self._do_step(now, target - now)
+            if status:
+                self._step_status(status)
+        else:
+            try:
+                self.terminated = self._integrator.advance(now, target)
+            except Exception:
+                self.broken = True
+                raise
+        self.steps += 1
+        self.time = target
+        status = self.outputs.read()
+        if self.measure_time:
+            self.fmu_time_ns += _time.perf_counter_ns() - started
+        if status > 1:
+            self._broken_by("get outputs", status)
+        return self.terminated
+
+    def read_outputs(self) -> None:
+        """Refresh ``self.outputs`` (after a reset, for the first observation)."""
+        self.outputs.check(self.outputs.read(), "get outputs")
+
+    def set_values(self, values: Mapping[str, Any]) -> None:
+        """Set variables by name now (e.g. a tunable parameter mid-episode)."""
+        self._binding.set_values(dict(values))
+
+    def get_values(self, names: Sequence[str]) -> dict[str, Any]:
+        """Read variables by name (slow path, for inspection)."""
+        return self._binding.get_values(list(names))
+
+    def close(self) -> None:
+        """Free the instance. Safe to call twice."""
+        binding = getattr(self, "_binding", None)
+        if binding is None:
+            return
+        self._free_snapshot()
+        self._integrator = None
+        binding.close()
+        self._binding = None  # type: ignore[assignment]
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # never raise from a finalizer
+            pass
+
+    def __enter__(self) -> FMUInstance:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- the ladder ------------------------------------------------------------------------------
+
+    def _first_rung(self, requested: str) -> str:
+        can_snapshot = self.description.can_snapshot(self.mode)
+        if requested == "auto":
+            return "snapshot" if can_snapshot else "reset"
+        if requested not in RUNGS:
+            raise ValueError(f"reset_rung must be 'auto' or one of {RUNGS}, got {requested!r}")
+        if requested == "snapshot" and not can_snapshot:
+            raise UnsupportedFeatureError(
+                f"{self.fmu_name} cannot save and restore its state (canGetAndSetFMUstate is false); "
+                "use reset_rung='reset' or 'reinstantiate'"
+            )
+        return requested
+
+    def _demote(self, reason: str) -> None:
+        lower = RUNGS[RUNGS.index(self.reset_rung) + 1]
+        logger.warning("%s: reset rung %r %s; using %r from now on", self.fmu_name, self.reset_rung, reason, lower)
+        self.reset_rung = lower
+        self._free_snapshot()
+
+    def _restore_snapshot(self, values: dict[str, Any]) -> None:
+        try:
+            self._binding.set_state(self._snapshot)
+        except FMUCallError as error:
+            self._demote(f"failed ({error})")
+            self._restart(values, fresh=False)
+            return
+        self._after_initialization(values, take_snapshot=False)
+        if self._integrator is not None:
+            self._integrator.restart(self.time)
+
+    def _reset_and_initialize(self, values: dict[str, Any]) -> None:
+        try:
+            self._binding.reset()
+        except FMUCallError as error:
+            self._demote(f"failed ({error})")
+            self._restart(values, fresh=False)
+            return
+        self._initialize(values)
+
+    def _restart(self, values: dict[str, Any], fresh: bool) -> None:
+        """Re-instantiate (unless this is the first episode) and initialize."""
+        if self.initialized or self.broken:
+            self._free_snapshot()
+            self._binding.free_instance()
+            self._instantiate()
+        self._initialize(values)
+        if fresh:
+            self._fresh = (_freeze(values), self._output_copy())
+
+    def _verify(self, key: tuple, values: dict[str, Any]) -> None:
+        """Compare a rung's first reproduction of a fresh episode with the fresh one."""
+        rung = self.reset_rung
+        if rung == "reinstantiate" or rung in self._verified or self._fresh is None or self._fresh[0] != key:
+            return
+        expected, actual = self._fresh[1], self._output_copy()
+        if np.array_equal(expected, actual, equal_nan=True) and self.time == self.start_time:
+            self._verified.add(rung)
+            return
+        self._demote(f"gave different initial outputs than a fresh instance ({actual} instead of {expected})")
+        self._restart(values, fresh=False)
+        self._verify(key, values)
+
+    # -- lifecycle -------------------------------------------------------------------------------
+
+    def _instantiate(self) -> None:
+        self._binding.instantiate(self.logging_on)
+        self.inputs.bind()
+        self.outputs.bind()
+        self._do_step = self._binding.do_step_call() if self.mode == "cs" else None
+        self.broken = False
+        self.initialized = False
+
+    def _check_settable(self, values: Mapping[str, Any]) -> None:
+        for name in values:
+            self.description.settable_variable(name)
+
+    def _initialize(self, values: dict[str, Any]) -> None:
+        variables = self.description.variables
+        before = {n: v for n, v in values.items() if variables[n].settable_before_initialization}
+        during = {n: v for n, v in values.items() if n not in before}
+        try:
+            self._binding.set_values(before)
+            self.inputs.check(self.inputs.write(), "set inputs")
+            self._binding.enter_initialization(self.start_time, self.stop_time, self.tolerance)
+            self._binding.set_values(during)
+            self._binding.exit_initialization()
+            self.time = self.start_time
+            terminated = self._integrator.start(self.time) if self._integrator is not None else False
+        except FMUError:
+            self.broken = True
+            raise
+        self.initialized = True
+        self._after_initialization(values, take_snapshot=self.reset_rung == "snapshot")
+        self.terminated = terminated
+
+    def _after_initialization(self, values: dict[str, Any], take_snapshot: bool) -> None:
+        self.time, self._origin, self._dt, self.steps = self.start_time, self.start_time, 0.0, 0
+        self.terminated = False
+        if take_snapshot:
+            try:
+                self._snapshot = self._binding.get_state(self._snapshot)
+                self._snapshot_key = _freeze(values)
+            except FMUCallError as error:
+                self._demote(f"failed ({error})")
+        self.read_outputs()
+
+    def _free_snapshot(self) -> None:
+        if self._snapshot is not None and self._binding is not None:
+            self._binding.free_state(self._snapshot)
+        self._snapshot = None
+        self._snapshot_key = None
+
+    def _output_copy(self) -> np.ndarray:
+        self.read_outputs()
+        views = [np.asarray(v, dtype=float).ravel() for v in self.outputs.views.values()]
+        return np.concatenate(views) if views else np.zeros(0)
+
+    # -- step outcomes ---------------------------------------------------------------------------
+
+    def _step_status(self, status: int) -> None:
+        if status == TERMINATED:
+            self.terminated = True
+            return
+        self.broken = True
+        raise self._binding.fail("fmiDoStep" if status != DISCARD else "fmiDoStep (discard without termination)", status)
+
+    def _broken_by(self, what: str, status: int) -> None:
+        self.broken = True
+        raise self._binding.fail(what, status)

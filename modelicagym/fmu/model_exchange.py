@@ -1,0 +1,136 @@
+"""Advance a model-exchange FMU from t to t + dt, with a real solver and event handling.
+
+A model-exchange FMU only evaluates derivatives; the importer integrates. This follows the loop
+of ``fmpy.simulation.simulateME``: integrate with fmpy's CVode (variable step, root finding on
+the event indicators) or fmpy's forward Euler at a fixed step, stop at time events
+(``nextEventTime``), state events (event-indicator roots) and step events
+(``fmiCompletedIntegratorStep``), run the event iteration, and carry on.
+
+Inputs are piecewise constant between calls, so the solver is re-initialised at the start of
+every ``advance``: a multistep solver must not carry history across an input jump.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from fmpy.simulation import ForwardEuler
+
+from modelicagym.fmu.binding import FMIBinding
+from modelicagym.fmu.errors import FMUError
+
+SOLVERS = ("cvode", "euler")
+
+
+class _NoInput:
+    """fmpy's solvers re-apply inputs at intermediate times; ours are set once per step."""
+
+    def apply(self, time: float, continuous: bool = True, discrete: bool = True, after_event: bool = False) -> None:
+        return None
+
+
+def _close(a: float, b: float) -> bool:
+    return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
+
+
+class ModelExchangeIntegrator:
+    """Integrates one model-exchange instance between communication points.
+
+    ``solver="cvode"`` (default) uses relative tolerance ``tolerance``; ``solver="euler"`` takes
+    fixed steps of ``step_size``.
+    """
+
+    def __init__(
+        self,
+        binding: FMIBinding,
+        n_states: int,
+        n_indicators: int,
+        needs_completed_integrator_step: bool,
+        solver: str = "cvode",
+        tolerance: float = 1e-8,
+        step_size: float | None = None,
+    ):
+        if solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+        if solver == "euler" and not step_size:
+            raise ValueError("solver='euler' needs a step_size (the fixed integration step)")
+        self.binding = binding
+        self.n_states = n_states
+        self.n_indicators = n_indicators
+        self.needs_completed_integrator_step = needs_completed_integrator_step
+        self.solver_name = solver
+        self.tolerance = tolerance
+        self.step_size = step_size
+        self.next_event_time: float | None = None
+        self._solver: Any = None
+
+    def start(self, time: float) -> bool:
+        """After ``exitInitializationMode``: settle the initial events and set up the solver.
+
+        Returns True if the model asked to terminate already.
+        """
+        if self._event_iteration():
+            return True
+        self.binding.enter_continuous_time_mode()
+        self._make_solver(time)
+        return False
+
+    def restart(self, time: float) -> None:
+        """After the FMU's state was restored from a snapshot taken right after `start`."""
+        self._make_solver(time)
+
+    def _make_solver(self, time: float) -> None:
+        f = self.binding.continuous_state_functions()
+        self._set_time = f["set_time"]
+        args = dict(
+            nx=self.n_states, nz=self.n_indicators, get_x=f["get_x"], set_x=f["set_x"],
+            get_dx=f["get_dx"], get_z=f["get_z"], input=_NoInput(),
+        )
+        if self.solver_name == "cvode":
+            from fmpy.sundials import CVodeSolver
+
+            self._solver = CVodeSolver(
+                get_nominals=f["get_nominals"], set_time=self._set_time, startTime=time,
+                relativeTolerance=self.tolerance, maxNumSteps=100_000, **args,
+            )
+        else:
+            self._solver = ForwardEuler(**args)
+
+    def advance(self, time: float, stop: float) -> bool:
+        """Integrate from ``time`` to ``stop``; returns True if the model asked to terminate."""
+        solver = self._solver
+        solver.reset(time)
+        while time < stop and not _close(time, stop):
+            target = stop
+            if self.next_event_time is not None and time < self.next_event_time < target:
+                target = self.next_event_time
+            if self.step_size:
+                target = min(target, time + self.step_size)
+            try:
+                state_event, _, time = solver.step(time, target)
+            except RuntimeError as error:
+                raise FMUError(f"{self.binding.fmu_name}: the {self.solver_name} solver failed at t={time}: {error}") from error
+            self._set_time(time)
+            step_event = False
+            if self.needs_completed_integrator_step:
+                step_event, terminate = self.binding.completed_integrator_step()
+                if terminate:
+                    return True
+            time_event = self.next_event_time is not None and _close(time, self.next_event_time)
+            if state_event or step_event or time_event:
+                self.binding.enter_event_mode()
+                if self._event_iteration():
+                    return True
+                self.binding.enter_continuous_time_mode()
+                solver.reset(time)
+        return False
+
+    def _event_iteration(self) -> bool:
+        """Update discrete states until they settle; True if the model asked to terminate."""
+        needs_update = True
+        while needs_update:
+            needs_update, terminate, _, self.next_event_time = self.binding.update_discrete_states()
+            if terminate:
+                return True
+        return False

@@ -1,0 +1,125 @@
+"""Front doors: ``make("cartpole")``, ``make_vec("cartpole", n=8)``, and Gymnasium registration.
+
+Environments are known by a short name here and by a Gymnasium id
+(``gymnasium.make("ModelicaGym/CartPole-v0")`` after ``import modelicagym``). ``make_vec``
+returns the multi-process pool; so does ``gymnasium.make_vec(id)`` through the registered vector
+entry point, while ``vectorization_mode="sync"``/``"async"`` still give Gymnasium's own classes.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from collections.abc import Mapping, Sequence
+from functools import partial
+from typing import Any
+
+import gymnasium as gym
+
+from modelicagym.fmu import open_fmu
+
+ENVIRONMENTS: dict[str, tuple[str, str]] = {
+    "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.envs.cartpole:CartPoleEnv"),
+}
+
+
+def _entry_point(name: str) -> str:
+    key = name.lower()
+    for short, (gym_id, entry_point) in ENVIRONMENTS.items():
+        if key in (short, gym_id.lower()):
+            return entry_point
+    known = list(ENVIRONMENTS) + [gym_id for gym_id, _ in ENVIRONMENTS.values()]
+    close = difflib.get_close_matches(name, known, n=2)
+    hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+    raise gym.error.UnregisteredEnv(f"no modelicagym environment named {name!r}.{hint} Known: {', '.join(known)}")
+
+
+def _load(entry_point: str) -> Any:
+    module, attribute = entry_point.split(":")
+    return getattr(importlib.import_module(module), attribute)
+
+
+class EnvFactory:
+    """A picklable ``() -> env`` for one environment, sent to pool workers.
+
+    ``max_envs_per_process`` tells the pool to keep FMUs that may be instantiated only once per
+    process one to a worker.
+    """
+
+    def __init__(self, entry_point: str, options: dict[str, Any], max_envs_per_process: int | None = None):
+        self.entry_point = entry_point
+        self.options = options
+        self.max_envs_per_process = max_envs_per_process
+
+    def __call__(self) -> gym.Env:
+        return _load(self.entry_point)(**self.options)
+
+    def __repr__(self) -> str:
+        return f"EnvFactory({self.entry_point!r}, {self.options!r})"
+
+
+def make(name: str, **options: Any) -> gym.Env:
+    """Create one environment by short name or Gymnasium id, e.g. ``make("cartpole", force=11.0)``.
+
+    Returns the environment itself (no Gymnasium wrappers, so nothing stands between you and the
+    FMU); ``gymnasium.make("ModelicaGym/CartPole-v0")`` gives the wrapped one.
+    """
+    return _load(_entry_point(name))(**options)
+
+
+def make_vec(
+    name: str | Mapping[str, Any],
+    n: int,
+    *,
+    options_per_env: Sequence[dict[str, Any]] | None = None,
+    **options: Any,
+) -> gym.vector.VectorEnv:
+    """Create ``n`` environments stepped in parallel by the multi-process pool.
+
+    ``name`` is a short name or Gymnasium id, or an `FMUEnv` config dict (``{"fmu": ..., ...}``):
+    any FMU can be pooled. ``options`` go to every environment; ``options_per_env[i]`` (a list of ``n`` dicts) updates
+    them for environment ``i`` — e.g. one parameter set per env for domain randomisation.
+    Options named like the pool's own (``num_workers``, ``autoreset_mode``, ``step_timeout``,
+    ``start_method``, ``restart_dead_workers``, ``max_envs_per_worker``, ``measure_timing``) configure
+    the pool instead.
+
+    Example::
+
+        import modelicagym
+
+        envs = modelicagym.make_vec("cartpole", n=4, options_per_env=[{"force": f} for f in (5, 11, 17, 23)])
+        observations, infos = envs.reset(seed=0)
+        observations, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
+        envs.close()
+    """
+    from modelicagym.vector import PoolVectorEnv
+
+    if n < 1:
+        raise ValueError(f"n must be at least 1, got {n}")
+    if options_per_env is not None and len(options_per_env) != n:
+        raise ValueError(f"options_per_env has {len(options_per_env)} entries for n={n} environments")
+    pool_keys = set(PoolVectorEnv.OPTION_NAMES)
+    pool_options = {k: options.pop(k) for k in list(options) if k in pool_keys}
+    limit = None
+    if isinstance(name, Mapping):
+        entry_point, options = "modelicagym.env:FMUEnv", {**name, **options}
+        if open_fmu(options["fmu"], validate=options.get("validate", True)).once_per_process(options.get("mode")):
+            limit = 1
+    else:
+        entry_point = _entry_point(name)
+    env_fns = [
+        EnvFactory(entry_point, {**options, **(options_per_env[i] if options_per_env else {})}, limit)
+        for i in range(n)
+    ]
+    return PoolVectorEnv(env_fns, **pool_options)
+
+
+def _vector_entry_point(name: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:
+    return make_vec(name, num_envs, **kwargs)
+
+
+def register_environments() -> None:
+    """Register every environment with Gymnasium (done on ``import modelicagym``)."""
+    for gym_id, entry_point in ENVIRONMENTS.values():
+        if gym_id not in gym.registry:
+            gym.register(id=gym_id, entry_point=entry_point, vector_entry_point=partial(_vector_entry_point, gym_id))

@@ -1,0 +1,160 @@
+"""Gymnasium spaces derived from model variables, and the moves between spaces and FMU buffers.
+
+The rule, stated once:
+
+* a float variable is a ``Box`` (bounds from ``min``/``max``, else unbounded; FMI 3.0 arrays keep
+  their shape); an integer or enumeration variable with known bounds is ``Discrete`` (``start`` =
+  min), one without is an integer ``Box``; a boolean is ``MultiBinary``;
+* several scalar variables of one kind merge into one flat space: ``Box(n)``, ``MultiDiscrete``,
+  ``MultiBinary(n)``;
+* anything else (mixed kinds, arrays next to other variables) is a ``Dict`` keyed by variable name.
+
+`Observer` turns an FMU's output buffer into an observation of such a space; `Actuator` checks an
+action against its space and writes it into the input buffer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from modelicagym.fmu.buffers import ValueBuffer
+from modelicagym.fmu.variables import Variable
+
+
+def _bounded_integer(v: Variable) -> bool:
+    return v.kind == "enumeration" or (v.kind == "integer" and v.min is not None and v.max is not None)
+
+
+def variable_space(v: Variable, dtype: Any = np.float64) -> spaces.Space:
+    """The space of one variable's values."""
+    low, high = v.bounds()
+    if v.kind == "boolean":
+        return spaces.MultiBinary(list(v.shape) or 1) if v.shape else spaces.Discrete(2)
+    if _bounded_integer(v):
+        n = int(high) - int(low) + 1
+        if v.shape:
+            return spaces.MultiDiscrete(np.full(v.shape, n), start=np.full(v.shape, int(low)))
+        return spaces.Discrete(n, start=int(low))
+    if v.kind == "integer":
+        return spaces.Box(low, high, shape=v.shape, dtype=np.int64)
+    return spaces.Box(np.float32(low) if dtype == np.float32 else low, high, shape=v.shape, dtype=dtype)
+
+
+def _float_dtype(v: Variable) -> Any:
+    return np.float32 if v.fmi_type == "Float32" else np.float64
+
+
+def space_for(variables: Sequence[Variable]) -> spaces.Space:
+    """The space of a list of variables (see the module docstring for the rule)."""
+    if not variables:
+        raise ValueError("a space needs at least one variable")
+    if len(variables) == 1:
+        return variable_space(variables[0], _float_dtype(variables[0]))
+    kinds = {("int" if _bounded_integer(v) else v.kind) for v in variables}
+    scalar = all(not v.shape for v in variables)
+    if scalar and len(kinds) == 1 and len({_float_dtype(v) for v in variables}) == 1:
+        kind = kinds.pop()
+        if kind == "float":
+            bounds = np.array([v.bounds() for v in variables], dtype=np.float64)
+            return spaces.Box(bounds[:, 0], bounds[:, 1], dtype=_float_dtype(variables[0]))
+        if kind == "int":
+            bounds = np.array([v.bounds() for v in variables], dtype=np.int64)
+            return spaces.MultiDiscrete(bounds[:, 1] - bounds[:, 0] + 1, start=bounds[:, 0])
+        if kind == "boolean":
+            return spaces.MultiBinary(len(variables))
+    return spaces.Dict({v.name: variable_space(v, _float_dtype(v)) for v in variables})
+
+
+def _as_space_value(space: spaces.Space, values: np.ndarray) -> Any:
+    if isinstance(space, spaces.Discrete):
+        return np.int64(values.reshape(-1)[0])
+    return np.array(values.reshape(space.shape), dtype=space.dtype)
+
+
+class Observer:
+    """Reads an observation of ``space`` from an output buffer (a fresh copy every call)."""
+
+    def __init__(self, space: spaces.Space, buffer: ValueBuffer):
+        self.space = space
+        self._views: list[tuple[str, spaces.Space, np.ndarray]] | None = None
+        self._flat: np.ndarray | None = None
+        if isinstance(space, spaces.Dict):
+            self._views = [(name, space[name], buffer.views[name]) for name in space.keys()]
+        else:
+            self._flat = buffer.flat if buffer.flat is not None else next(iter(buffer.views.values()))
+        plain = isinstance(space, spaces.Box) and self._flat is not None and self._flat.dtype == space.dtype
+        self._copy = plain and self._flat.shape == space.shape
+
+    def observe(self) -> Any:
+        """The current observation."""
+        if self._copy:
+            return self._flat.copy()
+        if self._views is None:
+            return _as_space_value(self.space, self._flat)
+        return {name: _as_space_value(sub, np.asarray(view)) for name, sub, view in self._views}
+
+
+def describe_action(action: Any) -> str:
+    text = repr(action)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def check_action(space: spaces.Space, action: Any) -> None:
+    """Raise a ValueError naming the action and the space unless ``action`` belongs to ``space``."""
+    problem = _action_problem(space, action)
+    if problem:
+        raise ValueError(f"invalid action {describe_action(action)}: {problem}; the action space is {space}")
+
+
+def _action_problem(space: spaces.Space, action: Any) -> str | None:
+    if isinstance(space, spaces.Dict):
+        if not isinstance(action, dict) or set(action) != set(space.keys()):
+            return f"expected a dict with keys {sorted(space.keys())}"
+        for name, sub in space.items():
+            problem = _action_problem(sub, action[name])
+            if problem:
+                return f"{name!r}: {problem}"
+        return None
+    try:
+        array = np.asarray(action)
+    except Exception:
+        return "not array-like"
+    if array.dtype.kind not in "biuf":
+        return f"expected numbers, got dtype {array.dtype}"
+    if isinstance(space, spaces.Discrete):
+        if array.shape not in ((), (1,)):
+            return f"expected a single integer, got shape {array.shape}"
+    elif array.shape != space.shape:
+        return f"expected shape {space.shape}, got shape {array.shape}"
+    if array.dtype.kind == "f" and not np.all(np.isfinite(array)):
+        return "it contains NaN or infinity"
+    if not isinstance(space, spaces.Box) and array.dtype.kind == "f" and np.any(array != np.round(array)):
+        return "expected integers"
+    if isinstance(space, spaces.Discrete):
+        if not space.start <= int(array.reshape(-1)[0]) < space.start + space.n:
+            return f"out of range [{space.start}, {space.start + space.n - 1}]"
+    elif isinstance(space, spaces.MultiDiscrete):
+        if np.any(array < space.start) or np.any(array >= space.start + space.nvec):
+            return "out of range"
+    elif isinstance(space, spaces.MultiBinary):
+        if np.any((array != 0) & (array != 1)):
+            return "expected 0 or 1"
+    elif isinstance(space, spaces.Box):
+        if np.any(array < space.low) or np.any(array > space.high):
+            return f"outside the bounds [{space.low}, {space.high}]"
+    return None
+
+
+def write_values(buffer: ValueBuffer, values: Any) -> None:
+    """Write input ``values`` (one array-like for a single-type buffer, or a dict by name)."""
+    if isinstance(values, dict):
+        for name, value in values.items():
+            buffer.views[name][...] = value
+    elif buffer.flat is not None:
+        buffer.flat[:] = np.ravel(values) if np.ndim(values) else values
+    else:
+        raise ValueError("inputs of several types need a dict {variable name: value}")
