@@ -1,0 +1,73 @@
+"""The ``modelicagym`` command: ``info``, ``build``, ``bench``, ``reproduce``."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+
+def _info(args: argparse.Namespace) -> int:
+    from modelicagym.fmu import open_fmu
+    from modelicagym.info import format_info
+
+    print(format_info(open_fmu(args.fmu, validate=not args.no_validate)))
+    return 0
+
+
+def _build(args: argparse.Namespace) -> int:
+    from modelicagym.fmu.build import build_all_models
+
+    for path in build_all_models():
+        print(path)
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from modelicagym.bench import main as bench_main
+
+    return bench_main(args)
+
+
+def _reproduce(args: argparse.Namespace) -> int:
+    from modelicagym.experiments.cli import run as reproduce
+
+    return reproduce(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="modelicagym", description=__doc__)
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    info = commands.add_parser("info", help="describe an FMU and print an FMUEnv config for it")
+    info.add_argument("fmu", help="path of the .fmu file")
+    info.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
+    info.set_defaults(run=_info)
+
+    build = commands.add_parser("build", help="build the bundled model FMUs from their C sources")
+    build.set_defaults(run=_build)
+
+    from modelicagym.bench import add_arguments as bench_arguments
+
+    bench = commands.add_parser("bench", help="measure step throughput")
+    bench_arguments(bench)
+    bench.set_defaults(run=_bench)
+
+    from modelicagym.experiments.cli import add_arguments as reproduce_arguments
+
+    reproduce = commands.add_parser("reproduce", help="reproduce the ModelicaGym paper's Cart-Pole study")
+    reproduce_arguments(reproduce)
+    reproduce.set_defaults(run=_reproduce)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    return args.run(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
