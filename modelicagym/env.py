@@ -30,7 +30,7 @@ import numpy as np
 
 from modelicagym.config import FMUEnvConfig
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
-from modelicagym.spaces import Observer, check_action, space_for, write_values
+from modelicagym.spaces import Observer, action_checker, space_for, write_values
 
 logger = logging.getLogger(__name__)
 
@@ -91,6 +91,7 @@ class FMUEnv(gym.Env):
         self.action_space = cfg.action_space or self.make_action_space()
         self.observation_space = cfg.observation_space or self.make_observation_space()
         self._observer = Observer(space_for(self.fmu.output_variables), self.fmu.outputs)
+        self._check_action = action_checker(self.action_space)
         self._bounds = self._termination_bounds(cfg.termination)
         self.max_episode_steps = cfg.max_episode_steps
         self.positive_reward = float(cfg.positive_reward)
@@ -115,7 +116,7 @@ class FMUEnv(gym.Env):
         return self.observation(), {}
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        check_action(self.action_space, action)
+        self._check_action(action)
         write_values(self.fmu.inputs, self.action_to_inputs(action))
         info: dict[str, Any] = {}
         try:

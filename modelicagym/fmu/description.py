@@ -170,12 +170,19 @@ class FMUDescription:
 
     # -- variables -------------------------------------------------------------------------------
 
-    def variable(self, name: str) -> Variable:
-        """The variable called ``name``; a `VariableError` suggesting close matches if there is none."""
+    def variable(self, name: str, candidates: list[Variable] | None = None, role: str = "variable") -> Variable:
+        """The variable called ``name``; a `VariableError` suggesting close matches if there is none.
+
+        ``candidates`` (e.g. the inputs, when looking for an action) are listed in the message.
+        """
         try:
             return self.variables[name]
         except KeyError:
-            raise unknown_variable(name, self.variables, self.name) from None
+            error = unknown_variable(name, self.variables, self.name, role)
+            if candidates is not None and len(candidates) <= 30:
+                names = ", ".join(v.name for v in candidates) or "none"
+                error = VariableError(f"{error} This FMU's {role}s: {names}")
+            raise error from None
 
     def _with_causality(self, *causalities: str) -> list[Variable]:
         return [v for v in self.variables.values() if v.causality in causalities]
@@ -194,7 +201,7 @@ class FMUDescription:
 
     def input_variable(self, name: str) -> Variable:
         """``name`` checked to be an input, so it can be driven by an action."""
-        variable = self.variable(name)
+        variable = self.variable(name, self.inputs, "input")
         if not variable.is_input:
             raise VariableError(
                 f"{self.name}: {name!r} cannot be an action: it has causality {variable.causality!r}, "
@@ -204,14 +211,14 @@ class FMUDescription:
 
     def observable_variable(self, name: str) -> Variable:
         """``name`` checked to be readable while the model runs (anything but an independent variable)."""
-        variable = self.variable(name)
+        variable = self.variable(name, self.outputs, "output")
         if variable.kind in ("binary", "clock", "string"):
             raise VariableError(f"{self.name}: {name!r} is of type {variable.fmi_type}, which cannot be an observation")
         return variable
 
     def settable_variable(self, name: str) -> Variable:
         """``name`` checked to be settable as a parameter or start value."""
-        variable = self.variable(name)
+        variable = self.variable(name, self.parameters, "parameter")
         if not variable.settable:
             raise VariableError(
                 f"{self.name}: {name!r} cannot be set (causality {variable.causality!r}, variability "

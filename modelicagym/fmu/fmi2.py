@@ -54,7 +54,6 @@ class FMI2Binding(FMIBinding):
         callbacks.logger = FMI2_LOGGER
         callbacks.allocateMemory = _ALLOCATE
         callbacks.freeMemory = _FREE
-        callbacks.stepFinished = None
         callbacks.componentEnvironment = self.log.environment
         addLoggerProxy(ctypes.byref(callbacks))
         self._callbacks = callbacks  # the FMU keeps a pointer to it

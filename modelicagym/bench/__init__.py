@@ -1,0 +1,56 @@
+"""Benchmarks: scripts that measure, print a table and write JSON — never timed unit tests.
+
+This machine is noisy, so every benchmark measures its candidates side by side in one run,
+interleaved over several repeats, and reports medians and ratios between them.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import statistics
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+logger = logging.getLogger(__name__)
+
+
+def time_rounds(candidates: dict[str, Callable[[], int]], repeats: int) -> dict[str, list[float]]:
+    """Run every candidate ``repeats`` times, interleaved; each call returns how many steps it did.
+
+    Returns seconds per step for every round of every candidate.
+    """
+    samples: dict[str, list[float]] = {name: [] for name in candidates}
+    for _ in range(repeats):
+        for name, run in candidates.items():
+            started = time.perf_counter()
+            steps = run()
+            samples[name].append((time.perf_counter() - started) / steps)
+    return samples
+
+
+def median(values: Sequence[float]) -> float:
+    return statistics.median(values)
+
+
+def format_table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    """A plain-text table, columns aligned, numbers as given."""
+    cells = [list(map(str, header))] + [[str(c) for c in row] for row in rows]
+    widths = [max(len(row[i]) for row in cells) for i in range(len(header))]
+    lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(row, widths))) for row in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def write_json(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
+    """Write ``data`` atomically (a temp file renamed into place): never a half-written result."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as handle:
+        json.dump(data, handle, indent=2)
+    os.replace(handle.name, path)
+    return path
