@@ -1,0 +1,240 @@
+"""Shared memory of the pool: one anonymous mapping, one numpy array per field.
+
+The mapping is created by the parent once worker 0 has reported the spaces (it cannot exist before:
+the spaces come from an env, and envs only ever live in workers), and its file descriptor is handed
+to each worker over its pipe. It has no name anywhere (``memfd_create``, or an unlinked temporary
+file where that is missing), so nothing can leak in ``/dev/shm``: the memory is freed when the last
+process that maps it exits, however it exits.
+
+Fields: observations and actions (any space Gymnasium's shared-memory helpers support), rewards,
+terminations, truncations, the reset mask, and per worker a command slot, a reply slot, the index
+of the env being run (to name it when the worker dies) and timing counters. Each field starts on a
+cache line of its own.
+
+Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nested in
+``Dict``/``Tuple``) are read and written through numpy views made once; a top-level array space
+(the common case) is a plain ``view[i] = value``. Other spaces (``Text``, ``OneOf``) go through
+Gymnasium's ``read_from_shared_memory``/``write_to_shared_memory`` on every access.
+"""
+
+from __future__ import annotations
+
+import copy
+import ctypes
+import itertools
+import mmap
+import os
+import tempfile
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import Space
+from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete, Tuple
+from gymnasium.vector.utils import (
+    batch_space,
+    create_shared_memory,
+    iterate,
+    read_from_shared_memory,
+    write_to_shared_memory,
+)
+
+__all__ = ["BufferSpec", "SharedBatch", "SharedBuffers"]
+
+_ALIGNMENT = 64
+_ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
+
+
+def _has_static_views(space: Space) -> bool:
+    """Whether ``read_from_shared_memory`` returns views that stay valid (no copies, no strings)."""
+    if isinstance(space, _ARRAY_SPACES):
+        return True
+    if isinstance(space, Dict):
+        return all(_has_static_views(sub) for sub in space.spaces.values())
+    if isinstance(space, Tuple):
+        return all(_has_static_views(sub) for sub in space.spaces)
+    return False
+
+
+def _item(batch: Any, index: int) -> Any:
+    """Element ``index`` of a batch of static views, copied out of shared memory."""
+    if isinstance(batch, np.ndarray):
+        value = batch[index]
+        return value.copy() if isinstance(value, np.ndarray) else value
+    if isinstance(batch, dict):
+        return {key: _item(sub, index) for key, sub in batch.items()}
+    return tuple(_item(sub, index) for sub in batch)
+
+
+def _assign(batch: Any, values: Any) -> None:
+    """Copy a batch of values into a batch of static views of the same structure."""
+    if isinstance(batch, np.ndarray):
+        array = np.asarray(values)
+        if array.shape != batch.shape:
+            raise ValueError(f"expected a batch of shape {batch.shape}, got {array.shape}")
+        batch[...] = array
+    elif isinstance(batch, dict):
+        for key, sub in batch.items():
+            _assign(sub, values[key])
+    else:
+        for sub, value in zip(batch, values, strict=True):
+            _assign(sub, value)
+
+
+class _Region:
+    """A slice of the mapping, shaped like the ``multiprocessing.Array`` Gymnasium's helpers expect."""
+
+    __slots__ = ("_buffer",)
+
+    def __init__(self, buffer: memoryview | None) -> None:
+        self._buffer = buffer
+
+    def get_obj(self) -> memoryview | None:
+        return self._buffer
+
+
+class _Allocator:
+    """Hands out aligned regions of one buffer, in call order.
+
+    It stands in for the ``ctx`` argument of Gymnasium's ``create_shared_memory`` (which only calls
+    ``ctx.Array(typecode, size)``), so the same deterministic layout is computed in every process.
+    Without a buffer it only measures the size.
+    """
+
+    def __init__(self, buffer: memoryview | None = None) -> None:
+        self._buffer = buffer
+        self.size = 0
+
+    @property
+    def measuring(self) -> bool:
+        """Whether this allocator only measures (has no buffer)."""
+        return self._buffer is None
+
+    def Array(self, typecode: Any, size: int) -> _Region:  # noqa: N802 - mimics ctx.Array
+        itemsize = ctypes.sizeof(typecode) if isinstance(typecode, type) else np.dtype(typecode).itemsize
+        start = -(-self.size // _ALIGNMENT) * _ALIGNMENT
+        self.size = start + itemsize * size
+        if self._buffer is None:
+            return _Region(None)
+        return _Region(self._buffer[start : self.size])
+
+    def array(self, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
+        """A numpy array of ``dtype`` and ``shape`` in the next region."""
+        region = self.Array(np.dtype(dtype).char, int(np.prod(shape)))
+        if self._buffer is None:
+            return np.zeros(shape, dtype=dtype)
+        return np.frombuffer(region.get_obj(), dtype=dtype).reshape(shape)
+
+
+class SharedBatch:
+    """A batch of ``n`` values of ``space`` in shared memory; each process writes its own indices."""
+
+    def __init__(self, space: Space, n: int, allocator: _Allocator) -> None:
+        self.space = space
+        self.n = n
+        self._batch_space = batch_space(space, n)
+        self._memory = create_shared_memory(space, n=n, ctx=allocator)
+        static = not allocator.measuring and _has_static_views(space)
+        self._views = read_from_shared_memory(space, self._memory, n=n) if static else None
+        self._array = self._views if isinstance(self._views, np.ndarray) else None
+
+    def write(self, index: int, value: Any) -> None:
+        """Store the value of env ``index``."""
+        if self._array is not None:
+            self._array[index] = value
+        else:
+            write_to_shared_memory(self.space, index, value, self._memory)
+
+    def read(self, index: int) -> Any:
+        """The value of env ``index``, copied out of shared memory."""
+        if self._array is not None:
+            value = self._array[index]
+            return value.copy() if isinstance(value, np.ndarray) else value
+        if self._views is not None:
+            return _item(self._views, index)
+        batch = read_from_shared_memory(self.space, self._memory, n=self.n)
+        return copy.deepcopy(next(itertools.islice(iterate(self._batch_space, batch), index, None)))
+
+    def write_batch(self, values: Any) -> None:
+        """Store a whole batch (an element of the batched space)."""
+        if self._views is not None:
+            _assign(self._views, values)
+        else:
+            for index, value in enumerate(iterate(self._batch_space, values)):
+                write_to_shared_memory(self.space, index, value, self._memory)
+
+    def read_batch(self, copy_out: bool) -> Any:
+        """The whole batch; views of the shared memory unless ``copy_out``."""
+        if self._array is not None:
+            return self._array.copy() if copy_out else self._array
+        if self._views is not None:
+            return copy.deepcopy(self._views) if copy_out else self._views
+        return read_from_shared_memory(self.space, self._memory, n=self.n)
+
+
+@dataclass(frozen=True)
+class BufferSpec:
+    """Everything needed to lay out the shared memory identically in every process."""
+
+    observation_space: Space
+    action_space: Space
+    num_envs: int
+    num_workers: int
+
+
+class SharedBuffers:
+    """All shared arrays of a pool, laid out in one mapping (see the module docstring)."""
+
+    #: timing counters per worker: env time and FMU time of the last step, in nanoseconds
+    ENV_NS, FMU_NS = 0, 1
+
+    def __init__(self, spec: BufferSpec, buffer: memoryview | None) -> None:
+        n, w = spec.num_envs, spec.num_workers
+        allocator = _Allocator(buffer)
+        self.spec = spec
+        self.observations = SharedBatch(spec.observation_space, n, allocator)
+        self.actions = SharedBatch(spec.action_space, n, allocator)
+        self.rewards = allocator.array(np.float64, (n,))
+        self.terminations = allocator.array(np.bool_, (n,))
+        self.truncations = allocator.array(np.bool_, (n,))
+        self.reset_mask = allocator.array(np.bool_, (n,))
+        self.command = allocator.array(np.int32, (w,))
+        self.reply = allocator.array(np.int32, (w,))
+        self.current_env = allocator.array(np.int64, (w,))
+        self.timing = allocator.array(np.int64, (w, 2))
+        self.timing_enabled = allocator.array(np.bool_, (1,))
+        self.nbytes = allocator.size
+
+    @staticmethod
+    def size_of(spec: BufferSpec) -> int:
+        """Bytes needed for ``spec``."""
+        return max(SharedBuffers(spec, None).nbytes, 1)
+
+    @classmethod
+    def create(cls, spec: BufferSpec) -> tuple[SharedBuffers, int]:
+        """Allocate zeroed shared memory for ``spec``; returns the buffers and the file descriptor
+        to hand to the workers (the caller closes it)."""
+        size = cls.size_of(spec)
+        fd = _anonymous_fd()
+        try:
+            os.ftruncate(fd, size)
+            return cls.attach(spec, fd), fd
+        except BaseException:
+            os.close(fd)
+            raise
+
+    @classmethod
+    def attach(cls, spec: BufferSpec, fd: int) -> SharedBuffers:
+        """Map the shared memory behind ``fd`` (the descriptor stays open; the caller owns it)."""
+        mapping = mmap.mmap(fd, cls.size_of(spec))
+        return cls(spec, memoryview(mapping))
+
+
+def _anonymous_fd() -> int:
+    """A file descriptor of fresh memory-backed storage that has no name in any file system."""
+    if hasattr(os, "memfd_create"):
+        return os.memfd_create("modelicagym-pool", os.MFD_CLOEXEC)
+    directory = "/dev/shm" if os.path.isdir("/dev/shm") else None
+    fd, path = tempfile.mkstemp(prefix="modelicagym-pool-", dir=directory)
+    os.unlink(path)
+    return fd

@@ -1,0 +1,156 @@
+"""Exceptions raised by the pool, and the picklable record of an exception raised in a worker.
+
+Misuse of the pool raises Gymnasium's own errors (``AlreadyPendingCallError``, ``NoAsyncCallError``,
+``ClosedEnvironmentError``), exactly like :class:`gymnasium.vector.AsyncVectorEnv`. Failures of the
+environments or of their worker processes raise a :class:`PoolError` that names the env index, and
+the worker's exit code / signal or the original traceback.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import pickle
+import signal
+import traceback
+from dataclasses import dataclass
+
+__all__ = [
+    "EnvError",
+    "PoolError",
+    "RemoteError",
+    "RemoteTraceback",
+    "WorkerDiedError",
+    "WorkerTimeoutError",
+]
+
+
+class RemoteTraceback(Exception):
+    """Carries the formatted traceback of a worker-side exception; shown as the ``__cause__``."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__(text)
+        self.text = text
+
+    def __str__(self) -> str:
+        return self.text
+
+
+class PoolError(RuntimeError):
+    """A sub-environment or its worker process failed.
+
+    Attributes:
+        env_index: index of the sub-environment that failed (``None`` if it cannot be told).
+        worker_index: index of the worker process that ran it.
+    """
+
+    def __init__(self, message: str, env_index: int | None, worker_index: int) -> None:
+        super().__init__(message)
+        self.env_index = env_index
+        self.worker_index = worker_index
+
+
+class EnvError(PoolError):
+    """A sub-environment raised an exception in ``reset``/``step`` (or while being created).
+
+    Attributes:
+        original: the exception object raised in the worker, if it could be pickled, else ``None``.
+        remote_traceback: the worker-side traceback, formatted.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        env_index: int | None,
+        worker_index: int,
+        original: BaseException | None,
+        remote_traceback: str,
+    ) -> None:
+        super().__init__(message, env_index, worker_index)
+        self.original = original
+        self.remote_traceback = remote_traceback
+
+
+class WorkerDiedError(PoolError):
+    """A worker process exited unexpectedly (e.g. a segfault in native code).
+
+    Attributes:
+        exitcode: the process exit code; negative values are ``-signal`` (``-11`` is SIGSEGV).
+    """
+
+    def __init__(
+        self, message: str, env_index: int | None, worker_index: int, exitcode: int | None
+    ) -> None:
+        super().__init__(message, env_index, worker_index)
+        self.exitcode = exitcode
+
+
+class WorkerTimeoutError(PoolError, multiprocessing.TimeoutError):
+    """A worker did not answer within the timeout; it was killed.
+
+    It is also a :class:`multiprocessing.TimeoutError`, what ``AsyncVectorEnv`` raises on timeouts.
+    """
+
+
+def describe_exitcode(exitcode: int | None) -> str:
+    """Human-readable description of a process exit code (``-11`` -> ``killed by signal SIGSEGV``)."""
+    if exitcode is None:
+        return "still running"
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = str(-exitcode)
+        return f"killed by signal {name} (exit code {exitcode})"
+    return f"exited with code {exitcode}"
+
+
+@dataclass(frozen=True)
+class RemoteError:
+    """An exception raised in a worker, captured so it can cross the pipe.
+
+    The exception itself is pickled separately (``payload``) because arbitrary exception types may
+    not be picklable; the type name, message and traceback text always are.
+    """
+
+    env_index: int | None
+    type_name: str
+    message: str
+    traceback: str
+    payload: bytes | None
+
+    @classmethod
+    def capture(cls, exc: BaseException, env_index: int | None) -> RemoteError:
+        """Record ``exc`` (the exception being handled) raised while running env ``env_index``."""
+        try:
+            payload: bytes | None = pickle.dumps(exc)
+            pickle.loads(payload)
+        except Exception:
+            payload = None
+        return cls(
+            env_index=env_index,
+            type_name=type(exc).__qualname__,
+            message=str(exc),
+            traceback="".join(traceback.format_exception(exc)),
+            payload=payload,
+        )
+
+    def original(self) -> BaseException | None:
+        """The original exception object, or ``None`` if it could not be pickled."""
+        if self.payload is None:
+            return None
+        original = pickle.loads(self.payload)
+        original.__cause__ = RemoteTraceback(self.traceback)
+        return original
+
+    def to_env_error(self, worker_index: int, context: str) -> EnvError:
+        """The :class:`EnvError` to raise in the parent; ``context`` says what was running."""
+        where = "an env" if self.env_index is None else f"env {self.env_index}"
+        error = EnvError(
+            f"{where} (worker {worker_index}) raised {self.type_name} in {context}: {self.message}",
+            self.env_index,
+            worker_index,
+            self.original(),
+            self.traceback,
+        )
+        error.__cause__ = RemoteTraceback(self.traceback)
+        return error

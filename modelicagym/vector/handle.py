@@ -1,0 +1,182 @@
+"""The parent's handle on one worker process: start it, talk to it, notice its death, stop it."""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Sequence
+from multiprocessing.connection import Connection, wait
+from multiprocessing.context import BaseContext
+from multiprocessing.reduction import send_handle
+
+import gymnasium as gym
+from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
+
+from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Message, WorkerConfig
+from modelicagym.vector.sync import Signal
+from modelicagym.vector.worker import run_worker
+
+__all__ = ["WorkerHandle"]
+
+logger = logging.getLogger(__name__)
+
+#: seconds a worker gets to exit after SIGTERM before it is sent SIGKILL
+_TERMINATE_GRACE = 1.0
+
+
+class WorkerHandle:
+    """One worker process running the envs ``env_indices`` (a contiguous range).
+
+    The handle outlives its process: :meth:`start` can be called again after :meth:`stop` to
+    restart the worker with fresh envs, a fresh pipe and fresh signals.
+    """
+
+    def __init__(
+        self,
+        index: int,
+        env_indices: range,
+        env_fns: Sequence[Callable[[], gym.Env]],
+        ctx: BaseContext,
+        config: WorkerConfig,
+    ) -> None:
+        self.index = index
+        self.env_indices = env_indices
+        self._env_fns = CloudpickleWrapper(list(env_fns))
+        self._ctx = ctx
+        self._config = config
+        self.process = None
+        self.conn: Connection | None = None
+        self.go: Signal | None = None
+        self.done: Signal | None = None
+
+    def __repr__(self) -> str:
+        pid = None if self.process is None else self.process.pid
+        return f"WorkerHandle({self.index}, envs {self.describe_envs()}, pid={pid})"
+
+    def describe_envs(self) -> str:
+        """``"4-7"`` or ``"4"``: the env indices of this worker, for messages."""
+        first, last = self.env_indices[0], self.env_indices[-1]
+        return str(first) if first == last else f"{first}-{last}"
+
+    def start(self) -> None:
+        """Start the worker process; it begins creating its envs at once."""
+        parent_conn, child_conn = self._ctx.Pipe()
+        self.go, self.done = Signal(self._ctx), Signal(self._ctx)
+        self.process = self._ctx.Process(
+            target=run_worker,
+            name=f"modelicagym-pool-worker-{self.index}",
+            args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config),
+            daemon=True,
+        )
+        self.conn = parent_conn
+        with clear_mpi_env_vars():
+            self.process.start()
+        child_conn.close()
+
+    def is_alive(self) -> bool:
+        return self.process is not None and self.process.is_alive()
+
+    def send(self, message: Message) -> None:
+        """Send a pickled message on the pipe."""
+        self.conn.send(message)
+
+    def send_fd(self, fd: int) -> None:
+        """Pass a file descriptor to the worker (``SCM_RIGHTS`` over the pipe's socket)."""
+        send_handle(self.conn, fd, self.process.pid)
+
+    def receive(self, deadline: float | None, env_index: int | None, doing: str) -> Message:
+        """The next message from the worker.
+
+        Raises :class:`WorkerDiedError` if the worker dies first, :class:`WorkerTimeoutError` if
+        ``deadline`` (a ``time.monotonic()`` value, ``None`` for none) passes first.
+        """
+        timeout = None if deadline is None else max(deadline - time.monotonic(), 0.0)
+        ready = wait([self.conn, self.process.sentinel], timeout)
+        if self.conn in ready:
+            try:
+                return self.conn.recv()
+            except (EOFError, OSError):
+                pass
+        elif not ready:
+            raise self.timeout_error(env_index, doing, timeout)
+        raise self.died_error(env_index, doing)
+
+    def wait_done(self, spin_time: float, deadline: float | None, env_index: Callable[[], int], doing: str) -> PoolError | None:
+        """Wait until the worker posts ``done``.
+
+        Spins for ``spin_time`` first, then blocks in slices of ``LIVENESS_INTERVAL`` to check that
+        the process lives. Returns ``None`` on success, else the error (died / timed out) that
+        names the env being run, read through ``env_index`` when needed.
+        """
+        if self.done.wait(spin_time, _slice(deadline)):
+            return None
+        while True:
+            if not self.process.is_alive():
+                if self.done.wait(0.0, 0.0):
+                    return None
+                return self.died_error(env_index(), doing)
+            if deadline is not None and time.monotonic() >= deadline:
+                return self.timeout_error(env_index(), doing, None)
+            if self.done.wait(0.0, _slice(deadline)):
+                return None
+
+    def died_error(self, env_index: int | None, doing: str) -> WorkerDiedError:
+        """The error reporting that this worker died while running ``doing`` on ``env_index``."""
+        self.process.join(_TERMINATE_GRACE)
+        exitcode = self.process.exitcode
+        where = f"env {env_index}" if env_index is not None else f"envs {self.describe_envs()}"
+        return WorkerDiedError(
+            f"worker {self.index} (pid {self.process.pid}) {describe_exitcode(exitcode)} "
+            f"during {doing} of {where}",
+            env_index,
+            self.index,
+            exitcode,
+        )
+
+    def timeout_error(self, env_index: int | None, doing: str, timeout: float | None) -> WorkerTimeoutError:
+        """The error reporting that this worker did not finish ``doing`` in time; kills it."""
+        self.stop()
+        where = f"env {env_index}" if env_index is not None else f"envs {self.describe_envs()}"
+        after = "" if timeout is None else f" within {timeout:.3g} s"
+        return WorkerTimeoutError(
+            f"worker {self.index} did not finish {doing} of {where}{after}; it was killed",
+            env_index,
+            self.index,
+        )
+
+    def join(self, timeout: float | None) -> bool:
+        """Wait for the process to exit by itself; ``True`` if it has."""
+        self.process.join(timeout)
+        return self.process.exitcode is not None
+
+    def stop(self) -> None:
+        """Make sure the process is gone: SIGTERM, then SIGKILL after a grace period."""
+        if self.process is None or self.process.pid is None:
+            return
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(_TERMINATE_GRACE)
+        if self.process.is_alive():
+            logger.warning("worker %d (pid %d) ignored SIGTERM; killing it", self.index, self.process.pid)
+            self.process.kill()
+            self.process.join()
+
+    def release(self) -> None:
+        """Stop the process and free the pipe and signals; :meth:`start` may follow."""
+        self.stop()
+        if self.process is not None:
+            self.process.close()
+        if self.conn is not None:
+            self.conn.close()
+        for signal_ in (self.go, self.done):
+            if signal_ is not None:
+                signal_.close()
+        self.process = self.conn = self.go = self.done = None
+
+
+def _slice(deadline: float | None) -> float:
+    """How long to block before the next liveness check."""
+    if deadline is None:
+        return LIVENESS_INTERVAL
+    return min(max(deadline - time.monotonic(), 0.0), LIVENESS_INTERVAL)

@@ -1,0 +1,57 @@
+"""The wake-up signal between the parent and a worker: spin briefly, then sleep.
+
+Measured on the 2-core target machine (process ping-pong, median round trip): a pipe costs about
+20 µs, a blocking semaphore about 7 µs, and a semaphore polled with ``sem_trywait`` +
+``os.sched_yield()`` for up to ~100 µs before blocking about 4 µs. Pure spinning without yielding
+collapses to milliseconds once there are more spinners than cores, so every spin iteration yields,
+and the spin is bounded so an idle pool sleeps instead of burning a core.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from multiprocessing.context import BaseContext
+
+__all__ = ["Signal"]
+
+
+class Signal:
+    """A counting signal (a process-shared semaphore) whose waiter spins before it blocks.
+
+    Posts are never lost: every :meth:`post` is matched by exactly one successful :meth:`wait`, so
+    the spin phase cannot race with the blocking phase. The semaphore is passed to the worker as a
+    process argument; :meth:`close` drops it so that (with ``forkserver``/``spawn``, where it is a
+    named POSIX semaphore) its name is unlinked at once, even if a traceback still references this
+    object.
+    """
+
+    def __init__(self, ctx: BaseContext) -> None:
+        self._sem = ctx.Semaphore(0)
+
+    def post(self) -> None:
+        """Wake the waiter (or let its next :meth:`wait` return at once)."""
+        self._sem.release()
+
+    def wait(self, spin_time: float, timeout: float | None) -> bool:
+        """Wait for a post: poll for up to ``spin_time`` seconds, then block for up to ``timeout``.
+
+        Returns ``True`` if a post was consumed, ``False`` if ``timeout`` expired (``None`` blocks
+        until a post arrives).
+        """
+        sem = self._sem
+        if sem.acquire(False):
+            return True
+        if spin_time > 0.0:
+            end = time.perf_counter() + spin_time
+            while True:
+                os.sched_yield()
+                if sem.acquire(False):
+                    return True
+                if time.perf_counter() >= end:
+                    break
+        return sem.acquire(True, timeout)
+
+    def close(self) -> None:
+        """Release the semaphore; the signal is unusable afterwards."""
+        self._sem = None
