@@ -156,7 +156,7 @@ def _action_problem(space: spaces.Space, action: Any) -> str | None:
     if array.dtype.kind not in "biuf":
         return f"expected numbers, got dtype {array.dtype}"
     if isinstance(space, spaces.Discrete):
-        if array.shape not in ((), (1,)):
+        if array.shape != ():
             return f"expected a single integer, got shape {array.shape}"
     elif array.shape != space.shape:
         return f"expected shape {space.shape}, got shape {array.shape}"
@@ -165,7 +165,7 @@ def _action_problem(space: spaces.Space, action: Any) -> str | None:
     if not isinstance(space, spaces.Box) and array.dtype.kind == "f" and np.any(array != np.round(array)):
         return "expected integers"
     if isinstance(space, spaces.Discrete):
-        if not space.start <= int(array.reshape(-1)[0]) < space.start + space.n:
+        if not space.start <= int(array) < space.start + space.n:
             return f"out of range [{space.start}, {space.start + space.n - 1}]"
     elif isinstance(space, spaces.MultiDiscrete):
         if np.any(array < space.start) or np.any(array >= space.start + space.nvec):

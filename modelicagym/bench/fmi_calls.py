@@ -38,11 +38,18 @@ def measure(steps: int = 20_000, repeats: int = 7, fmi_version: int = 2, cs_step
     from fmpy.fmi2 import FMU2Slave
     from fmpy.fmi3 import FMU3Slave
 
+    from modelicagym.fmu import FMUInstance
+
     env = _make_env(fmi_version, cs_step_size)
     env.reset(seed=0)
-    instance = env.fmu
     dt = env.time_step
-    do_step = instance._do_step
+    parameters = env.episode_parameters
+    instance = FMUInstance(env.description, inputs=["f"], outputs=OUTPUTS)
+    instance.reset(parameters)
+    bare = FMUInstance(env.description, inputs=["f"], outputs=OUTPUTS)
+    bare.reset(parameters)
+    do_step = bare.binding.do_step_call()
+    bare_time = [bare.time]
     actions = np.random.default_rng(0).integers(0, 2, size=steps)
     forces = np.where(actions == 1, env.force, -env.force)
 
@@ -64,9 +71,10 @@ def measure(steps: int = 20_000, repeats: int = 7, fmi_version: int = 2, cs_step
     fmpy_time = [0.0]
 
     def do_step_only() -> int:
-        t = instance.time
+        t = bare_time[0]
         for k in range(steps):
             do_step(t + k * dt, dt)
+        bare_time[0] = t + steps * dt
         return steps
 
     def runtime_loop() -> int:
@@ -97,7 +105,8 @@ def measure(steps: int = 20_000, repeats: int = 7, fmi_version: int = 2, cs_step
          "FMUEnv.step": env_loop},
         repeats,
     )
-    env.close()
+    for closable in (env, instance, bare):
+        closable.close()
     fmpy_fmu.terminate()
     fmpy_fmu.freeInstance()
     result = {name: median(values) for name, values in samples.items()}

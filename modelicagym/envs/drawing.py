@@ -30,7 +30,8 @@ def _draw_segment(image: np.ndarray, start: tuple[float, float], end: tuple[floa
 
 
 def draw_cartpole(x: float, theta: float, pole_length: float, x_threshold: float) -> np.ndarray:
-    """An RGB image (HEIGHT x WIDTH x 3, uint8) of a cart at ``x`` with its pole at angle ``theta``.
+    """An RGB image (HEIGHT x WIDTH x 3, uint8) of a cart at ``x`` with its pole at angle ``theta``
+    and the pole's point mass at its tip.
 
     ``theta`` is measured from the +x axis (upright = pi/2), as the model outputs it.
     """
@@ -42,5 +43,6 @@ def draw_cartpole(x: float, theta: float, pole_length: float, x_threshold: float
     _fill_rectangle(image, cx - 25, cy - 15, cx + 25, cy + 15, _CART)
     tip = (cx + np.cos(theta) * pole_length * scale, cy - np.sin(theta) * pole_length * scale)
     _draw_segment(image, (cx, cy), tip, 10, _POLE)
+    _fill_disc(image, tip[0], tip[1], 9, _CART)
     _fill_disc(image, cx, cy, 5, _JOINT)
     return image

@@ -103,18 +103,18 @@ class FMUInstance:
         self.logging_on = logging_on
         self.reset_rung = self._first_rung(reset_rung)
 
-        self._binding = _BINDINGS[description.fmi_version](description, self.mode, instance_name)
-        self.inputs = ValueBuffer(self._binding, self.input_variables)
-        self.outputs = ValueBuffer(self._binding, self.output_variables)
+        self.binding = _BINDINGS[description.fmi_version](description, self.mode, instance_name)
+        self.inputs = ValueBuffer(self.binding, self.input_variables)
+        self.outputs = ValueBuffer(self.binding, self.output_variables)
         self._integrator: ModelExchangeIntegrator | None = None
         if self.mode == "me":
             self._integrator = ModelExchangeIntegrator(
-                self._binding,
+                self.binding,
                 description.number_of_states,
                 description.number_of_event_indicators,
                 bool(interface.needsCompletedIntegratorStep),
                 solver=solver,
-                tolerance=tolerance or 1e-8,
+                tolerance=tolerance or 1e-10,
                 step_size=solver_step,
             )
 
@@ -197,21 +197,21 @@ class FMUInstance:
 
     def set_values(self, values: Mapping[str, Any]) -> None:
         """Set variables by name now (e.g. a tunable parameter mid-episode)."""
-        self._binding.set_values(dict(values))
+        self.binding.set_values(dict(values))
 
     def get_values(self, names: Sequence[str]) -> dict[str, Any]:
         """Read variables by name (slow path, for inspection)."""
-        return self._binding.get_values(list(names))
+        return self.binding.get_values(list(names))
 
     def close(self) -> None:
         """Free the instance. Safe to call twice."""
-        binding = getattr(self, "_binding", None)
+        binding = getattr(self, "binding", None)
         if binding is None:
             return
         self._free_snapshot()
         self._integrator = None
         binding.close()
-        self._binding = None  # type: ignore[assignment]
+        self.binding = None  # type: ignore[assignment]
 
     def __del__(self) -> None:
         try:
@@ -248,7 +248,7 @@ class FMUInstance:
 
     def _restore_snapshot(self, values: dict[str, Any]) -> None:
         try:
-            self._binding.set_state(self._snapshot)
+            self.binding.set_state(self._snapshot)
         except FMUCallError as error:
             self._demote(f"failed ({error})")
             self._restart(values, fresh=False)
@@ -259,7 +259,7 @@ class FMUInstance:
 
     def _reset_and_initialize(self, values: dict[str, Any]) -> None:
         try:
-            self._binding.reset()
+            self.binding.reset()
         except FMUCallError as error:
             self._demote(f"failed ({error})")
             self._restart(values, fresh=False)
@@ -270,7 +270,7 @@ class FMUInstance:
         """Re-instantiate (unless this is the first episode) and initialize."""
         if self.initialized or self.broken:
             self._free_snapshot()
-            self._binding.free_instance()
+            self.binding.free_instance()
             self._instantiate()
         self._initialize(values)
         if fresh:
@@ -292,10 +292,10 @@ class FMUInstance:
     # -- lifecycle -------------------------------------------------------------------------------
 
     def _instantiate(self) -> None:
-        self._binding.instantiate(self.logging_on)
+        self.binding.instantiate(self.logging_on)
         self.inputs.bind()
         self.outputs.bind()
-        self._do_step = self._binding.do_step_call() if self.mode == "cs" else None
+        self._do_step = self.binding.do_step_call() if self.mode == "cs" else None
         self.broken = False
         self.initialized = False
 
@@ -308,11 +308,11 @@ class FMUInstance:
         before = {n: v for n, v in values.items() if variables[n].settable_before_initialization}
         during = {n: v for n, v in values.items() if n not in before}
         try:
-            self._binding.set_values(before)
+            self.binding.set_values(before)
             self.inputs.check(self.inputs.write(), "set inputs")
-            self._binding.enter_initialization(self.start_time, self.stop_time, self.tolerance)
-            self._binding.set_values(during)
-            self._binding.exit_initialization()
+            self.binding.enter_initialization(self.start_time, self.stop_time, self.tolerance)
+            self.binding.set_values(during)
+            self.binding.exit_initialization()
             self.time = self.start_time
             terminated = self._integrator.start(self.time) if self._integrator is not None else False
         except FMUError:
@@ -327,15 +327,15 @@ class FMUInstance:
         self.terminated = False
         if take_snapshot:
             try:
-                self._snapshot = self._binding.get_state(self._snapshot)
+                self._snapshot = self.binding.get_state(self._snapshot)
                 self._snapshot_key = _freeze(values)
             except FMUCallError as error:
                 self._demote(f"failed ({error})")
         self.read_outputs()
 
     def _free_snapshot(self) -> None:
-        if self._snapshot is not None and self._binding is not None:
-            self._binding.free_state(self._snapshot)
+        if self._snapshot is not None and self.binding is not None:
+            self.binding.free_state(self._snapshot)
         self._snapshot = None
         self._snapshot_key = None
 
@@ -351,8 +351,8 @@ class FMUInstance:
             self.terminated = True
             return
         self.broken = True
-        raise self._binding.fail("fmiDoStep" if status != DISCARD else "fmiDoStep (discard without termination)", status)
+        raise self.binding.fail("fmiDoStep" if status != DISCARD else "fmiDoStep (discard without termination)", status)
 
     def _broken_by(self, what: str, status: int) -> None:
         self.broken = True
-        raise self._binding.fail(what, status)
+        raise self.binding.fail(what, status)

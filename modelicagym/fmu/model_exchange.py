@@ -48,7 +48,7 @@ class ModelExchangeIntegrator:
         n_indicators: int,
         needs_completed_integrator_step: bool,
         solver: str = "cvode",
-        tolerance: float = 1e-8,
+        tolerance: float = 1e-10,
         step_size: float | None = None,
     ):
         if solver not in SOLVERS:

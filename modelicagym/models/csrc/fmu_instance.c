@@ -805,9 +805,11 @@ Status fmu_deserialize_state(ModelInstance *comp, const unsigned char *buffer, s
         header.payload_size != sizeof(InstanceState)) {
         return fail(comp, "deserializeFMUState: the data is not a state of this FMU");
     }
-    *state = malloc(sizeof(InstanceState));
     if (!*state) {
-        return fail(comp, "deserializeFMUState: out of memory");
+        *state = malloc(sizeof(InstanceState));
+        if (!*state) {
+            return fail(comp, "deserializeFMUState: out of memory");
+        }
     }
     memcpy(*state, buffer + sizeof header, sizeof(InstanceState));
     return StatusOK;

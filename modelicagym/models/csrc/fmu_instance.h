@@ -55,7 +55,8 @@ Status fmu_enter_continuous_time_mode(ModelInstance *comp);
 Status fmu_completed_integrator_step(ModelInstance *comp, bool *enter_event_mode,
                                      bool *terminate_simulation);
 
-/* FMU states: heap copies of InstanceState; serialized with a small header. */
+/* FMU states: heap copies of InstanceState, serialized with a small header. A non-NULL
+ * *state given to fmu_get_state / fmu_deserialize_state is overwritten in place. */
 Status fmu_get_state(ModelInstance *comp, void **state);
 Status fmu_set_state(ModelInstance *comp, const void *state);
 Status fmu_free_state(ModelInstance *comp, void **state);
