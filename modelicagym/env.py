@@ -185,16 +185,8 @@ class FMUEnv(gym.Env):
 
     @property
     def fmu_time_ns(self) -> int:
-        """Nanoseconds spent inside FMU calls since `measure_fmu_time` was switched on."""
+        """Nanoseconds spent inside FMU calls by `step`, cumulative (the pool's timing reads it)."""
         return self.fmu.fmu_time_ns
-
-    @property
-    def measure_fmu_time(self) -> bool:
-        return self.fmu.measure_time
-
-    @measure_fmu_time.setter
-    def measure_fmu_time(self, on: bool) -> None:
-        self.fmu.measure_time = bool(on)
 
     # -- helpers ---------------------------------------------------------------------------------
 

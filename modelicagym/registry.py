@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import inspect
 from collections.abc import Mapping, Sequence
 from functools import partial
 from typing import Any
@@ -80,8 +81,8 @@ def make_vec(
     any FMU can be pooled. ``options`` go to every environment; ``options_per_env[i]`` (a list of ``n`` dicts) updates
     them for environment ``i`` — e.g. one parameter set per env for domain randomisation.
     Options named like the pool's own (``num_workers``, ``autoreset_mode``, ``step_timeout``,
-    ``start_method``, ``restart_dead_workers``, ``max_envs_per_worker``, ``measure_timing``) configure
-    the pool instead.
+    ``start_method``, ``restart_dead_workers``, ``max_envs_per_worker``, ``measure_timing``, ...: see
+    `PoolVectorEnv`) configure the pool instead.
 
     Example::
 
@@ -98,7 +99,7 @@ def make_vec(
         raise ValueError(f"n must be at least 1, got {n}")
     if options_per_env is not None and len(options_per_env) != n:
         raise ValueError(f"options_per_env has {len(options_per_env)} entries for n={n} environments")
-    pool_keys = set(PoolVectorEnv.OPTION_NAMES)
+    pool_keys = set(inspect.signature(PoolVectorEnv.__init__).parameters) - {"self", "env_fns"}
     pool_options = {k: options.pop(k) for k in list(options) if k in pool_keys}
     limit = None
     if isinstance(name, Mapping):
