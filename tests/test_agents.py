@@ -172,7 +172,9 @@ def drive(agents: list[QLearningAgent], steps: int, seed: int) -> list[np.ndarra
         for agent in agents:
             part = slice(start, start + agent.n_envs)
             a = agent.act(states[part])
-            agent.learn(states[part], a, rewards[part], next_states[part], terminated[part], truncated[part], mask[part])
+            agent.learn(
+                states[part], a, rewards[part], next_states[part], terminated[part], truncated[part], mask[part]
+            )
             acts.append(a)
             start += agent.n_envs
         actions_taken.append(np.concatenate(acts))

@@ -50,7 +50,8 @@ class Discretizer:
         self.highs = bounds[:, 1].copy()
         self.n_bins = counts.copy()
         self.edges: list[np.ndarray] = [
-            np.linspace(low, high, count + 1)[1:-1] for low, high, count in zip(self.lows, self.highs, self.n_bins)
+            np.linspace(low, high, count + 1)[1:-1]
+            for low, high, count in zip(self.lows, self.highs, self.n_bins, strict=True)
         ]
         # Edges padded with +inf to a common length, so one broadcast comparison bins all variables.
         self._padded_edges = np.full((len(self.edges), max(len(e) for e in self.edges)), np.inf)

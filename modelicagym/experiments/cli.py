@@ -1,0 +1,119 @@
+"""Command line for the reproduction: ``reproduce`` runs sweeps, ``report`` renders the comparison.
+
+Wire into the main CLI with ``add_parsers(subparsers)``; each sub-command stores its handler as
+``func`` (``args.func(args)`` returns the exit code). Standalone: ``main(argv)`` or
+``python -m modelicagym.experiments reproduce ...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Sequence
+
+from modelicagym.experiments.config import ConfigError, SweepConfig, load_config
+from modelicagym.experiments.paper import PAPER_SWEEPS
+from modelicagym.experiments.report import render_report
+from modelicagym.experiments.runner import run_sweeps
+
+__all__ = ["add_parsers", "main", "select_sweeps"]
+
+logger = logging.getLogger(__name__)
+
+
+def select_sweeps(
+    names: str | None, config_files: Sequence[str] = (), episodes_scale: float = 1.0
+) -> list[SweepConfig]:
+    """The built-in sweeps named in ``names`` (comma-separated; all if ``None`` and no files),
+    then the sweeps of ``config_files``, with episodes scaled by ``episodes_scale``."""
+    selected: list[SweepConfig] = []
+    if names is not None or not config_files:
+        wanted = list(PAPER_SWEEPS) if names is None else [n.strip() for n in names.split(",") if n.strip()]
+        unknown = [n for n in wanted if n not in PAPER_SWEEPS]
+        if unknown:
+            raise ConfigError(f"unknown sweeps {unknown}; built-in sweeps: {', '.join(PAPER_SWEEPS)}")
+        selected += [PAPER_SWEEPS[n] for n in wanted]
+    selected += [load_config(path) for path in config_files]
+    duplicates = sorted({c.name for c in selected if [d.name for d in selected].count(c.name) > 1})
+    if duplicates:
+        raise ConfigError(f"several sweeps named {duplicates}: results would overwrite each other")
+    return [config.scaled(episodes_scale) for config in selected]
+
+
+def _reproduce(args: argparse.Namespace) -> int:
+    configs = select_sweeps(args.sweeps, args.config, args.episodes_scale)
+    if args.show_config:
+        json.dump([c.to_dict() for c in configs], sys.stdout, indent=2)
+        sys.stdout.write("\n")
+        return 0
+    run_sweeps(configs, args.out, resume=args.resume, num_workers=args.num_workers, progress=not args.no_progress)
+    if args.report:
+        render_report(args.out, args.docs)
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    render_report(args.results, args.docs, notes_path=args.notes)
+    return 0
+
+
+def add_parsers(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``reproduce`` and ``report`` sub-commands to an argparse sub-parser group."""
+    reproduce = subparsers.add_parser(
+        "reproduce",
+        help="run the paper's cart-pole sweeps (or your own) and write results",
+        description="Run sweeps of Q-learning on the cart-pole FMU env, every (setting, repeat) of a sweep "
+        f"side by side in one pool. Built-in sweeps: {', '.join(PAPER_SWEEPS)}.",
+    )
+    reproduce.add_argument("--out", default="results", help="results directory (default: results)")
+    reproduce.add_argument("--sweeps", help="comma-separated built-in sweeps (default: all, unless --config is given)")
+    reproduce.add_argument(
+        "--config",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="a sweep config (.toml/.json) to run as well; repeatable",
+    )
+    reproduce.add_argument("--resume", action="store_true", help="skip sweeps already complete in --out")
+    reproduce.add_argument(
+        "--episodes-scale",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="multiply every sweep's episodes by X (e.g. 0.1 for a quick smoke run)",
+    )
+    reproduce.add_argument("--num-workers", type=int, help="worker processes of the pool (default: the pool's)")
+    reproduce.add_argument("--no-progress", action="store_true", help="no progress bar")
+    reproduce.add_argument("--report", action="store_true", help="render the report into --docs afterwards")
+    reproduce.add_argument("--docs", default="docs", help="docs directory for --report (default: docs)")
+    reproduce.add_argument(
+        "--show-config",
+        action="store_true",
+        help="print the selected sweeps as JSON (a template for --config) and exit",
+    )
+    reproduce.set_defaults(func=_reproduce)
+
+    report = subparsers.add_parser(
+        "report",
+        help="render docs/reproduction.md and its figures from a results directory",
+        description="Compare the results of the paper's sweeps with the paper's numbers and findings.",
+    )
+    report.add_argument("--results", default="results", help="results directory (default: results)")
+    report.add_argument("--docs", default="docs", help="output directory (default: docs)")
+    report.add_argument("--notes", help="hand-written discussion (default: <docs>/reproduction-notes.md)")
+    report.set_defaults(func=_report)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Standalone entry point: ``reproduce ...`` or ``report ...``."""
+    parser = argparse.ArgumentParser(prog="python -m modelicagym.experiments", description=__doc__.splitlines()[0])
+    add_parsers(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.func(args)
+    except (ConfigError, FileNotFoundError) as error:
+        logger.error("%s", error)
+        return 2

@@ -1,0 +1,50 @@
+"""Learning-curve figures like the paper's: one per sweep, one line per setting.
+
+Each line is the moving average (window 20) of the episode length, averaged over repeats; the
+band spans the smallest to the largest smoothed repeat. matplotlib is optional: without it the
+plots are skipped with a warning.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from modelicagym.experiments.analysis import WINDOW, moving_average
+from modelicagym.experiments.results import SweepResult, atomic_write
+
+__all__ = ["plot_sweep"]
+
+logger = logging.getLogger(__name__)
+
+
+def plot_sweep(result: SweepResult, path: str | Path, *, window: int = WINDOW, title: str | None = None) -> Path | None:
+    """Draw the learning curves of ``result`` into a PNG at ``path``; ``None`` without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        logger.warning("matplotlib is not installed: skipping the plot %s (pip install 'modelicagym[plots]')", path)
+        return None
+
+    path = Path(path)
+    smoothed = moving_average(result.lengths, window)  # (settings, repeats, episodes - window + 1)
+    episodes = np.arange(smoothed.shape[-1]) + min(window, result.lengths.shape[-1])
+    fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
+    for s, setting in enumerate(result.config.settings):
+        (line,) = ax.plot(episodes, smoothed[s].mean(axis=0), label=setting.label)
+        ax.fill_between(episodes, smoothed[s].min(axis=0), smoothed[s].max(axis=0), color=line.get_color(), alpha=0.2)
+    ax.set_xlabel("episode")
+    ax.set_ylabel(f"episode length [steps], moving average of {window}")
+    ax.set_title(title or f"{result.config.name}: mean of {result.config.repeats} repeats, band = min..max")
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    with atomic_write(path, "wb") as f:
+        fig.savefig(f, format="png", dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,310 @@
+"""Render ``docs/reproduction.md`` and its figures from a results directory.
+
+Every number and every verdict in the report is computed from the result files; the only prose
+written by hand is the discussion, kept in a notes file (``docs/reproduction-notes.md``) whose
+``## <sweep name>`` sections (and ``## summary``, ``## execution_time``) are inserted under the
+matching headings, so regenerating the report never loses it.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import re
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modelicagym.experiments.analysis import LEARNING_RATIO, WINDOW, SettingSummary, summarize
+from modelicagym.experiments.config import SweepConfig
+from modelicagym.experiments.paper import (
+    FINDINGS,
+    PAPER_NUMBERS,
+    PAPER_SECONDS_PER_STEP,
+    PAPER_SWEEPS,
+    PaperNumbers,
+)
+from modelicagym.experiments.plots import plot_sweep
+from modelicagym.experiments.results import SweepResult, atomic_write, completed_sweeps, read_sweep
+
+__all__ = ["TITLES", "read_notes", "render_report"]
+
+logger = logging.getLogger(__name__)
+
+TITLES = {
+    "force": "Force magnitude",
+    "masses": "Cart and pole masses [m_cart, m_pole]",
+    "reward": "Negative reward",
+    "time_step": "Simulation time step",
+}
+
+_NO_NOTES = "_Discussion not written yet: add a `## {key}` section to `{notes}`._"
+
+
+def read_notes(path: Path) -> dict[str, str]:
+    """The ``## key`` sections of the notes file (empty if it does not exist)."""
+    if not path.exists():
+        return {}
+    sections: dict[str, str] = {}
+    parts = re.split(r"^## +(\S+) *$", path.read_text(encoding="utf-8"), flags=re.MULTILINE)
+    for key, body in zip(parts[1::2], parts[2::2], strict=True):
+        sections[key] = body.strip()
+    return sections
+
+
+def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    lines = ["| " + " | ".join(headers) + " |", "|" + "|".join("---" for _ in headers) + "|"]
+    lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _paper_value(value: float | None, numbers: PaperNumbers | None) -> str:
+    if value is None:
+        return "–"
+    return f"~{value:g}" if numbers and numbers.approximate else f"{value:g}"
+
+
+def _mark(holds: bool) -> str:
+    return "yes" if holds else "**no**"
+
+
+def _setting_rows(name: str, summaries: dict[str, SettingSummary]) -> list[list[str]]:
+    rows = []
+    for label, s in summaries.items():
+        paper = PAPER_NUMBERS.get(name, {}).get(label)
+        rows.append(
+            [
+                label,
+                f"{s.mean:.1f} ± {s.mean_std:.1f}",
+                _paper_value(paper.mean if paper else None, paper),
+                f"{s.last:.1f} ± {s.last_std:.1f}",
+                _paper_value(paper.last if paper else None, paper),
+                f"{s.first:.1f}",
+                "yes" if s.learns else "no",
+            ]
+        )
+    return rows
+
+
+def _is_paper_sweep(config: SweepConfig) -> bool:
+    """Whether ``config`` is one of the paper's sweeps, possibly with another number of episodes."""
+    paper = PAPER_SWEEPS.get(config.name)
+    return paper is not None and replace(config, episodes=paper.episodes) == paper
+
+
+def _findings(name: str, summaries: dict[str, SettingSummary]) -> list[tuple[str, bool, str]]:
+    return [(f.claim, *f.check(summaries)) for f in FINDINGS if f.sweep == name]
+
+
+def _identical_settings(results: dict[str, SweepResult]) -> list[str]:
+    """Settings that ran with the same options and seeds in several sweeps, and whether their
+    episodes came out identical (they should: the env is deterministic)."""
+    groups: dict[str, list[tuple[str, str, np.ndarray]]] = {}
+    for name, result in results.items():
+        c = result.config
+        for s, setting in enumerate(c.settings):
+            key = json.dumps(
+                [c.env, c.options_for(setting), c.episodes, c.repeats, c.seed, c.to_dict()["agent"]], sort_keys=True
+            )
+            groups.setdefault(key, []).append((name, setting.label, result.lengths[s]))
+    lines = []
+    for runs in groups.values():
+        if len(runs) > 1:
+            same = all(np.array_equal(runs[0][2], other[2]) for other in runs[1:])
+            where = ", ".join(f"{name} / {label}" for name, label, _ in runs)
+            lines.append(f"- {where}: {'identical episodes' if same else '**episodes differ**'}")
+    return lines
+
+
+def _setup_section(results: dict[str, SweepResult]) -> str:
+    first = next(iter(results.values()))
+    machine = first.machine
+    total = sum(r.timing.get("wall_seconds", 0.0) + r.timing.get("setup_seconds", 0.0) for r in results.values())
+    started = min(r.timing.get("started", "") for r in results.values())
+    spec = first.config.agent
+    q = spec.q_learning
+    intervals = (
+        ", ".join(f"[{low:.4g}, {high:.4g}]" for low, high in spec.intervals)
+        if spec.intervals
+        else "the observation bounds"
+    )
+    options = ", ".join(f"`{k}={v:g}`" for k, v in first.config.base_options.items())
+    packages = ", ".join(f"{k} {v}" for k, v in machine.get("packages", {}).items())
+    truncation = "bootstrap" if q.bootstrap_on_truncation else "no bootstrap"
+    return "\n".join(
+        [
+            "## What was run",
+            "",
+            f'- Env: `modelicagym.make_vec("{first.config.env}", ...)`, one env per (setting, repeat) of a sweep, '
+            f"base options {options}; the sweeps override one or two of them.",
+            f"- Agent: tabular Q-learning, {spec.n_bins} bins per observation variable over {intervals} "
+            "(x, x_dot, theta, theta_dot; outermost bins open), Q-table uniform in "
+            f"[{q.q_init_low:g}, {q.q_init_high:g}], learning rate {q.learning_rate:g}, discount {q.discount:g}, "
+            f"exploration {q.exploration_rate:g} multiplied by {q.exploration_decay:g} after every step; "
+            f"no bootstrap on termination, {truncation} on truncation.",
+            f"- {first.config.repeats} repeats of every setting, seeded from (seed {first.config.seed}, repeat): "
+            "repeat r uses the same seeds in every setting and every sweep.",
+            f"- A setting *learns* when the mean length of its last {WINDOW} episodes is at least {LEARNING_RATIO:g} "
+            f"times that of its first {WINDOW} (the paper's failing settings stay flat at about 9-10 steps).",
+            f"- Machine: {machine.get('platform', '?')}, {machine.get('cpu_count', '?')} CPUs, "
+            f"Python {machine.get('python', '?')}; {packages}.",
+            f"- Runs started {started}; total wall time of the sweeps shown here {total:.0f} s.",
+        ]
+    )
+
+
+def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], notes_path: Path) -> str:
+    rows = []
+    for name, result in results.items():
+        t = result.timing
+        pool_steps = t["vector_steps"] * t["num_envs"]
+        low, high = PAPER_SECONDS_PER_STEP["default"]
+        if name == "time_step":
+            high = max(high for _, high in PAPER_SECONDS_PER_STEP.values())
+        rows.append(
+            [
+                name,
+                t["num_envs"],
+                f"{t['env_steps']:,}",
+                f"{pool_steps:,}",
+                f"{t['wall_seconds']:.1f}",
+                f"{1e6 * t['wall_seconds'] / pool_steps:.1f}",
+                f"{1e6 * t['seconds_per_step']:.1f}",
+                f"{100 * t['agent_seconds'] / t['wall_seconds']:.0f} %",
+                f"{low:g}–{high:g}",
+            ]
+        )
+    table = _table(
+        [
+            "sweep",
+            "envs",
+            "learned steps",
+            "pool steps",
+            "wall time [s]",
+            "µs per pool step",
+            "µs per learned step",
+            "agent share",
+            "paper: s per step (Table 1)",
+        ],
+        rows,
+    )
+    per_setting = ", ".join(
+        f"{label} {low:g} s" for label, (low, _) in PAPER_SECONDS_PER_STEP.items() if label != "default"
+    )
+    return "\n\n".join(
+        [
+            "## Execution time",
+            "Ours: wall-clock time of a whole sweep, agent included (its share is shown), divided by env steps. "
+            "All (setting, repeat) pairs of a sweep step side by side in one multi-process pool on this machine; "
+            "an env that has finished its episodes keeps stepping (ignored) until the last one finishes, so "
+            "*pool steps* (every env stepped) exceed *learned steps* (the episodes' steps) when episode lengths "
+            "differ a lot. "
+            "The paper's Table 1: one run at a time in a single process (PyFMI + JModelica FMU, 2017 laptop), "
+            f"about {PAPER_SECONDS_PER_STEP['default'][0]:g}-{PAPER_SECONDS_PER_STEP['default'][1]:g} s per step, "
+            f"more with the longest time steps ({per_setting}).",
+            table,
+            notes.get("execution_time", _NO_NOTES.format(key="execution_time", notes=notes_path)),
+        ]
+    )
+
+
+def _sweep_section(
+    name: str, result: SweepResult, figure: Path | None, docs_dir: Path, notes: dict[str, str], notes_path: Path
+) -> tuple[str, list[tuple[str, str, bool, str]]]:
+    summaries = summarize(result)
+    paper_sweep = _is_paper_sweep(result.config)
+    parts = [f"## {TITLES.get(name, name)} (`{name}`, {result.config.episodes} episodes)"]
+    if name in PAPER_SWEEPS and not paper_sweep:
+        parts.append("_This sweep's configuration differs from the paper's: no comparison._")
+    if figure is not None:
+        parts.append(f"![{name}]({figure.relative_to(docs_dir).as_posix()})")
+    parts.append(
+        _table(
+            [
+                "setting",
+                "mean length (ours)",
+                "paper",
+                f"last-{WINDOW} mean (ours)",
+                "paper",
+                f"first-{WINDOW} mean",
+                "learns",
+            ],
+            _setting_rows(name if paper_sweep else "", summaries),
+        )
+    )
+    findings = _findings(name, summaries) if paper_sweep else []
+    if result.config.episodes < 2 * WINDOW:
+        parts.append(
+            f"**{result.config.episodes} episodes are fewer than {2 * WINDOW}: the first and last {WINDOW} "
+            "episodes overlap, so the learning verdicts below mean nothing (a smoke run?).**"
+        )
+    if findings:
+        parts.append(
+            "Paper's findings, checked on our runs:\n\n"
+            + "\n".join(f"- {claim}: holds here: {_mark(holds)} ({evidence})" for claim, holds, evidence in findings)
+        )
+    parts.append(notes.get(name, _NO_NOTES.format(key=name, notes=notes_path)))
+    return "\n\n".join(parts), [(name, claim, holds, evidence) for claim, holds, evidence in findings]
+
+
+def render_report(
+    results_dir: str | Path,
+    docs_dir: str | Path = "docs",
+    *,
+    notes_path: str | Path | None = None,
+    output_name: str = "reproduction.md",
+) -> Path:
+    """Write ``<docs_dir>/<output_name>`` and ``<docs_dir>/figures/<sweep>.png`` from the results."""
+    results_dir, docs_dir = Path(results_dir), Path(docs_dir)
+    notes_path = Path(notes_path) if notes_path else docs_dir / "reproduction-notes.md"
+    names = completed_sweeps(results_dir)
+    if not names:
+        raise FileNotFoundError(f"no completed sweeps in {results_dir}")
+    ordered = [n for n in PAPER_SWEEPS if n in names] + [n for n in names if n not in PAPER_SWEEPS]
+    results = {name: read_sweep(results_dir, name) for name in ordered}
+    notes = read_notes(notes_path)
+
+    sections, verdicts = [], []
+    for name, result in results.items():
+        figure = plot_sweep(
+            result,
+            docs_dir / "figures" / f"{name}.png",
+            title=f"{TITLES.get(name, name)}: mean of {result.config.repeats} repeats, band = min..max",
+        )
+        section, found = _sweep_section(name, result, figure, docs_dir, notes, notes_path)
+        sections.append(section)
+        verdicts += found
+
+    summary = _table(
+        ["sweep", "paper's finding", "holds here"],
+        [[name, claim, _mark(holds)] for name, claim, holds, _ in verdicts],
+    )
+    identical = _identical_settings(results)
+    document = "\n\n".join(
+        [
+            "# Reproducing the ModelicaGym cart-pole study",
+            f"_Generated by `modelicagym report` from `{results_dir.as_posix()}`; do not edit by hand. "
+            f"The discussion paragraphs come from `{notes_path.as_posix()}`._",
+            "Paper: O. Lukianykhin, T. Bogodorova, *ModelicaGym: Applying Reinforcement Learning to Modelica Models*, "
+            'EOOLT 2019. Paper numbers are the means over 5 runs it reports; "–": not reported.',
+            _setup_section(results),
+            "## Summary",
+            summary if verdicts else "_No sweep with paper findings among the results._",
+            notes.get("summary", _NO_NOTES.format(key="summary", notes=notes_path)),
+            *(
+                ["Settings run in several sweeps (same options and seeds):\n\n" + "\n".join(identical)]
+                if identical
+                else []
+            ),
+            *sections,
+            _execution_section(results, notes, notes_path),
+        ]
+    )
+    output = docs_dir / output_name
+    with atomic_write(output) as f:
+        f.write(document + "\n")
+    logger.info("wrote %s", output)
+    return output

@@ -1,0 +1,193 @@
+"""Result files of sweeps, written atomically so an interrupted run never leaves half a file.
+
+Layout of a results directory::
+
+    episodes.csv            all completed sweeps in one tidy table (rewritten after every sweep)
+    <name>/episodes.csv     tidy episodes of one sweep: experiment,setting,repeat,episode,length,reward
+    <name>/run.json         the sweep's config, timing and machine; written last: marks completion
+    <name>/episode_lengths.png   the learning curves (see plots.py)
+
+Every file is written to a temporary file in the same directory and renamed over the target.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import json
+import logging
+import os
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from modelicagym.experiments.config import SweepConfig
+
+__all__ = [
+    "COLUMNS",
+    "PLOT_PNG",
+    "SweepResult",
+    "atomic_write",
+    "completed_sweeps",
+    "is_complete",
+    "read_sweep",
+    "sweep_dir",
+    "write_combined_csv",
+    "write_sweep",
+]
+
+logger = logging.getLogger(__name__)
+
+COLUMNS = ("experiment", "setting", "repeat", "episode", "length", "reward")
+EPISODES_CSV = "episodes.csv"
+RUN_JSON = "run.json"
+PLOT_PNG = "episode_lengths.png"
+
+
+@dataclass
+class SweepResult:
+    """Everything one sweep produced.
+
+    ``lengths[s, r, k]`` and ``returns[s, r, k]`` are the length and total reward of episode ``k``
+    of repeat ``r`` of setting ``s`` (in config order). ``timing`` holds wall-clock numbers (see
+    :mod:`modelicagym.experiments.runner`), ``machine`` where and with what it ran.
+    """
+
+    config: SweepConfig
+    lengths: np.ndarray
+    returns: np.ndarray
+    timing: dict[str, Any] = field(default_factory=dict)
+    machine: dict[str, Any] = field(default_factory=dict)
+
+    def steps_per_setting(self) -> np.ndarray:
+        """Env steps learned from, per setting (all repeats)."""
+        return self.lengths.sum(axis=(1, 2))
+
+
+@contextlib.contextmanager
+def atomic_write(path: Path, mode: str = "w") -> Iterator[IO[Any]]:
+    """Open a temporary file next to ``path``; on success rename it to ``path``, else delete it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, mode, **({"newline": "", "encoding": "utf-8"} if "b" not in mode else {})) as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def _paths(results_dir: Path, name: str) -> tuple[Path, Path]:
+    return sweep_dir(results_dir, name) / EPISODES_CSV, sweep_dir(results_dir, name) / RUN_JSON
+
+
+def _rows(result: SweepResult) -> Iterator[tuple[Any, ...]]:
+    name = result.config.name
+    for s, setting in enumerate(result.config.settings):
+        for r in range(result.config.repeats):
+            for k in range(result.config.episodes):
+                yield name, setting.label, r, k, int(result.lengths[s, r, k]), f"{result.returns[s, r, k]:.12g}"
+
+
+def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
+    """Write ``<name>.csv`` then ``<name>.json`` (the completion marker), each atomically."""
+    csv_path, json_path = _paths(Path(results_dir), result.config.name)
+    with atomic_write(csv_path) as f:
+        writer = csv.writer(f)
+        writer.writerow(COLUMNS)
+        writer.writerows(_rows(result))
+    document = {
+        "experiment": result.config.name,
+        "config": result.config.to_dict(),
+        "timing": result.timing,
+        "machine": result.machine,
+    }
+    with atomic_write(json_path) as f:
+        json.dump(document, f, indent=2, default=_json_default)
+        f.write("\n")
+    logger.info("wrote %s and %s", csv_path, json_path)
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")
+
+
+def _read_document(json_path: Path) -> dict[str, Any] | None:
+    try:
+        return json.loads(json_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def sweep_dir(results_dir: str | Path, name: str) -> Path:
+    """Directory of one sweep's files."""
+    return Path(results_dir) / name
+
+
+def is_complete(results_dir: str | Path, config: SweepConfig) -> bool:
+    """Whether ``config`` already ran to completion in ``results_dir`` (same config, both files)."""
+    csv_path, json_path = _paths(Path(results_dir), config.name)
+    document = _read_document(json_path)
+    if document is None or not csv_path.exists():
+        return False
+    if document.get("config") != json.loads(json.dumps(config.to_dict())):
+        logger.warning("%s holds results of a different configuration of %r: not reusing them", json_path, config.name)
+        return False
+    return True
+
+
+def completed_sweeps(results_dir: str | Path) -> list[str]:
+    """Names of the sweeps with a readable completion marker, sorted."""
+    results_dir = Path(results_dir)
+    names = []
+    for json_path in sorted(results_dir.glob(f"*/{RUN_JSON}")):
+        document = _read_document(json_path)
+        if document and "config" in document and (json_path.parent / EPISODES_CSV).exists():
+            names.append(json_path.parent.name)
+    return names
+
+
+def read_sweep(results_dir: str | Path, name: str) -> SweepResult:
+    """Read back what :func:`write_sweep` wrote."""
+    csv_path, json_path = _paths(Path(results_dir), name)
+    document = _read_document(json_path)
+    if document is None:
+        raise FileNotFoundError(f"no completed sweep {name!r} in {results_dir} ({json_path} missing or unreadable)")
+    config = SweepConfig.from_dict(document["config"])
+    labels = {setting.label: s for s, setting in enumerate(config.settings)}
+    shape = (len(config.settings), config.repeats, config.episodes)
+    lengths = np.full(shape, -1, dtype=np.int64)
+    returns = np.zeros(shape, dtype=np.float64)
+    with open(csv_path, newline="", encoding="utf-8") as f:
+        for row in csv.DictReader(f):
+            index = labels[row["setting"]], int(row["repeat"]), int(row["episode"])
+            lengths[index] = int(row["length"])
+            returns[index] = float(row["reward"])
+    if (lengths < 0).any():
+        raise ValueError(f"{csv_path} lacks {(lengths < 0).sum()} of the {lengths.size} episodes of {name!r}")
+    return SweepResult(config, lengths, returns, document.get("timing", {}), document.get("machine", {}))
+
+
+def write_combined_csv(results_dir: str | Path) -> Path:
+    """Concatenate the CSVs of all completed sweeps into ``episodes.csv``."""
+    results_dir = Path(results_dir)
+    combined = results_dir / EPISODES_CSV
+    with atomic_write(combined) as out:
+        out.write(",".join(COLUMNS) + "\n")
+        for name in completed_sweeps(results_dir):
+            with open(results_dir / name / EPISODES_CSV, encoding="utf-8", newline="") as f:
+                next(f)
+                out.writelines(f)
+    return combined

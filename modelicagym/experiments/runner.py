@@ -1,0 +1,202 @@
+"""Run sweeps: all settings x repeats of a sweep as the envs of one vector env, one batched agent.
+
+Env ``i = s * repeats + r`` runs repeat ``r`` of setting ``s`` with its own options
+(``options_per_env``). Repeat ``r`` gets the same seeds in every setting and every sweep (derived
+from ``(config.seed, r)``), so settings are compared on common random numbers and a setting that
+appears in two sweeps reproduces the same episodes when the env is deterministic.
+
+Timing: ``wall_seconds`` is the wall-clock time of the training loop (pool start-up excluded, it is
+``setup_seconds``); ``seconds_per_step`` divides it by all env steps of the sweep, so it is a
+throughput on this machine's cores, not the latency of one step. ``agent_seconds`` is the part
+spent in the agent. If the vector env has a ``timing`` method or attribute (the pool's), its report
+is stored as ``pool_timing``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import importlib.metadata
+import logging
+import os
+import platform
+import time
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import VectorEnv
+
+from modelicagym.agents import Discretizer, QLearningAgent, train
+from modelicagym.experiments.config import SweepConfig
+from modelicagym.experiments.plots import plot_sweep
+from modelicagym.experiments.results import (
+    PLOT_PNG,
+    SweepResult,
+    is_complete,
+    sweep_dir,
+    write_combined_csv,
+    write_sweep,
+)
+
+__all__ = ["MakeVec", "run_sweep", "run_sweeps"]
+
+logger = logging.getLogger(__name__)
+
+#: ``make_vec(env_id, num_envs, *, options_per_env, [num_workers,] **options) -> VectorEnv``
+MakeVec = Callable[..., VectorEnv]
+
+
+def _default_make_vec() -> MakeVec:
+    import modelicagym
+
+    return modelicagym.make_vec
+
+
+def _seeds(config: SweepConfig) -> tuple[list[np.random.SeedSequence], list[int]]:
+    """Agent seed sequences and env reset seeds, per env, from ``(config.seed, repeat)``."""
+    agent_seeds, env_seeds = [], []
+    for _ in config.settings:
+        for r in range(config.repeats):
+            agent_seed, env_seed = np.random.SeedSequence(config.seed, spawn_key=(r,)).spawn(2)
+            agent_seeds.append(agent_seed)
+            env_seeds.append(int(env_seed.generate_state(1)[0]))
+    return agent_seeds, env_seeds
+
+
+def _make_agent(config: SweepConfig, envs: VectorEnv, seeds: Sequence[np.random.SeedSequence]) -> QLearningAgent:
+    if not isinstance(envs.single_action_space, spaces.Discrete):
+        raise TypeError(f"tabular Q-learning needs a Discrete action space, got {envs.single_action_space!r}")
+    spec = config.agent
+    discretizer = Discretizer.for_box(envs.single_observation_space, spec.n_bins, spec.intervals)
+    return QLearningAgent(
+        discretizer, int(envs.single_action_space.n), n_envs=envs.num_envs, config=spec.q_learning, seeds=seeds
+    )
+
+
+def _pool_timing(envs: VectorEnv) -> Any:
+    """The pool's own timing report, if it has one."""
+    if not hasattr(envs, "timing"):
+        return None
+    timing = envs.timing
+    return timing() if callable(timing) else timing
+
+
+def _machine() -> dict[str, Any]:
+    versions = {}
+    for package in ("modelicagym", "numpy", "gymnasium", "fmpy"):
+        with contextlib.suppress(importlib.metadata.PackageNotFoundError):
+            versions[package] = importlib.metadata.version(package)
+    return {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "python": platform.python_version(),
+        "packages": versions,
+    }
+
+
+@contextlib.contextmanager
+def _progress(total: int, description: str, enabled: bool) -> Iterator[Callable[[int], None] | None]:
+    """A tqdm bar's ``update``, or ``None`` when disabled or tqdm is missing."""
+    if not enabled:
+        yield None
+        return
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        logger.warning("tqdm is not installed: no progress bar (pip install 'modelicagym[progress]')")
+        yield None
+        return
+    with tqdm(total=total, desc=description, unit="episode", smoothing=0.05) as bar:
+        yield bar.update
+
+
+def run_sweep(
+    config: SweepConfig,
+    *,
+    make_vec: MakeVec | None = None,
+    num_workers: int | None = None,
+    progress: bool = True,
+) -> SweepResult:
+    """Train one agent per (setting, repeat) of ``config`` side by side and collect the episodes."""
+    make_vec = make_vec or _default_make_vec()
+    n_envs = len(config.settings) * config.repeats
+    options_per_env = [dict(setting.options) for setting in config.settings for _ in range(config.repeats)]
+    extra = {} if num_workers is None else {"num_workers": num_workers}
+    agent_seeds, env_seeds = _seeds(config)
+    started = datetime.datetime.now(datetime.timezone.utc)
+    clock = time.perf_counter()
+    envs = make_vec(config.env, n_envs, options_per_env=options_per_env, **extra, **config.base_options)
+    try:
+        agent = _make_agent(config, envs, agent_seeds)
+        setup_seconds = time.perf_counter() - clock
+        logger.info(
+            "sweep %r: %d envs (%d settings x %d repeats), %d episodes each",
+            config.name,
+            n_envs,
+            len(config.settings),
+            config.repeats,
+            config.episodes,
+        )
+        clock = time.perf_counter()
+        with _progress(n_envs * config.episodes, config.name, progress) as on_episodes:
+            log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
+        wall_seconds = time.perf_counter() - clock
+        pool_timing = _pool_timing(envs)
+    finally:
+        envs.close()
+
+    shape = (len(config.settings), config.repeats, config.episodes)
+    env_steps = int(log.env_steps.sum())
+    timing = {
+        "started": started.isoformat(timespec="seconds"),
+        "setup_seconds": setup_seconds,
+        "wall_seconds": wall_seconds,
+        "env_steps": env_steps,
+        "vector_steps": log.vector_steps,
+        "seconds_per_step": wall_seconds / env_steps,
+        "agent_seconds": log.agent_seconds,
+        "num_envs": n_envs,
+        "num_workers": num_workers,
+        "pool_timing": pool_timing,
+    }
+    logger.info(
+        "sweep %r: %d env steps in %.1f s (%.1f us per env step)",
+        config.name,
+        env_steps,
+        wall_seconds,
+        1e6 * wall_seconds / env_steps,
+    )
+    return SweepResult(config, log.lengths.reshape(shape), log.returns.reshape(shape), timing, _machine())
+
+
+def run_sweeps(
+    configs: Sequence[SweepConfig],
+    results_dir: str | Path,
+    *,
+    resume: bool = False,
+    make_vec: MakeVec | None = None,
+    num_workers: int | None = None,
+    progress: bool = True,
+) -> list[SweepResult | None]:
+    """Run ``configs`` one after the other, writing each sweep's results as soon as it completes.
+
+    With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
+    (``None`` in the returned list). An interruption loses only the sweep that was running.
+    """
+    results_dir = Path(results_dir)
+    outcomes: list[SweepResult | None] = []
+    for config in configs:
+        if resume and is_complete(results_dir, config):
+            logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
+            outcomes.append(None)
+            continue
+        result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
+        write_sweep(results_dir, result)
+        plot_sweep(result, sweep_dir(results_dir, config.name) / PLOT_PNG)
+        write_combined_csv(results_dir)
+        outcomes.append(result)
+    return outcomes
