@@ -54,3 +54,18 @@ def write_json(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
         json.dump(data, handle, indent=2)
     os.replace(handle.name, path)
     return path
+
+
+def add_arguments(parser: Any) -> None:
+    """``modelicagym bench {fmi-calls,throughput}``: the arguments of each benchmark."""
+    from modelicagym.bench import fmi_calls, throughput
+
+    which = parser.add_subparsers(dest="benchmark", required=True)
+    for name, module in (("fmi-calls", fmi_calls), ("throughput", throughput)):
+        sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
+        module.add_arguments(sub)
+        sub.set_defaults(benchmark_run=module.run)
+
+
+def main(args: Any) -> int:
+    return args.benchmark_run(args)
