@@ -1,4 +1,4 @@
-"""The ``modelicagym`` command: ``info``, ``build``, ``bench``, ``reproduce``."""
+"""The ``modelicagym`` command: ``info``, ``build``, ``bench``, ``reproduce``, ``report``."""
 
 from __future__ import annotations
 
@@ -6,6 +6,8 @@ import argparse
 import logging
 import sys
 from collections.abc import Sequence
+
+logger = logging.getLogger("modelicagym")
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -30,13 +32,10 @@ def _bench(args: argparse.Namespace) -> int:
     return bench_main(args)
 
 
-def _reproduce(args: argparse.Namespace) -> int:
-    from modelicagym.experiments.cli import run as reproduce
-
-    return reproduce(args)
-
-
 def build_parser() -> argparse.ArgumentParser:
+    from modelicagym.bench import add_arguments as bench_arguments
+    from modelicagym.experiments.cli import add_parsers as experiment_parsers
+
     parser = argparse.ArgumentParser(prog="modelicagym", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -44,29 +43,29 @@ def build_parser() -> argparse.ArgumentParser:
     info = commands.add_parser("info", help="describe an FMU and print an FMUEnv config for it")
     info.add_argument("fmu", help="path of the .fmu file")
     info.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
-    info.set_defaults(run=_info)
+    info.set_defaults(func=_info)
 
     build = commands.add_parser("build", help="build the bundled model FMUs from their C sources")
-    build.set_defaults(run=_build)
+    build.set_defaults(func=_build)
 
-    from modelicagym.bench import add_arguments as bench_arguments
-
-    bench = commands.add_parser("bench", help="measure step throughput")
+    bench = commands.add_parser("bench", help="benchmarks: FMI call costs, pool throughput")
     bench_arguments(bench)
-    bench.set_defaults(run=_bench)
+    bench.set_defaults(func=_bench)
 
-    from modelicagym.experiments.cli import add_arguments as reproduce_arguments
-
-    reproduce = commands.add_parser("reproduce", help="reproduce the ModelicaGym paper's Cart-Pole study")
-    reproduce_arguments(reproduce)
-    reproduce.set_defaults(run=_reproduce)
+    experiment_parsers(commands)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from modelicagym.fmu import FMUError
+
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    return args.run(args)
+    try:
+        return args.func(args)
+    except (FMUError, FileNotFoundError, ValueError) as error:
+        logger.error("%s", error)
+        return 2
 
 
 if __name__ == "__main__":
