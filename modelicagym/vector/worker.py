@@ -128,7 +128,8 @@ class Worker:
         self._go = go
         self._done = done
         self._spin_time = config.spin_time
-        self._mode = config.autoreset_mode
+        self._next_step = config.autoreset_mode is AutoresetMode.NEXT_STEP
+        self._same_step = config.autoreset_mode is AutoresetMode.SAME_STEP
         self._needs_reset = [False] * len(envs)
         self._fmu_envs = [env.unwrapped if hasattr(env.unwrapped, "fmu_time_ns") else None for env in envs]
         self._buffers: SharedBuffers | None = None
@@ -241,7 +242,7 @@ class Worker:
 
     def _step_env(self, offset: int, env: gym.Env, action: Any) -> _StepResult:
         """One env's part of a vector step, with the autoreset of the pool's mode."""
-        if self._mode is AutoresetMode.NEXT_STEP:
+        if self._next_step:
             if self._needs_reset[offset]:
                 observation, info = env.reset()
                 result = (observation, 0.0, False, False, info)
@@ -250,7 +251,7 @@ class Worker:
             self._needs_reset[offset] = bool(result[2] or result[3])
             return result
         observation, reward, terminated, truncated, info = env.step(action)
-        if self._mode is AutoresetMode.SAME_STEP and (terminated or truncated):
+        if self._same_step and (terminated or truncated):
             reset_observation, reset_info = env.reset()
             info = {"final_obs": observation, "final_info": info, **reset_info}
             observation = reset_observation

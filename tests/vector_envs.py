@@ -1,0 +1,186 @@
+"""Small deterministic envs for the pool's tests: any space, infos, a cost knob, and faults.
+
+They are plain ``gymnasium.Env`` subclasses in an importable module, so worker processes started
+with ``forkserver``/``spawn`` can unpickle env fns that refer to them.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+import time
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+SPACES: dict[str, gym.Space] = {
+    "box": spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32),
+    "box2d": spaces.Box(0, 255, shape=(2, 3), dtype=np.uint8),
+    "discrete": spaces.Discrete(5, start=-2),
+    "multidiscrete": spaces.MultiDiscrete([3, 4]),
+    "multibinary": spaces.MultiBinary(4),
+    "dict": spaces.Dict(
+        {"position": spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float64), "mode": spaces.Discrete(3)}
+    ),
+    "tuple": spaces.Tuple((spaces.Discrete(2), spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))),
+    "text": spaces.Text(max_length=5, min_length=1),
+}
+
+
+def busy_wait(seconds: float) -> None:
+    """Burn CPU for ``seconds`` (a stand-in for an expensive simulation step)."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        pass
+
+
+class CountEnv(gym.Env):
+    """A deterministic env whose episodes end at seed-dependent times.
+
+    Observations are samples of the observation space drawn from the env's seeded generator; the
+    reward is the sum of the flattened action plus the step count (so wrong actions show); episodes
+    last 3..``max_len`` steps and end terminated or truncated depending on their length. Infos are
+    non-empty every ``info_every`` steps and at episode ends, with ints, floats, arrays, strings and
+    nested dicts. ``cost`` seconds of busy CPU per step; with ``fmu_share`` that fraction of it is
+    counted in ``fmu_time_ns`` as an FMU env would.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(
+        self,
+        obs: str = "box",
+        act: str = "discrete",
+        max_len: int = 20,
+        info_every: int = 3,
+        cost: float = 0.0,
+        fmu_share: float | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        self.observation_space = SPACES[obs]
+        self.action_space = SPACES[act]
+        self.max_len = max_len
+        self.info_every = info_every
+        self.cost = cost
+        self.fmu_share = fmu_share
+        self.render_mode = render_mode
+        self.steps = 0
+        self.length = max_len
+        self.label = "count"
+        if fmu_share is not None:
+            self.fmu_time_ns = 0
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
+        super().reset(seed=seed)
+        self.observation_space.seed(int(self.np_random.integers(2**31)))
+        self.steps = 0
+        self.length = int(self.np_random.integers(3, self.max_len + 1))
+        info: dict[str, Any] = {"length": self.length}
+        if options:
+            info["options"] = dict(options)
+        return self.observation_space.sample(), info
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        assert self.action_space.contains(action), f"{action!r} not in {self.action_space}"
+        self._spend()
+        self.steps += 1
+        reward = float(np.sum(spaces.flatten(self.action_space, action))) + self.steps
+        ended = self.steps >= self.length
+        terminated, truncated = ended and self.length % 2 == 1, ended and self.length % 2 == 0
+        info: dict[str, Any] = {}
+        if self.info_every and self.steps % self.info_every == 0:
+            info.update(step=self.steps, progress=self.steps / self.length, tag=f"s{self.steps}")
+            info["stats"] = {"double": 2 * self.steps, "vector": np.full(2, self.steps, dtype=np.int32)}
+        if ended:
+            info["end"] = "terminated" if terminated else "truncated"
+        return self.observation_space.sample(), reward, terminated, truncated, info
+
+    def _spend(self) -> None:
+        if self.cost <= 0.0:
+            return
+        start = time.perf_counter_ns()
+        busy_wait(self.cost)
+        if self.fmu_share is not None:
+            self.fmu_time_ns += int((time.perf_counter_ns() - start) * self.fmu_share)
+
+    def render(self) -> np.ndarray:
+        return np.full((2, 2, 3), self.steps, dtype=np.uint8)
+
+    def double(self, x: int) -> int:
+        return 2 * x
+
+    def fail(self) -> None:
+        raise KeyError("requested failure")
+
+
+class FaultyEnv(CountEnv):
+    """A :class:`CountEnv` that fails on purpose.
+
+    ``fault`` is one of ``segfault`` (a real SIGSEGV from native code), ``exit`` (``os._exit(3)``),
+    ``hang`` (sleeps for an hour), ``raise`` (``ValueError``), ``sigkill``; it strikes at step
+    ``at_step`` of an episode (``when="step"``), in ``reset`` (``when="reset"``) or while the env is
+    created (``when="init"``). With ``marker`` (a file path) it strikes only once over all
+    processes: the first failure creates the file.
+    """
+
+    def __init__(
+        self, fault: str, when: str = "step", at_step: int = 2, marker: str | None = None, **kwargs: Any
+    ) -> None:
+        super().__init__(**kwargs)
+        self.fault, self.when, self.at_step, self.marker = fault, when, at_step, marker
+        if when == "init":
+            self._strike()
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
+        if self.when == "reset":
+            self._strike()
+        return super().reset(seed=seed, options=options)
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        if self.when == "step" and self.steps + 1 == self.at_step:
+            self._strike()
+        return super().step(action)
+
+    def _strike(self) -> None:
+        if self.marker is not None:
+            if os.path.exists(self.marker):
+                return
+            open(self.marker, "w").close()
+        if self.fault == "segfault":
+            ctypes.string_at(0)
+        elif self.fault == "exit":
+            os._exit(3)
+        elif self.fault == "sigkill":
+            os.kill(os.getpid(), signal.SIGKILL)
+        elif self.fault == "hang":
+            time.sleep(3600)
+        elif self.fault == "raise":
+            raise ValueError(f"{self.fault} at step {self.steps + 1}")
+        else:
+            raise AssertionError(f"unknown fault {self.fault}")
+
+
+class SpacedEnv(CountEnv):
+    """A :class:`CountEnv` with a different observation space (for the space-mismatch check)."""
+
+    def __init__(self) -> None:
+        super().__init__(obs="multibinary")
+
+
+class TrivialEnv(gym.Env):
+    """Does nothing, as fast as possible: measures the pool's own overhead."""
+
+    observation_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
+    action_space = spaces.Discrete(2)
+
+    def __init__(self) -> None:
+        self._obs = np.zeros(4, dtype=np.float32)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
+        return self._obs, {}
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        return self._obs, 1.0, False, False, {}
