@@ -387,3 +387,15 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
     assert json.loads(capsys.readouterr().out)[0]["episodes"] == 3
     assert main(["reproduce", "--sweeps", "nope"]) == 2
     assert main(["report", "--results", str(tmp_path / "empty")]) == 2
+
+
+def test_tiny_sweep_on_the_real_cartpole_pool(tmp_path):
+    """The default ``make_vec`` (the FMU env in the multi-process pool), end to end."""
+    config = tiny(settings=(Setting("0.05 s", {}), Setting("0.5 s", {"time_step": 0.5})), episodes=2)
+    [result] = run_sweeps([config], tmp_path, progress=False)
+    assert result.lengths.shape == (2, 2, 2) and (result.lengths >= 1).all()
+    assert (result.lengths[1] < result.lengths[0]).all()  # 0.5 s steps: the pole falls within a few steps
+    timing = json.loads((tmp_path / "tiny" / "run.json").read_text())["timing"]
+    assert timing["pool_timing"]["steps"] == timing["vector_steps"] and timing["num_workers"] >= 1
+    per_setting = timing["per_setting"]
+    assert per_setting["0.5 s"]["fmu_seconds_per_step"] > per_setting["0.05 s"]["fmu_seconds_per_step"] > 0

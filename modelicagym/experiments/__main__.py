@@ -4,4 +4,5 @@ import sys
 
 from modelicagym.experiments.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":  # the pool's worker processes import this module too
+    sys.exit(main())

@@ -156,14 +156,25 @@ def _setup_section(results: dict[str, SweepResult]) -> str:
     )
 
 
+def _seconds_range(low: float, high: float) -> str:
+    return f"{low:g}" if low == high else f"{low:g}–{high:g}"
+
+
+def _paper_seconds_per_step(name: str, label: str | None = None) -> str:
+    """The paper's Table 1 entry for one setting, or the range over a whole sweep (``label=None``)."""
+    if name != "time_step":
+        return _seconds_range(*PAPER_SECONDS_PER_STEP["default"])
+    if label is None:
+        entries = PAPER_SECONDS_PER_STEP.values()
+        return _seconds_range(min(low for low, _ in entries), max(high for _, high in entries))
+    return _seconds_range(*PAPER_SECONDS_PER_STEP.get(label, PAPER_SECONDS_PER_STEP["default"]))
+
+
 def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], notes_path: Path) -> str:
     rows = []
     for name, result in results.items():
         t = result.timing
         pool_steps = t["vector_steps"] * t["num_envs"]
-        low, high = PAPER_SECONDS_PER_STEP["default"]
-        if name == "time_step":
-            high = max(high for _, high in PAPER_SECONDS_PER_STEP.values())
         rows.append(
             [
                 name,
@@ -174,7 +185,7 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
                 f"{1e6 * t['wall_seconds'] / pool_steps:.1f}",
                 f"{1e6 * t['seconds_per_step']:.1f}",
                 f"{100 * t['agent_seconds'] / t['wall_seconds']:.0f} %",
-                f"{low:g}–{high:g}",
+                _paper_seconds_per_step(name),
             ]
         )
     table = _table(
@@ -191,6 +202,19 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
         ],
         rows,
     )
+    fmu_rows = [
+        [name, label, f"{1e6 * entry['fmu_seconds_per_step']:.1f}", _paper_seconds_per_step(name, label)]
+        for name, result in results.items()
+        for label, entry in result.timing.get("per_setting", {}).items()
+        if "fmu_seconds_per_step" in entry
+    ]
+    fmu_table = (
+        "Time inside the FMU per env step, per setting (each env's FMU time over all the steps the pool gave it), "
+        "next to the paper's time per step of the same experiment:\n\n"
+        + _table(["sweep", "setting", "ours: FMU µs per step", "paper: s per step"], fmu_rows)
+        if fmu_rows
+        else "_The envs did not report their FMU time: no per-setting breakdown._"
+    )
     per_setting = ", ".join(
         f"{label} {low:g} s" for label, (low, _) in PAPER_SECONDS_PER_STEP.items() if label != "default"
     )
@@ -206,6 +230,7 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
             f"about {PAPER_SECONDS_PER_STEP['default'][0]:g}-{PAPER_SECONDS_PER_STEP['default'][1]:g} s per step, "
             f"more with the longest time steps ({per_setting}).",
             table,
+            fmu_table,
             notes.get("execution_time", _NO_NOTES.format(key="execution_time", notes=notes_path)),
         ]
     )

@@ -8,13 +8,16 @@ appears in two sweeps reproduces the same episodes when the env is deterministic
 Timing: ``wall_seconds`` is the wall-clock time of the training loop (pool start-up excluded, it is
 ``setup_seconds``); ``seconds_per_step`` divides it by all env steps of the sweep, so it is a
 throughput on this machine's cores, not the latency of one step. ``agent_seconds`` is the part
-spent in the agent. If the vector env has a ``timing`` method or attribute (the pool's), its report
-is stored as ``pool_timing``.
+spent in the agent. If the vector env can measure its step time (the pool's ``set_timing`` /
+``timing``), its breakdown (FMU, env Python code, pool overhead per batch step) is stored as
+``pool_timing``; if the envs count their time in FMU calls (``fmu_time_ns``), ``per_setting`` gets
+the FMU seconds per env step of each setting.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime
 import importlib.metadata
 import logging
@@ -76,12 +79,45 @@ def _make_agent(config: SweepConfig, envs: VectorEnv, seeds: Sequence[np.random.
     )
 
 
-def _pool_timing(envs: VectorEnv) -> Any:
-    """The pool's own timing report, if it has one."""
+def _start_pool_timing(envs: VectorEnv) -> None:
+    """Switch on the pool's step-time measurement, if it has one."""
+    if hasattr(envs, "set_timing"):
+        envs.set_timing(True)
+
+
+def _pool_timing(envs: VectorEnv) -> dict[str, Any] | None:
+    """The pool's own timing report (means per batch step), if it has one."""
     if not hasattr(envs, "timing"):
         return None
-    timing = envs.timing
-    return timing() if callable(timing) else timing
+    timing = envs.timing() if callable(envs.timing) else envs.timing
+    return dataclasses.asdict(timing) if dataclasses.is_dataclass(timing) else timing
+
+
+def _fmu_time_ns(envs: VectorEnv) -> np.ndarray | None:
+    """Each env's cumulative time inside FMU calls, for envs that count it (FMU envs do)."""
+    try:
+        return np.asarray(envs.get_attr("fmu_time_ns"), dtype=np.int64)
+    except AttributeError:
+        return None
+
+
+def _per_setting(
+    config: SweepConfig, lengths: np.ndarray, vector_steps: int, fmu_ns: np.ndarray | None
+) -> dict[str, dict[str, Any]]:
+    """Learned steps per setting and, when measured, FMU seconds per env step of the setting.
+
+    Every env is stepped ``vector_steps`` times (autoreset steps and the steps after it finished
+    included), so that is the denominator of its FMU time.
+    """
+    per_env_steps = lengths.sum(axis=1).reshape(len(config.settings), config.repeats)
+    out = {}
+    for s, setting in enumerate(config.settings):
+        entry: dict[str, Any] = {"env_steps": int(per_env_steps[s].sum())}
+        if fmu_ns is not None:
+            setting_ns = fmu_ns.reshape(len(config.settings), config.repeats)[s].sum()
+            entry["fmu_seconds_per_step"] = float(setting_ns) / 1e9 / (vector_steps * config.repeats)
+        out[setting.label] = entry
+    return out
 
 
 def _machine() -> dict[str, Any]:
@@ -141,11 +177,14 @@ def run_sweep(
             config.repeats,
             config.episodes,
         )
+        _start_pool_timing(envs)
+        fmu_before = _fmu_time_ns(envs)
         clock = time.perf_counter()
         with _progress(n_envs * config.episodes, config.name, progress) as on_episodes:
             log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
         wall_seconds = time.perf_counter() - clock
         pool_timing = _pool_timing(envs)
+        fmu_after = _fmu_time_ns(envs)
     finally:
         envs.close()
 
@@ -160,8 +199,11 @@ def run_sweep(
         "seconds_per_step": wall_seconds / env_steps,
         "agent_seconds": log.agent_seconds,
         "num_envs": n_envs,
-        "num_workers": num_workers,
+        "num_workers": getattr(envs, "num_workers", num_workers),
         "pool_timing": pool_timing,
+        "per_setting": _per_setting(
+            config, log.lengths, log.vector_steps, None if fmu_before is None else fmu_after - fmu_before
+        ),
     }
     logger.info(
         "sweep %r: %d env steps in %.1f s (%.1f us per env step)",
