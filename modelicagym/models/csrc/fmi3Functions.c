@@ -1,7 +1,8 @@
 /*
  * fmi3Functions.c -- the FMI 3.0 API (co-simulation and model exchange in one
  * binary) as a thin adapter onto the framework core (fmu_instance.h).
- * Supported variable types: Float64, Int32, Boolean (scalars and arrays).
+ * Supported variable types: Float64, Int32, Int64 (also enumerations), Boolean,
+ * scalars and arrays.
  */
 #include "fmi3Functions.h"
 #include "fmu_instance.h"
@@ -9,6 +10,7 @@
 #define COMP ((ModelInstance *)instance)
 
 typedef char assert_fmi3Int32_is_int32[sizeof(fmi3Int32) == sizeof(int32_t) ? 1 : -1];
+typedef char assert_fmi3Int64_is_int64[sizeof(fmi3Int64) == sizeof(int64_t) ? 1 : -1];
 typedef char assert_fmi3Boolean_is_bool[sizeof(fmi3Boolean) == sizeof(bool) ? 1 : -1];
 
 static void log_to_fmi3(ModelInstance *comp, Status status, const char *category,
@@ -132,6 +134,11 @@ fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference valueRef
     return (fmi3Status)fmu_get(COMP, VarInt32, valueReferences, nValueReferences, values, nValues);
 }
 
+fmi3Status fmi3GetInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                        size_t nValueReferences, fmi3Int64 values[], size_t nValues) {
+    return (fmi3Status)fmu_get(COMP, VarInt64, valueReferences, nValueReferences, values, nValues);
+}
+
 fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, fmi3Boolean values[], size_t nValues) {
     return (fmi3Status)fmu_get(COMP, VarBoolean, valueReferences, nValueReferences, values, nValues);
@@ -145,6 +152,11 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
 fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                         size_t nValueReferences, const fmi3Int32 values[], size_t nValues) {
     return (fmi3Status)fmu_set(COMP, VarInt32, valueReferences, nValueReferences, values, nValues);
+}
+
+fmi3Status fmi3SetInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                        size_t nValueReferences, const fmi3Int64 values[], size_t nValues) {
+    return (fmi3Status)fmu_set(COMP, VarInt64, valueReferences, nValueReferences, values, nValues);
 }
 
 fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
@@ -330,7 +342,6 @@ GET_SET_UNSUPPORTED(UInt8, fmi3UInt8)
 GET_SET_UNSUPPORTED(Int16, fmi3Int16)
 GET_SET_UNSUPPORTED(UInt16, fmi3UInt16)
 GET_SET_UNSUPPORTED(UInt32, fmi3UInt32)
-GET_SET_UNSUPPORTED(Int64, fmi3Int64)
 GET_SET_UNSUPPORTED(UInt64, fmi3UInt64)
 GET_SET_UNSUPPORTED(String, fmi3String)
 

@@ -338,7 +338,9 @@ static size_t type_size(VarType type) {
     switch (type) {
     case VarFloat64: return sizeof(double);
     case VarInt32: return sizeof(int32_t);
+    case VarInt64: return sizeof(int64_t);
     case VarBoolean: return sizeof(bool);
+    case VarEnumeration: return sizeof(int32_t);
     }
     return 0;
 }
@@ -347,20 +349,60 @@ static const char *type_name(VarType type) {
     switch (type) {
     case VarFloat64: return "Float64";
     case VarInt32: return "Int32";
+    case VarInt64: return "Int64";
     case VarBoolean: return "Boolean";
+    case VarEnumeration: return "Enumeration";
     }
     return "unknown";
 }
 
+/* The variable `vr` if it can be accessed as `type`, else NULL. */
 static const VariableInfo *find_variable(ValueReference vr, VarType type) {
     size_t i;
     for (i = 0; i < model_definition.n_variables; i++) {
         const VariableInfo *v = &model_definition.variables[i];
         if (v->vr == vr) {
-            return v->type == type ? v : NULL;
+            bool as_enum = v->type == VarEnumeration && (type == VarInt32 || type == VarInt64);
+            return v->type == type || as_enum ? v : NULL;
         }
     }
     return NULL;
+}
+
+/* Copy a variable's values out of ModelData into an array of `type` (Int64 access to
+ * enumerations widens their int32_t storage). */
+static void read_variable(ModelInstance *comp, const VariableInfo *v, VarType type, void *dst) {
+    const char *field = (const char *)M(comp) + v->offset;
+    size_t i;
+    if (type == VarInt64 && v->type == VarEnumeration) {
+        for (i = 0; i < v->count; i++) {
+            ((int64_t *)dst)[i] = ((const int32_t *)(const void *)field)[i];
+        }
+    } else {
+        memcpy(dst, field, v->count * type_size(type));
+    }
+}
+
+/* Copy values of `type` into a variable's ModelData field; false (and nothing written)
+ * when an Int64 value does not fit an enumeration's int32_t storage. */
+static bool write_variable(ModelInstance *comp, const VariableInfo *v, VarType type,
+                           const void *src) {
+    char *field = (char *)M(comp) + v->offset;
+    size_t i;
+    if (type == VarInt64 && v->type == VarEnumeration) {
+        const int64_t *values = src;
+        for (i = 0; i < v->count; i++) {
+            if (values[i] < INT32_MIN || values[i] > INT32_MAX) {
+                return false;
+            }
+        }
+        for (i = 0; i < v->count; i++) {
+            ((int32_t *)(void *)field)[i] = (int32_t)values[i];
+        }
+    } else {
+        memcpy(field, src, v->count * type_size(type));
+    }
+    return true;
 }
 
 static bool settable(const ModelInstance *comp, VarKind kind) {
@@ -407,7 +449,7 @@ Status fmu_get(ModelInstance *comp, VarType type, const ValueReference vr[], siz
         if (index + v->count > n_values) {
             return fail(comp, "get%s: more values than the %zu given", type_name(type), n_values);
         }
-        memcpy((char *)values + index * size, (const char *)M(comp) + v->offset, v->count * size);
+        read_variable(comp, v, type, (char *)values + index * size);
         index += v->count;
     }
     if (index != n_values) {
@@ -438,7 +480,10 @@ Status fmu_set(ModelInstance *comp, VarType type, const ValueReference vr[], siz
         if (index + v->count > n_values) {
             return fail(comp, "set%s: more values than the %zu given", type_name(type), n_values);
         }
-        memcpy((char *)M(comp) + v->offset, (const char *)values + index * size, v->count * size);
+        if (!write_variable(comp, v, type, (const char *)values + index * size)) {
+            return fail(comp, "set%s: a value for variable %u is out of range", type_name(type),
+                        vr[i]);
+        }
         index += v->count;
     }
     if (index != n_values) {

@@ -22,8 +22,10 @@
  *
  * model.c must define `const ModelDefinition model_definition = {...};`:
  *   variables, n_variables  table mapping value references to ModelData
- *                           fields (see FLOAT64_VAR & co. below). VR 0 is
- *                           reserved for `time` (Float64, read-only).
+ *                           fields (FLOAT64_VAR, INT32_VAR, INT64_VAR,
+ *                           BOOLEAN_VAR, ENUM_VAR below; a field may be a
+ *                           fixed-size array: one VR, `count` values). VR 0
+ *                           is reserved for `time` (Float64, read-only).
  *   set_start_values        required: write every start value into ModelData.
  *   initialize              optional: compute initial states and calculated
  *                           parameters from parameters; validate parameters
@@ -123,7 +125,9 @@ typedef enum {
     ModeError = 1 << 6
 } Mode;
 
-typedef enum { VarFloat64, VarInt32, VarBoolean } VarType;
+/* Storage types of ModelData fields. Enumerations are stored as int32_t and are
+ * accessed as Integer in FMI 2.0 and as Int64 in FMI 3.0 (the core converts). */
+typedef enum { VarFloat64, VarInt32, VarInt64, VarBoolean, VarEnumeration } VarType;
 
 /* Who may set a variable, and when. */
 typedef enum {
@@ -147,8 +151,12 @@ typedef struct {
     { (vr), VarFloat64, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, double) }
 #define INT32_VAR(vr, field, kind) \
     { (vr), VarInt32, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, int32_t) }
+#define INT64_VAR(vr, field, kind) \
+    { (vr), VarInt64, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, int64_t) }
 #define BOOLEAN_VAR(vr, field, kind) \
     { (vr), VarBoolean, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, bool) }
+#define ENUM_VAR(vr, field, kind) \
+    { (vr), VarEnumeration, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, int32_t) }
 
 /* Event flags, as reported by newDiscreteStates / updateDiscreteStates. */
 typedef struct {
