@@ -241,7 +241,8 @@ def test_sources_compile_without_warnings(tmp_path: Path) -> None:
     (tmp_path / "build_config.h").write_text('#define FMU_INSTANTIATION_TOKEN "x"\n')
     headers = Path(fmpy.__file__).parent / "c-code"
     for adapter in ("fmi2Functions.c", "fmi3Functions.c"):
-        for source in (FRAMEWORK_DIR / "fmu_instance.c", FRAMEWORK_DIR / adapter, MODEL_DIR / "model.c"):
+        for source in (FRAMEWORK_DIR / "fmu_instance.c", FRAMEWORK_DIR / "fmu_solver.c",
+                       FRAMEWORK_DIR / adapter, MODEL_DIR / "model.c"):
             result = subprocess.run(
                 [gcc, "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fsyntax-only",
                  f"-I{tmp_path}", f"-I{FRAMEWORK_DIR}", f"-I{MODEL_DIR}", f"-I{headers}", str(source)],

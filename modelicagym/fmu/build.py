@@ -55,7 +55,7 @@ DefineValue = Union[str, int, float, bool, None]
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 FRAMEWORK_DIR = MODELS_DIR / "csrc"
-_FRAMEWORK_FILES = ("model.h", "fmu_instance.h", "fmu_instance.c")
+_FRAMEWORK_FILES = ("model.h", "fmu_instance.h", "fmu_internal.h", "fmu_instance.c", "fmu_solver.c")
 _ADAPTERS = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
 _GENERATED_HEADER = "build_config.h"
 _BUILD_DESCRIPTION = "buildDescription.xml"

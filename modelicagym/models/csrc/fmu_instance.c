@@ -1,22 +1,17 @@
 /*
- * fmu_instance.c -- lifecycle, variable access, RK4 co-simulation, model
- * exchange and FMU states, independent of the FMI version (see fmu_instance.h).
+ * fmu_instance.c -- logging, lifecycle, variable access and FMU states, independent
+ * of the FMI version (see fmu_instance.h). The solver side is in fmu_solver.c.
  */
-#include "fmu_instance.h"
+#include "fmu_internal.h"
 
-#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#define MAX_EVENT_ITERATIONS 100
 #define LOG_MESSAGE_SIZE 1024
 #define STATE_MAGIC 0x4d47464du /* "MGFM" */
 #define STATE_FORMAT_VERSION 1u
-
-/* Allowed interface states of the calls (bit masks of Mode). */
-#define MODES_INITIALIZED (ModeInitialization | ModeEvent | ModeContinuousTime | ModeStep | ModeTerminated)
 
 const char *const LOG_CATEGORY_NAMES[N_LOG_CATEGORIES] = {
     "logEvents", "logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal",
@@ -54,8 +49,7 @@ void fmu_log(ModelInstance *comp, Status status, LogCategory category, const cha
 }
 
 /* Log an error and return StatusError. */
-static Status fail(ModelInstance *comp, const char *format, ...) FMU_PRINTF_FORMAT(2, 3);
-static Status fail(ModelInstance *comp, const char *format, ...) {
+Status fmu_fail(ModelInstance *comp, const char *format, ...) {
     va_list args;
     va_start(args, format);
     vlog(comp, StatusError, LogStatusError, format, args);
@@ -67,7 +61,7 @@ Status fmu_unsupported(ModelInstance *comp, const char *function) {
     if (!comp) {
         return StatusError;
     }
-    return fail(comp, "%s is not supported by this FMU", function);
+    return fmu_fail(comp, "%s is not supported by this FMU", function);
 }
 
 static const char *mode_name(Mode mode) {
@@ -83,11 +77,11 @@ static const char *mode_name(Mode mode) {
     return "unknown";
 }
 
-static bool allowed(ModelInstance *comp, const char *function, unsigned modes) {
+bool fmu_allowed(ModelInstance *comp, const char *function, unsigned modes) {
     if (comp->s.mode & modes) {
         return true;
     }
-    fail(comp, "%s is not allowed in %s", function, mode_name(comp->s.mode));
+    fmu_fail(comp, "%s is not allowed in %s", function, mode_name(comp->s.mode));
     return false;
 }
 
@@ -103,15 +97,15 @@ static void reset_state(ModelInstance *comp) {
 static bool definition_is_complete(ModelInstance *comp) {
     const ModelDefinition *md = &model_definition;
     if (!md->set_start_values || (md->n_variables > 0 && !md->variables)) {
-        fail(comp, "model_definition lacks set_start_values or its variable table");
+        fmu_fail(comp, "model_definition lacks set_start_values or its variable table");
         return false;
     }
     if (NX > 0 && (!md->get_continuous_states || !md->set_continuous_states || !md->get_derivatives)) {
-        fail(comp, "model_definition has NX > 0 but lacks a continuous-state hook");
+        fmu_fail(comp, "model_definition has NX > 0 but lacks a continuous-state hook");
         return false;
     }
     if (NZ > 0 && !md->get_event_indicators) {
-        fail(comp, "model_definition has NZ > 0 but lacks get_event_indicators");
+        fmu_fail(comp, "model_definition has NZ > 0 but lacks get_event_indicators");
         return false;
     }
     return true;
@@ -148,7 +142,7 @@ ModelInstance *fmu_instantiate(const char *instance_name, InterfaceType type, co
     }
 #ifdef FMU_INSTANTIATION_TOKEN
     if (!token || strcmp(token, FMU_INSTANTIATION_TOKEN) != 0) {
-        fail(comp, "instantiation token \"%s\" does not match \"%s\"", token ? token : "(null)",
+        fmu_fail(comp, "instantiation token \"%s\" does not match \"%s\"", token ? token : "(null)",
              FMU_INSTANTIATION_TOKEN);
         fmu_free(comp);
         return NULL;
@@ -192,7 +186,7 @@ Status fmu_set_debug_logging(ModelInstance *comp, bool logging_on, size_t n_cate
             }
         }
         if (c == N_LOG_CATEGORIES) {
-            return fail(comp, "unknown log category \"%s\"", categories[i] ? categories[i] : "(null)");
+            return fmu_fail(comp, "unknown log category \"%s\"", categories[i] ? categories[i] : "(null)");
         }
         comp->log_enabled[c] = logging_on;
     }
@@ -200,7 +194,7 @@ Status fmu_set_debug_logging(ModelInstance *comp, bool logging_on, size_t n_cate
 }
 
 /* Bring calculated values up to date before they are read. */
-static Status update_values(ModelInstance *comp) {
+Status fmu_update_values(ModelInstance *comp) {
     if (!comp->s.dirty || comp->s.mode == ModeInstantiated) {
         return StatusOK;
     }
@@ -221,7 +215,7 @@ Status fmu_setup_experiment(ModelInstance *comp, double start_time) {
     if (!comp) {
         return StatusError;
     }
-    if (!allowed(comp, "setupExperiment", ModeInstantiated)) {
+    if (!fmu_allowed(comp, "setupExperiment", ModeInstantiated)) {
         return StatusError;
     }
     comp->s.time = start_time;
@@ -233,7 +227,7 @@ Status fmu_enter_initialization_mode(ModelInstance *comp) {
     if (!comp) {
         return StatusError;
     }
-    if (!allowed(comp, "enterInitializationMode", ModeInstantiated)) {
+    if (!fmu_allowed(comp, "enterInitializationMode", ModeInstantiated)) {
         return StatusError;
     }
     comp->s.mode = ModeInitialization;
@@ -241,53 +235,12 @@ Status fmu_enter_initialization_mode(ModelInstance *comp) {
     return StatusOK;
 }
 
-/* One event update: clear the flags, let the model update, log what happened. */
-static Status event_update(ModelInstance *comp) {
-    EventFlags *e = &comp->s.event;
-    Status status = StatusOK;
-    e->new_discrete_states_needed = false;
-    e->terminate_simulation = false;
-    e->nominals_changed = false;
-    e->values_changed = false;
-    e->next_event_time_defined = false;
-    if (model_definition.event_update) {
-        status = model_definition.event_update(comp);
-    }
-    comp->s.dirty = true;
-    fmu_log(comp, StatusOK, LogEvents,
-            "event update at t=%.17g: values changed %d, terminate %d, next event %s%.17g",
-            comp->s.time, e->values_changed, e->terminate_simulation,
-            e->next_event_time_defined ? "at t=" : "undefined, ",
-            e->next_event_time_defined ? e->next_event_time : 0.0);
-    return status;
-}
-
-static void store_event_indicators(ModelInstance *comp) {
-    if (NZ > 0) {
-        model_definition.get_event_indicators(comp, comp->s.z_prev);
-    }
-}
-
-/* Co-simulation: iterate event updates until the model is settled. */
-static Status cs_event_iteration(ModelInstance *comp) {
-    int i;
-    for (i = 0; i < MAX_EVENT_ITERATIONS; i++) {
-        Status status = event_update(comp);
-        if (status > StatusWarning || comp->s.event.terminate_simulation ||
-            !comp->s.event.new_discrete_states_needed) {
-            store_event_indicators(comp);
-            return status;
-        }
-    }
-    return fail(comp, "event iteration did not converge after %d updates", MAX_EVENT_ITERATIONS);
-}
-
 Status fmu_exit_initialization_mode(ModelInstance *comp) {
     Status status = StatusOK;
     if (!comp) {
         return StatusError;
     }
-    if (!allowed(comp, "exitInitializationMode", ModeInitialization)) {
+    if (!fmu_allowed(comp, "exitInitializationMode", ModeInitialization)) {
         return StatusError;
     }
     if (model_definition.initialize) {
@@ -306,7 +259,7 @@ Status fmu_exit_initialization_mode(ModelInstance *comp) {
     }
     comp->s.mode = ModeStep;
     comp->s.last_successful_time = comp->s.time;
-    status = cs_event_iteration(comp);
+    status = fmu_cs_event_iteration(comp);
     if (comp->s.event.terminate_simulation) {
         comp->s.terminated = true;
     }
@@ -317,7 +270,7 @@ Status fmu_terminate(ModelInstance *comp) {
     if (!comp) {
         return StatusError;
     }
-    if (!allowed(comp, "terminate", MODES_INITIALIZED)) {
+    if (!fmu_allowed(comp, "terminate", MODES_INITIALIZED)) {
         return StatusError;
     }
     comp->s.mode = ModeTerminated;
@@ -427,9 +380,9 @@ Status fmu_get(ModelInstance *comp, VarType type, const ValueReference vr[], siz
         return StatusError;
     }
     if (nvr > 0 && (!vr || !values)) {
-        return fail(comp, "get%s: NULL value reference or value array", type_name(type));
+        return fmu_fail(comp, "get%s: NULL value reference or value array", type_name(type));
     }
-    status = update_values(comp);
+    status = fmu_update_values(comp);
     if (status > StatusWarning) {
         return status;
     }
@@ -437,23 +390,23 @@ Status fmu_get(ModelInstance *comp, VarType type, const ValueReference vr[], siz
         const VariableInfo *v;
         if (type == VarFloat64 && vr[i] == VR_TIME) {
             if (index + 1 > n_values) {
-                return fail(comp, "getFloat64: more values than the %zu given", n_values);
+                return fmu_fail(comp, "getFloat64: more values than the %zu given", n_values);
             }
             ((double *)values)[index++] = comp->s.time;
             continue;
         }
         v = find_variable(vr[i], type);
         if (!v) {
-            return fail(comp, "get%s: unknown value reference %u", type_name(type), vr[i]);
+            return fmu_fail(comp, "get%s: unknown value reference %u", type_name(type), vr[i]);
         }
         if (index + v->count > n_values) {
-            return fail(comp, "get%s: more values than the %zu given", type_name(type), n_values);
+            return fmu_fail(comp, "get%s: more values than the %zu given", type_name(type), n_values);
         }
         read_variable(comp, v, type, (char *)values + index * size);
         index += v->count;
     }
     if (index != n_values) {
-        return fail(comp, "get%s: %zu values given for %zu", type_name(type), n_values, index);
+        return fmu_fail(comp, "get%s: %zu values given for %zu", type_name(type), n_values, index);
     }
     return StatusOK;
 }
@@ -466,315 +419,30 @@ Status fmu_set(ModelInstance *comp, VarType type, const ValueReference vr[], siz
         return StatusError;
     }
     if (nvr > 0 && (!vr || !values)) {
-        return fail(comp, "set%s: NULL value reference or value array", type_name(type));
+        return fmu_fail(comp, "set%s: NULL value reference or value array", type_name(type));
     }
     for (i = 0; i < nvr; i++) {
         const VariableInfo *v = find_variable(vr[i], type);
         if (!v) {
-            return fail(comp, "set%s: unknown value reference %u", type_name(type), vr[i]);
+            return fmu_fail(comp, "set%s: unknown value reference %u", type_name(type), vr[i]);
         }
         if (!settable(comp, v->kind)) {
-            return fail(comp, "set%s: variable %u cannot be set in %s", type_name(type), vr[i],
+            return fmu_fail(comp, "set%s: variable %u cannot be set in %s", type_name(type), vr[i],
                         mode_name(comp->s.mode));
         }
         if (index + v->count > n_values) {
-            return fail(comp, "set%s: more values than the %zu given", type_name(type), n_values);
+            return fmu_fail(comp, "set%s: more values than the %zu given", type_name(type), n_values);
         }
         if (!write_variable(comp, v, type, (const char *)values + index * size)) {
-            return fail(comp, "set%s: a value for variable %u is out of range", type_name(type),
+            return fmu_fail(comp, "set%s: a value for variable %u is out of range", type_name(type),
                         vr[i]);
         }
         index += v->count;
     }
     if (index != n_values) {
-        return fail(comp, "set%s: %zu values given for %zu", type_name(type), n_values, index);
+        return fmu_fail(comp, "set%s: %zu values given for %zu", type_name(type), n_values, index);
     }
     comp->s.dirty = true;
-    return StatusOK;
-}
-
-/* ----------------------------------------------------- co-simulation RK4 */
-
-/* Evaluate dx/dt at time t for the states x (written into ModelData). */
-static void derivatives_at(ModelInstance *comp, double t, const double x[], double dx[]) {
-    comp->s.time = t;
-    model_definition.set_continuous_states(M(comp), x);
-    model_definition.get_derivatives(comp, dx);
-}
-
-/* One classical Runge-Kutta step from t to t_next; leaves time at t_next. */
-static void rk4_substep(ModelInstance *comp, double t, double t_next) {
-    const double dt = t_next - t;
-    double x0[NX_ALLOC], xt[NX_ALLOC], k1[NX_ALLOC], k2[NX_ALLOC], k3[NX_ALLOC], k4[NX_ALLOC];
-    int i;
-    if (NX > 0) {
-        model_definition.get_continuous_states(M(comp), x0);
-        comp->s.time = t;
-        model_definition.get_derivatives(comp, k1);
-        for (i = 0; i < NX; i++) {
-            xt[i] = x0[i] + 0.5 * dt * k1[i];
-        }
-        derivatives_at(comp, t + 0.5 * dt, xt, k2);
-        for (i = 0; i < NX; i++) {
-            xt[i] = x0[i] + 0.5 * dt * k2[i];
-        }
-        derivatives_at(comp, t + 0.5 * dt, xt, k3);
-        for (i = 0; i < NX; i++) {
-            xt[i] = x0[i] + dt * k3[i];
-        }
-        derivatives_at(comp, t_next, xt, k4);
-        for (i = 0; i < NX; i++) {
-            xt[i] = x0[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
-        model_definition.set_continuous_states(M(comp), xt);
-    }
-    comp->s.time = t_next;
-    comp->s.dirty = true;
-}
-
-/* Did an event indicator change sign since the last substep end? Updates z_prev. */
-static bool state_event_occurred(ModelInstance *comp) {
-    double z[NZ_ALLOC];
-    bool crossed = false;
-    int i;
-    if (NZ == 0) {
-        return false;
-    }
-    model_definition.get_event_indicators(comp, z);
-    for (i = 0; i < NZ; i++) {
-        if ((z[i] > 0.0) != (comp->s.z_prev[i] > 0.0)) {
-            crossed = true;
-        }
-        comp->s.z_prev[i] = z[i];
-    }
-    return crossed;
-}
-
-static bool time_event_due(const ModelInstance *comp, double t, double eps) {
-    return comp->s.event.next_event_time_defined && comp->s.event.next_event_time <= t + eps;
-}
-
-/* Integrate from t_start to t_end on a substep grid anchored at t_start (re-anchored at events). */
-static Status integrate(ModelInstance *comp, double t_start, double t_end, double hs) {
-    const double eps = 1e-6 * hs; /* shorter final substeps merge into the previous one */
-    double t = t_start, anchor = t_start;
-    long k = 0;
-    comp->s.time = t_start;
-    for (;;) {
-        if (state_event_occurred(comp) || time_event_due(comp, t, eps)) {
-            Status status = cs_event_iteration(comp);
-            if (status > StatusWarning) {
-                return status;
-            }
-            if (comp->s.event.terminate_simulation) {
-                comp->s.terminated = true;
-                comp->s.last_successful_time = t;
-                return StatusDiscard;
-            }
-            if (time_event_due(comp, t, eps)) {
-                return fail(comp, "next_event_time %.17g does not lie after t=%.17g",
-                            comp->s.event.next_event_time, t);
-            }
-            anchor = t;
-            k = 0;
-        }
-        if (t >= t_end) {
-            break;
-        }
-        {
-            double t_next = anchor + (double)(k + 1) * hs;
-            if (t_next > t_end - eps) {
-                t_next = t_end;
-            }
-            if (comp->s.event.next_event_time_defined && comp->s.event.next_event_time < t_next) {
-                t_next = comp->s.event.next_event_time;
-            }
-            rk4_substep(comp, t, t_next);
-            t = t_next;
-            k++;
-        }
-    }
-    comp->s.time = t_end;
-    comp->s.last_successful_time = t_end;
-    return StatusOK;
-}
-
-Status fmu_do_step(ModelInstance *comp, double t, double h, bool *terminated,
-                   double *last_successful_time) {
-    Status status = StatusOK;
-    double hs;
-    if (!comp) {
-        return StatusError;
-    }
-    if (comp->type != CoSimulation) {
-        return fail(comp, "doStep: the instance was instantiated for model exchange");
-    }
-    if (!allowed(comp, "doStep", ModeStep)) {
-        return StatusError;
-    }
-    if (comp->s.terminated) {
-        fmu_log(comp, StatusDiscard, LogStatusDiscard, "doStep: the simulation has terminated");
-        status = StatusDiscard;
-    } else if (!(h >= 0.0)) {
-        return fail(comp, "doStep: communicationStepSize %.17g must be >= 0", h);
-    } else if (fabs(t - comp->s.time) > 1e-9 * fmax(1.0, fabs(t))) {
-        return fail(comp, "doStep: currentCommunicationPoint %.17g differs from the FMU time %.17g",
-                    t, comp->s.time);
-    } else {
-        hs = model_definition.cs_step_size ? model_definition.cs_step_size(comp) : DEFAULT_CS_STEP_SIZE;
-        if (!(hs > 0.0)) {
-            return fail(comp, "doStep: internal step size %.17g must be > 0", hs);
-        }
-        comp->s.time = t;
-        if (model_definition.before_step) {
-            status = model_definition.before_step(comp, t, h);
-            if (status >= StatusError) {
-                comp->s.mode = ModeError;
-                return status;
-            }
-            if (comp->s.event.terminate_simulation) {
-                comp->s.terminated = true;
-                status = StatusDiscard;
-            }
-        }
-        if (status != StatusDiscard) {
-            status = integrate(comp, t, t + h, hs);
-            if (status >= StatusError) {
-                comp->s.mode = ModeError;
-            }
-        } else {
-            comp->s.last_successful_time = t;
-        }
-    }
-    *terminated = comp->s.terminated;
-    *last_successful_time = comp->s.last_successful_time;
-    return status;
-}
-
-/* ------------------------------------------------------- model exchange */
-
-static Status check_me(ModelInstance *comp, const char *function, unsigned modes) {
-    if (comp->type != ModelExchange) {
-        return fail(comp, "%s: the instance was instantiated for co-simulation", function);
-    }
-    return allowed(comp, function, modes) ? StatusOK : StatusError;
-}
-
-static Status check_size(ModelInstance *comp, const char *function, size_t n, size_t expected,
-                         const void *array) {
-    if (n != expected) {
-        return fail(comp, "%s: %zu values given, the model has %zu", function, n, expected);
-    }
-    if (n > 0 && !array) {
-        return fail(comp, "%s: NULL array", function);
-    }
-    return StatusOK;
-}
-
-Status fmu_set_time(ModelInstance *comp, double time) {
-    if (!comp || check_me(comp, "setTime", ModeEvent | ModeContinuousTime) != StatusOK) {
-        return StatusError;
-    }
-    comp->s.time = time;
-    comp->s.dirty = true;
-    return StatusOK;
-}
-
-Status fmu_set_continuous_states(ModelInstance *comp, const double x[], size_t nx) {
-    if (!comp || check_me(comp, "setContinuousStates", ModeEvent | ModeContinuousTime) != StatusOK ||
-        check_size(comp, "setContinuousStates", nx, NX, x) != StatusOK) {
-        return StatusError;
-    }
-    if (NX > 0) {
-        model_definition.set_continuous_states(M(comp), x);
-    }
-    comp->s.dirty = true;
-    return StatusOK;
-}
-
-Status fmu_get_continuous_states(ModelInstance *comp, double x[], size_t nx) {
-    Status status;
-    if (!comp || !allowed(comp, "getContinuousStates", MODES_INITIALIZED | ModeError) ||
-        check_size(comp, "getContinuousStates", nx, NX, x) != StatusOK) {
-        return StatusError;
-    }
-    status = update_values(comp);
-    if (NX > 0 && status <= StatusWarning) {
-        model_definition.get_continuous_states(M(comp), x);
-    }
-    return status;
-}
-
-Status fmu_get_derivatives(ModelInstance *comp, double dx[], size_t nx) {
-    Status status;
-    if (!comp || !allowed(comp, "getDerivatives", MODES_INITIALIZED | ModeError) ||
-        check_size(comp, "getDerivatives", nx, NX, dx) != StatusOK) {
-        return StatusError;
-    }
-    status = update_values(comp);
-    if (NX > 0 && status <= StatusWarning) {
-        model_definition.get_derivatives(comp, dx);
-    }
-    return status;
-}
-
-Status fmu_get_event_indicators(ModelInstance *comp, double z[], size_t nz) {
-    Status status;
-    if (!comp || !allowed(comp, "getEventIndicators", MODES_INITIALIZED | ModeError) ||
-        check_size(comp, "getEventIndicators", nz, NZ, z) != StatusOK) {
-        return StatusError;
-    }
-    status = update_values(comp);
-    if (NZ > 0 && status <= StatusWarning) {
-        model_definition.get_event_indicators(comp, z);
-    }
-    return status;
-}
-
-Status fmu_get_nominals(ModelInstance *comp, double nominals[], size_t nx) {
-    size_t i;
-    if (!comp || check_size(comp, "getNominalsOfContinuousStates", nx, NX, nominals) != StatusOK) {
-        return StatusError;
-    }
-    for (i = 0; i < nx; i++) {
-        nominals[i] = 1.0;
-    }
-    return StatusOK;
-}
-
-Status fmu_enter_event_mode(ModelInstance *comp) {
-    if (!comp || check_me(comp, "enterEventMode", ModeEvent | ModeContinuousTime) != StatusOK) {
-        return StatusError;
-    }
-    comp->s.mode = ModeEvent;
-    return StatusOK;
-}
-
-Status fmu_update_discrete_states(ModelInstance *comp, EventFlags *flags) {
-    Status status;
-    if (!comp || check_me(comp, "updateDiscreteStates", ModeEvent) != StatusOK) {
-        return StatusError;
-    }
-    status = event_update(comp);
-    *flags = comp->s.event;
-    return status;
-}
-
-Status fmu_enter_continuous_time_mode(ModelInstance *comp) {
-    if (!comp || check_me(comp, "enterContinuousTimeMode", ModeEvent) != StatusOK) {
-        return StatusError;
-    }
-    comp->s.mode = ModeContinuousTime;
-    return StatusOK;
-}
-
-Status fmu_completed_integrator_step(ModelInstance *comp, bool *enter_event_mode,
-                                     bool *terminate_simulation) {
-    if (!comp || check_me(comp, "completedIntegratorStep", ModeContinuousTime) != StatusOK) {
-        return StatusError;
-    }
-    *enter_event_mode = false;
-    *terminate_simulation = false;
     return StatusOK;
 }
 
@@ -782,12 +450,12 @@ Status fmu_completed_integrator_step(ModelInstance *comp, bool *enter_event_mode
 
 Status fmu_get_state(ModelInstance *comp, void **state) {
     if (!comp || !state) {
-        return comp ? fail(comp, "getFMUState: NULL state pointer") : StatusError;
+        return comp ? fmu_fail(comp, "getFMUState: NULL state pointer") : StatusError;
     }
     if (!*state) {
         *state = malloc(sizeof(InstanceState));
         if (!*state) {
-            return fail(comp, "getFMUState: out of memory");
+            return fmu_fail(comp, "getFMUState: out of memory");
         }
     }
     memcpy(*state, &comp->s, sizeof(InstanceState));
@@ -796,7 +464,7 @@ Status fmu_get_state(ModelInstance *comp, void **state) {
 
 Status fmu_set_state(ModelInstance *comp, const void *state) {
     if (!comp || !state) {
-        return comp ? fail(comp, "setFMUState: NULL state") : StatusError;
+        return comp ? fmu_fail(comp, "setFMUState: NULL state") : StatusError;
     }
     memcpy(&comp->s, state, sizeof(InstanceState));
     return StatusOK;
@@ -824,7 +492,7 @@ Status fmu_serialize_state(ModelInstance *comp, const void *state, unsigned char
         return StatusError;
     }
     if (!state || !buffer || size < fmu_serialized_state_size()) {
-        return fail(comp, "serializeFMUState: NULL state or buffer, or buffer smaller than %zu",
+        return fmu_fail(comp, "serializeFMUState: NULL state or buffer, or buffer smaller than %zu",
                     fmu_serialized_state_size());
     }
     header.magic = STATE_MAGIC;
@@ -842,18 +510,18 @@ Status fmu_deserialize_state(ModelInstance *comp, const unsigned char *buffer, s
         return StatusError;
     }
     if (!buffer || !state || size != fmu_serialized_state_size()) {
-        return fail(comp, "deserializeFMUState: expected %zu bytes, got %zu",
+        return fmu_fail(comp, "deserializeFMUState: expected %zu bytes, got %zu",
                     fmu_serialized_state_size(), size);
     }
     memcpy(&header, buffer, sizeof header);
     if (header.magic != STATE_MAGIC || header.version != STATE_FORMAT_VERSION ||
         header.payload_size != sizeof(InstanceState)) {
-        return fail(comp, "deserializeFMUState: the data is not a state of this FMU");
+        return fmu_fail(comp, "deserializeFMUState: the data is not a state of this FMU");
     }
     if (!*state) {
         *state = malloc(sizeof(InstanceState));
         if (!*state) {
-            return fail(comp, "deserializeFMUState: out of memory");
+            return fmu_fail(comp, "deserializeFMUState: out of memory");
         }
     }
     memcpy(*state, buffer + sizeof header, sizeof(InstanceState));
