@@ -6,6 +6,7 @@ with ``forkserver``/``spawn`` can unpickle env fns that refer to them.
 
 from __future__ import annotations
 
+import copy
 import ctypes
 import os
 import signal
@@ -60,8 +61,9 @@ class CountEnv(gym.Env):
         fmu_share: float | None = None,
         render_mode: str | None = None,
     ) -> None:
-        self.observation_space = SPACES[obs]
-        self.action_space = SPACES[act]
+        # copies: the observation space is seeded per env, and envs of a SyncVectorEnv share a process
+        self.observation_space = copy.deepcopy(SPACES[obs])
+        self.action_space = copy.deepcopy(SPACES[act])
         self.max_len = max_len
         self.info_every = info_every
         self.cost = cost
