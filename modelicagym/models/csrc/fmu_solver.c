@@ -7,6 +7,7 @@
 #include <math.h>
 
 #define MAX_EVENT_ITERATIONS 100
+#define STATE_EVENT_TOLERANCE 1e-12 /* relative, in time */
 
 /* ---------------------------------------------------------------- events */
 
@@ -90,10 +91,9 @@ static void rk4_substep(ModelInstance *comp, double t, double t_next) {
     comp->s.dirty = true;
 }
 
-/* Did an event indicator change sign since the last substep end? Updates z_prev. */
-static bool state_event_occurred(ModelInstance *comp) {
+/* Has an event indicator changed sign since z_prev (the last accepted substep end)? */
+static bool indicators_crossed(ModelInstance *comp) {
     double z[NZ_ALLOC];
-    bool crossed = false;
     int i;
     if (NZ == 0) {
         return false;
@@ -101,25 +101,46 @@ static bool state_event_occurred(ModelInstance *comp) {
     model_definition.get_event_indicators(comp, z);
     for (i = 0; i < NZ; i++) {
         if ((z[i] > 0.0) != (comp->s.z_prev[i] > 0.0)) {
-            crossed = true;
+            return true;
         }
-        comp->s.z_prev[i] = z[i];
     }
-    return crossed;
+    return false;
+}
+
+/* A substep from t (states x0) to t_hi crossed an indicator: bisect the substep length
+ * down to STATE_EVENT_TOLERANCE and leave the states just past the crossing. */
+static double locate_state_event(ModelInstance *comp, double t, const double x0[], double t_hi) {
+    double t_lo = t;
+    while (t_hi - t_lo > STATE_EVENT_TOLERANCE * fmax(1.0, fabs(t_hi))) {
+        const double t_mid = 0.5 * (t_lo + t_hi);
+        model_definition.set_continuous_states(M(comp), x0);
+        rk4_substep(comp, t, t_mid);
+        if (indicators_crossed(comp)) {
+            t_hi = t_mid;
+        } else {
+            t_lo = t_mid;
+        }
+    }
+    model_definition.set_continuous_states(M(comp), x0);
+    rk4_substep(comp, t, t_hi);
+    return t_hi;
 }
 
 static bool time_event_due(const ModelInstance *comp, double t, double eps) {
     return comp->s.event.next_event_time_defined && comp->s.event.next_event_time <= t + eps;
 }
 
-/* Integrate from t_start to t_end on a substep grid anchored at t_start (re-anchored at events). */
+/* Integrate from t_start to t_end on a substep grid anchored at t_start (re-anchored at
+ * events). Time events cut a substep at next_event_time; state events are located in
+ * their substep by bisection. */
 static Status integrate(ModelInstance *comp, double t_start, double t_end, double hs) {
     const double eps = 1e-6 * hs; /* shorter final substeps merge into the previous one */
     double t = t_start, anchor = t_start;
+    double x0[NX_ALLOC];
     long k = 0;
     comp->s.time = t_start;
     for (;;) {
-        if (state_event_occurred(comp) || time_event_due(comp, t, eps)) {
+        if (indicators_crossed(comp) || time_event_due(comp, t, eps)) {
             Status status = fmu_cs_event_iteration(comp);
             if (status > StatusWarning) {
                 return status;
@@ -131,7 +152,7 @@ static Status integrate(ModelInstance *comp, double t_start, double t_end, doubl
             }
             if (time_event_due(comp, t, eps)) {
                 return fmu_fail(comp, "next_event_time %.17g does not lie after t=%.17g",
-                            comp->s.event.next_event_time, t);
+                                comp->s.event.next_event_time, t);
             }
             anchor = t;
             k = 0;
@@ -147,7 +168,13 @@ static Status integrate(ModelInstance *comp, double t_start, double t_end, doubl
             if (comp->s.event.next_event_time_defined && comp->s.event.next_event_time < t_next) {
                 t_next = comp->s.event.next_event_time;
             }
+            if (NX > 0) {
+                model_definition.get_continuous_states(M(comp), x0);
+            }
             rk4_substep(comp, t, t_next);
+            if (NX > 0 && indicators_crossed(comp)) {
+                t_next = locate_state_event(comp, t, x0, t_next);
+            }
             t = t_next;
             k++;
         }

@@ -59,9 +59,11 @@
  *
  * The co-simulation solver is classical RK4 on a grid anchored at the start
  * of each doStep: ceil(h / cs_step_size) substeps, the last one partial.
- * Time events cut a substep exactly at next_event_time. State events are
- * detected at substep ends (sign change of an event indicator) without root
- * localization; the event update then happens at that substep end.
+ * Time events cut a substep exactly at next_event_time. A state event (an
+ * event indicator changing sign over a substep) is located by bisecting that
+ * substep to a relative time tolerance of 1e-12; the event update happens just
+ * past the crossing and the grid restarts there. Two crossings of the same
+ * indicator within one substep go unnoticed: choose cs_step_size accordingly.
  *
  * Logging: fmu_log(comp, status, category, printf-format, ...). Messages with
  * status >= StatusError are always passed to the importer's logger; others
@@ -178,7 +180,7 @@ typedef struct {
     bool dirty;                  /* something changed since calculate_values */
     bool terminated;             /* CS: the model asked to end the simulation */
     double last_successful_time; /* CS: end of the last completed integration */
-    double z_prev[NZ_ALLOC];     /* CS: event indicators at the last substep end */
+    double z_prev[NZ_ALLOC];     /* CS: event indicators after the last event (signs matter) */
 } InstanceState;
 
 typedef struct ModelInstance ModelInstance;
