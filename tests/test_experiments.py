@@ -21,6 +21,7 @@ from modelicagym.experiments import (
     PAPER_SWEEPS,
     ConfigError,
     Setting,
+    SettingSummary,
     SweepConfig,
     load_config,
     main,
@@ -248,6 +249,17 @@ def test_moving_average_and_summaries():
     assert (learner.mean, learner.mean_std, learner.first, learner.last, learner.last_std) == (20, 5, 10, 30, 10)
     assert learner.learns and learner.env_steps == 1600
     assert LEARNING_RATIO > 1
+    assert learner.last_seconds is None
+    timed = tiny(episodes=40, base_options={"time_step": 0.05})
+    assert summarize(SweepResult(timed, lengths, lengths))["17 N"].last_seconds == pytest.approx(1.5)
+
+
+def test_ordering_findings_count_the_repeats_that_agree():
+    [finding] = [f for f in FINDINGS if f.sweep == "reward"]
+    lasts = {"-200": (60.0, 30.0), "-100": (40.0, 35.0), "-50": (20.0, 10.0)}
+    summaries = {label: SettingSummary(label, v, v, v, 0) for label, v in lasts.items()}
+    holds, evidence = finding.check(summaries)
+    assert holds and evidence == "last-20 mean: -200 45.0 > -100 37.5 > -50 15.0; in 1 of 2 repeats"
 
 
 # --- runs, files, resume -----------------------------------------------------------------------------

@@ -25,15 +25,49 @@ LEARNING_RATIO = 1.5
 
 @dataclass(frozen=True)
 class SettingSummary:
-    """Episode-length statistics of one setting of a sweep (means over repeats, with std)."""
+    """Episode-length statistics of one setting of a sweep.
+
+    The ``repeat_*`` tuples hold one value per repeat: the mean length of all its episodes, of its
+    first and of its last ``WINDOW`` episodes. The properties average them over repeats.
+    ``time_step`` is the setting's seconds per step, when its options give one.
+    """
 
     label: str
-    mean: float
-    mean_std: float
-    first: float
-    last: float
-    last_std: float
+    repeat_means: tuple[float, ...]
+    repeat_firsts: tuple[float, ...]
+    repeat_lasts: tuple[float, ...]
     env_steps: int
+    time_step: float | None = None
+
+    @property
+    def mean(self) -> float:
+        """Mean episode length over all episodes and repeats."""
+        return float(np.mean(self.repeat_means))
+
+    @property
+    def mean_std(self) -> float:
+        """Standard deviation over repeats of the per-repeat mean length."""
+        return float(np.std(self.repeat_means))
+
+    @property
+    def first(self) -> float:
+        """Mean length of the first ``WINDOW`` episodes, averaged over repeats."""
+        return float(np.mean(self.repeat_firsts))
+
+    @property
+    def last(self) -> float:
+        """Mean length of the last ``WINDOW`` episodes, averaged over repeats."""
+        return float(np.mean(self.repeat_lasts))
+
+    @property
+    def last_std(self) -> float:
+        """Standard deviation over repeats of the last-``WINDOW`` mean."""
+        return float(np.std(self.repeat_lasts))
+
+    @property
+    def last_seconds(self) -> float | None:
+        """The last-``WINDOW`` mean in simulated seconds (``None`` without a time step)."""
+        return None if self.time_step is None else self.last * self.time_step
 
     @property
     def learns(self) -> bool:
@@ -57,15 +91,15 @@ def summarize(result: SweepResult, window: int = WINDOW) -> dict[str, SettingSum
     first = lengths[:, :, :window].mean(axis=2)
     last = lengths[:, :, -window:].mean(axis=2)
     steps = result.steps_per_setting()
-    return {
-        setting.label: SettingSummary(
+    summaries = {}
+    for s, setting in enumerate(result.config.settings):
+        time_step = result.config.options_for(setting).get("time_step")
+        summaries[setting.label] = SettingSummary(
             label=setting.label,
-            mean=float(per_repeat[s].mean()),
-            mean_std=float(per_repeat[s].std()),
-            first=float(first[s].mean()),
-            last=float(last[s].mean()),
-            last_std=float(last[s].std()),
+            repeat_means=tuple(per_repeat[s].tolist()),
+            repeat_firsts=tuple(first[s].tolist()),
+            repeat_lasts=tuple(last[s].tolist()),
             env_steps=int(steps[s]),
+            time_step=float(time_step) if isinstance(time_step, (int, float)) else None,
         )
-        for s, setting in enumerate(result.config.settings)
-    }
+    return summaries

@@ -148,12 +148,19 @@ def _all(*checks: Callable[[Mapping[str, SettingSummary]], tuple[bool, str]]):
 
 
 def _decreasing(labels: list[str], statistic: str) -> Callable[[Mapping[str, SettingSummary]], tuple[bool, str]]:
-    """The statistic strictly decreases along ``labels``."""
+    """The statistic (``"mean"`` or ``"last"``, averaged over repeats) strictly decreases along
+    ``labels``; the evidence also counts the repeats in which it does (repeats share seeds)."""
 
     def check(summaries: Mapping[str, SettingSummary]) -> tuple[bool, str]:
         values = [getattr(summaries[label], statistic) for label in labels]
+        per_repeat = np.array([getattr(summaries[label], f"repeat_{statistic}s") for label in labels])
+        in_repeats = int(np.all(per_repeat[:-1] > per_repeat[1:], axis=0).sum())
         name = {"mean": "mean length", "last": f"last-{WINDOW} mean"}[statistic]
-        evidence = f"{name}: " + " > ".join(f"{label} {v:.1f}" for label, v in zip(labels, values, strict=True))
+        evidence = (
+            f"{name}: "
+            + " > ".join(f"{label} {v:.1f}" for label, v in zip(labels, values, strict=True))
+            + f"; in {in_repeats} of {per_repeat.shape[1]} repeats"
+        )
         return all(a > b for a, b in itertools.pairwise(values)), evidence
 
     return check

@@ -2,8 +2,8 @@
 
 Every number and every verdict in the report is computed from the result files; the only prose
 written by hand is the discussion, kept in a notes file (``docs/reproduction-notes.md``) whose
-``## <sweep name>`` sections (and ``## summary``, ``## execution_time``) are inserted under the
-matching headings, so regenerating the report never loses it.
+``## <sweep name>`` sections (and ``## method``, ``## summary``, ``## execution_time``) are inserted
+under the matching headings, so regenerating the report never loses it.
 """
 
 from __future__ import annotations
@@ -82,6 +82,7 @@ def _setting_rows(name: str, summaries: dict[str, SettingSummary]) -> list[list[
                 _paper_value(paper.mean if paper else None, paper),
                 f"{s.last:.1f} ± {s.last_std:.1f}",
                 _paper_value(paper.last if paper else None, paper),
+                "–" if s.last_seconds is None else f"{s.last_seconds:.2f}",
                 f"{s.first:.1f}",
                 "yes" if s.learns else "no",
             ]
@@ -254,7 +255,8 @@ def _sweep_section(
                 "paper",
                 f"last-{WINDOW} mean (ours)",
                 "paper",
-                f"first-{WINDOW} mean",
+                f"last-{WINDOW} in simulated s (ours)",
+                f"first-{WINDOW} mean (ours)",
                 "learns",
             ],
             _setting_rows(name if paper_sweep else "", summaries),
@@ -316,6 +318,7 @@ def render_report(
             "Paper: O. Lukianykhin, T. Bogodorova, *ModelicaGym: Applying Reinforcement Learning to Modelica Models*, "
             'EOOLT 2019. Paper numbers are the means over 5 runs it reports; "–": not reported.',
             _setup_section(results),
+            *([notes["method"]] if "method" in notes else []),
             "## Summary",
             summary if verdicts else "_No sweep with paper findings among the results._",
             notes.get("summary", _NO_NOTES.format(key="summary", notes=notes_path)),
