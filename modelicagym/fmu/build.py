@@ -33,7 +33,6 @@ from typing import Iterator, Union
 from xml.etree import ElementTree
 
 import fmpy
-import fmpy.build
 
 try:
     import fcntl
@@ -283,10 +282,15 @@ def _compile(unzipdir: Path, build_dir: Path) -> None:
     This is what ``fmpy.build.build_platform_binary`` does, with the tool output captured
     for logging and error messages instead of printed.
     """
+    try:
+        from fmpy.build import create_cmake_settings
+    except ImportError as e:
+        raise FMUBuildError(f"building source FMUs needs fmpy.build.create_cmake_settings "
+                            f"(fmpy 0.3.32 has it), but fmpy is {fmpy.__version__}") from e
     build_dir.mkdir(parents=True)
-    fmpy.build.create_cmake_settings(unzipdir, build_dir, all_warnings=True)
+    create_cmake_settings(unzipdir, build_dir, all_warnings=True)
     cmake = _cmake()
-    project = Path(fmpy.build.__file__).parent / "c-code"
+    project = Path(fmpy.__file__).parent / "c-code"
     output = []
     for command in ([cmake, "-S", str(project), "-B", str(build_dir)],
                     [cmake, "--build", str(build_dir), "--target", "install", "--config", "Release"]):
