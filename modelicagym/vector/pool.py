@@ -371,10 +371,15 @@ class PoolVectorEnv(VectorEnv):
             raise
 
     def _abort(self) -> None:
-        """Stop every worker and free everything, without waiting for the envs to close."""
+        """Stop every worker and free everything, without waiting for the envs to close.
+
+        The parent's mapping of the shared memory goes with the last reference to it: at once,
+        unless the caller still holds observations returned with ``copy=False``.
+        """
         self._pending = []
         self._state = AsyncState.DEFAULT
         self._finalizer()
+        self._buffers = None
         self.closed = True
 
     def _assert_is_running(self) -> None:

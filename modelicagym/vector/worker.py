@@ -281,6 +281,7 @@ class Worker:
         name, args, kwargs = data
         results = []
         for offset, env in enumerate(self._envs):
+            self._buffers.current_env[self._index] = self._first + offset
             try:
                 attr = env.get_wrapper_attr(name)
                 results.append(attr(*args, **kwargs) if callable(attr) else attr)
@@ -291,6 +292,7 @@ class Worker:
     def _set_attr(self, data: tuple[str, list[Any]]) -> Message | None:
         name, values = data
         for offset, (env, value) in enumerate(zip(self._envs, values, strict=True)):
+            self._buffers.current_env[self._index] = self._first + offset
             try:
                 env.set_wrapper_attr(name, value)
             except Exception as exc:
