@@ -26,7 +26,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
-import numpy as np
 
 from modelicagym.config import FMUEnvConfig
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu

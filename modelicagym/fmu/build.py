@@ -34,6 +34,8 @@ from xml.etree import ElementTree
 
 import fmpy
 
+from modelicagym.fmu.cache import cache_dir
+
 try:
     import fcntl
 except ImportError:  # no fcntl (Windows): the atomic rename alone keeps results valid
@@ -63,12 +65,6 @@ _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 class FMUBuildError(RuntimeError):
     """A source FMU could not be assembled or compiled (the message holds the compiler output)."""
-
-
-def cache_dir() -> Path:
-    """The cache folder: ``$MODELICAGYM_CACHE`` if set, else ``~/.cache/modelicagym``."""
-    env = os.environ.get("MODELICAGYM_CACHE")
-    return Path(env).expanduser() if env else Path.home() / ".cache" / "modelicagym"
 
 
 def build_source_fmu(

@@ -22,6 +22,7 @@ from typing import Any
 import fmpy
 from fmpy.model_description import read_model_description
 
+from modelicagym.fmu.cache import cache_dir
 from modelicagym.fmu.errors import (
     FMUNotFoundError,
     InvalidFMUError,
@@ -36,11 +37,6 @@ logger = logging.getLogger(__name__)
 
 MODES = ("cs", "me")
 _MODE_NAMES = {"cs": "co-simulation", "me": "model exchange"}
-
-
-def cache_root() -> Path:
-    """Where modelicagym keeps built and extracted FMUs: ``$MODELICAGYM_CACHE`` or ``~/.cache/modelicagym``."""
-    return Path(os.environ.get("MODELICAGYM_CACHE") or Path.home() / ".cache" / "modelicagym")
 
 
 @dataclass(frozen=True)
@@ -257,7 +253,7 @@ def _extract(path: Path) -> Path:
         raise InvalidFMUError(f"{path} is not an FMU: an FMU is a zip archive, and this file is not one")
     stat = path.stat()
     key = hashlib.sha256(f"{path.resolve()}|{stat.st_size}|{stat.st_mtime_ns}".encode()).hexdigest()[:20]
-    target = cache_root() / "extracted" / f"{path.stem}-{key}"
+    target = cache_dir() / "extracted" / f"{path.stem}-{key}"
     if (target / "modelDescription.xml").is_file():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
