@@ -32,6 +32,7 @@ from modelicagym.experiments import (
     summarize,
 )
 from modelicagym.experiments.analysis import LEARNING_RATIO
+from modelicagym.experiments.bounds import longest_episode, sweep_bounds
 from modelicagym.experiments.cli import select_sweeps
 from modelicagym.experiments.paper import FINDINGS, PAPER_NUMBERS
 from modelicagym.experiments.plots import plot_sweep
@@ -78,6 +79,11 @@ class StandInCartPole(gym.Wrapper):
         obs, _, terminated, truncated, info = self.env.step(action)
         reward = self.rewards[1] if terminated else self.rewards[0]
         return np.asarray(obs, np.float64) + [0, 0, np.pi / 2, 0], reward, terminated, truncated, info
+
+
+def make_standin(env_id, **options):
+    assert env_id == "cartpole"
+    return StandInCartPole(**options)
 
 
 class Recorder:
@@ -267,7 +273,7 @@ def test_ordering_findings_count_the_repeats_that_agree():
 
 def test_tiny_sweep_end_to_end(tmp_path):
     make_vec = Recorder()
-    [result] = run_sweeps([tiny()], tmp_path, make_vec=make_vec, progress=False)
+    [result] = run_sweeps([tiny()], tmp_path, make_vec=make_vec, make=make_standin, progress=False, bounds_budget=5000)
     env_id, n, options_per_env, options = make_vec.calls[0]
     assert (env_id, n) == ("cartpole", 4)
     assert options_per_env == [{"force": 5.0}] * 2 + [{"force": 17.0}] * 2
@@ -290,28 +296,32 @@ def test_tiny_sweep_end_to_end(tmp_path):
     assert timing["env_steps"] == lengths.sum() and timing["num_envs"] == 4
     assert timing["seconds_per_step"] == pytest.approx(timing["wall_seconds"] / timing["env_steps"])
     assert timing["pool_timing"] is None and run["machine"]["cpu_count"] >= 1
+    assert list(run["bounds"]) == ["5 N", "17 N"]
+    assert all(b is None or b >= n for b, n in zip(run["bounds"].values(), lengths.max(axis=(1, 2)), strict=True))
     assert (tmp_path / "tiny" / "episode_lengths.png").stat().st_size > 0
     assert (tmp_path / "episodes.csv").read_text() == (tmp_path / "tiny" / "episodes.csv").read_text()
 
     back = read_sweep(tmp_path, "tiny")
-    assert back.config == tiny()
+    assert back.config == tiny() and back.bounds == run["bounds"]
     np.testing.assert_array_equal(back.lengths, result.lengths)
     np.testing.assert_array_equal(back.returns, result.returns)
 
 
 def test_runs_are_reproducible_and_repeats_share_seeds_across_settings(tmp_path):
     config = tiny(settings=(Setting("a", {"force": 11.0}), Setting("b", {"force": 11.0})), episodes=6)
-    [first] = run_sweeps([config], tmp_path / "1", make_vec=Recorder(), progress=False)
-    [second] = run_sweeps([config], tmp_path / "2", make_vec=Recorder(), progress=False)
+    [first] = run_sweeps([config], tmp_path / "1", make_vec=Recorder(), progress=False, bounds_budget=0)
+    [second] = run_sweeps([config], tmp_path / "2", make_vec=Recorder(), progress=False, bounds_budget=0)
     np.testing.assert_array_equal(first.lengths, second.lengths)
     np.testing.assert_array_equal(first.lengths[0], first.lengths[1])  # same options, same seeds
     assert not np.array_equal(first.lengths[0, 0], first.lengths[0, 1])  # repeats differ
 
 
 def test_resume_skips_completed_sweeps_only(tmp_path):
-    run_sweeps([tiny("a")], tmp_path, make_vec=Recorder(), progress=False)
+    run_sweeps([tiny("a")], tmp_path, make_vec=Recorder(), progress=False, bounds_budget=0)
     make_vec = Recorder()
-    outcomes = run_sweeps([tiny("a"), tiny("b")], tmp_path, resume=True, make_vec=make_vec, progress=False)
+    outcomes = run_sweeps(
+        [tiny("a"), tiny("b")], tmp_path, resume=True, make_vec=make_vec, progress=False, bounds_budget=0
+    )
     assert outcomes[0] is None and outcomes[1] is not None
     assert len(make_vec.calls) == 1
     assert completed_sweeps(tmp_path) == ["a", "b"]
@@ -319,13 +329,15 @@ def test_resume_skips_completed_sweeps_only(tmp_path):
         assert {row["experiment"] for row in csv.DictReader(f)} == {"a", "b"}
     # A different configuration under the same name is not "complete": it runs again.
     assert not is_complete(tmp_path, tiny("a", episodes=4))
-    [again] = run_sweeps([tiny("a", episodes=4)], tmp_path, resume=True, make_vec=make_vec, progress=False)
+    [again] = run_sweeps(
+        [tiny("a", episodes=4)], tmp_path, resume=True, make_vec=make_vec, progress=False, bounds_budget=0
+    )
     assert again is not None and read_sweep(tmp_path, "a").config.episodes == 4
 
 
 def test_interrupted_sweep_leaves_no_files_and_keeps_finished_ones(tmp_path):
     with pytest.raises(RuntimeError, match="worker died"):
-        run_sweeps([tiny("a"), tiny("b")], tmp_path, make_vec=_FailSecond(), progress=False)
+        run_sweeps([tiny("a"), tiny("b")], tmp_path, make_vec=_FailSecond(), progress=False, bounds_budget=0)
     assert completed_sweeps(tmp_path) == ["a"]
     assert not (tmp_path / "b").exists() or not any((tmp_path / "b").iterdir())
     assert not list(tmp_path.rglob("*.tmp"))
@@ -352,7 +364,7 @@ def test_missing_optional_packages_only_warn(tmp_path, monkeypatch, caplog):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     monkeypatch.setitem(sys.modules, "tqdm", None)
     with caplog.at_level(logging.WARNING):
-        run_sweeps([tiny()], tmp_path, make_vec=Recorder(), progress=True)
+        run_sweeps([tiny()], tmp_path, make_vec=Recorder(), progress=True, bounds_budget=0)
     assert "matplotlib is not installed" in caplog.text and "tqdm is not installed" in caplog.text
     assert completed_sweeps(tmp_path) == ["tiny"]
     assert not (tmp_path / "tiny" / "episode_lengths.png").exists()
@@ -365,7 +377,7 @@ def test_missing_optional_packages_only_warn(tmp_path, monkeypatch, caplog):
 def test_report_from_results(tmp_path):
     force = PAPER_SWEEPS["force"].scaled(0.1)
     other = tiny("mine")
-    run_sweeps([force, other], tmp_path / "results", make_vec=Recorder(), progress=False)
+    run_sweeps([force, other], tmp_path / "results", make_vec=Recorder(), progress=False, bounds_budget=0)
     docs = tmp_path / "docs"
     docs.mkdir()
     (docs / "reproduction-notes.md").write_text("# notes\n\n## force\n\nForce prose.\n\n## summary\nSummary prose.\n")
@@ -382,7 +394,7 @@ def test_report_from_results(tmp_path):
 
 def test_report_flags_a_changed_paper_sweep(tmp_path):
     changed = replace(PAPER_SWEEPS["force"], repeats=2, episodes=3)
-    run_sweeps([changed], tmp_path, make_vec=Recorder(), progress=False)
+    run_sweeps([changed], tmp_path, make_vec=Recorder(), progress=False, bounds_budget=0)
     text = render_report(tmp_path, tmp_path / "docs").read_text()
     assert "differs from the paper's" in text and "5 N is too weak" not in text
 
@@ -391,6 +403,7 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(modelicagym, "make_vec", Recorder(), raising=False)
     out, docs = tmp_path / "results", tmp_path / "docs"
     argv = ["reproduce", "--out", str(out), "--sweeps", "force", "--episodes-scale", "0.03", "--no-progress"]
+    argv += ["--bounds-budget", "0"]
     assert main([*argv, "--report", "--docs", str(docs)]) == 0
     assert completed_sweeps(out) == ["force"] and read_sweep(out, "force").config.episodes == 3
     assert (docs / "reproduction.md").exists()
@@ -404,10 +417,50 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
 def test_tiny_sweep_on_the_real_cartpole_pool(tmp_path):
     """The default ``make_vec`` (the FMU env in the multi-process pool), end to end."""
     config = tiny(settings=(Setting("0.05 s", {}), Setting("0.5 s", {"time_step": 0.5})), episodes=2)
-    [result] = run_sweeps([config], tmp_path, progress=False)
+    [result] = run_sweeps([config], tmp_path, progress=False, bounds_budget=20_000)
     assert result.lengths.shape == (2, 2, 2) and (result.lengths >= 1).all()
     assert (result.lengths[1] < result.lengths[0]).all()  # 0.5 s steps: the pole falls within a few steps
     timing = json.loads((tmp_path / "tiny" / "run.json").read_text())["timing"]
     assert timing["pool_timing"]["steps"] == timing["vector_steps"] and timing["num_workers"] >= 1
     per_setting = timing["per_setting"]
     assert per_setting["0.5 s"]["fmu_seconds_per_step"] > per_setting["0.05 s"]["fmu_seconds_per_step"] > 0
+    assert result.bounds == {"0.05 s": None, "0.5 s": 4}  # 0.05 s: long episodes exist, the search gives up
+    assert result.lengths[1].max() <= 4
+
+
+class Drift(gym.Env):
+    """Position drifts +1 per step, +2 with action 1; the episode terminates at position 5."""
+
+    observation_space = gym.spaces.Box(0.0, 10.0, (1,), np.float64)
+    action_space = gym.spaces.Discrete(2)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.position = 0
+        return np.array([0.0]), {}
+
+    def step(self, action):
+        self.position += 2 if action == 1 else 1
+        return np.array([float(self.position)]), 1.0, self.position >= 5, False, {}
+
+
+def test_longest_episode_by_exhaustive_search():
+    assert longest_episode(Drift()) == 5  # always action 0
+    assert longest_episode(Drift(), budget=10) is None
+    with pytest.raises(TypeError, match="Discrete"):
+        longest_episode(gym.make("Pendulum-v1"))
+
+
+def test_sweep_bounds_per_setting_without_the_step_limit():
+    class Counter(Drift):
+        def __init__(self, length):
+            self.length = length
+
+        def step(self, action):
+            self.position += 1
+            return np.array([0.0]), 1.0, self.position >= self.length, False, {}
+
+    config = SweepConfig(
+        "c", (Setting("a", {"length": 2}), Setting("b", {"length": 4})), 1, base_options={"max_episode_steps": 3}
+    )
+    assert sweep_bounds(config, make=lambda env_id, **o: Counter(**o)) == {"a": 2, "b": 4}

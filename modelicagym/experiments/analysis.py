@@ -29,7 +29,8 @@ class SettingSummary:
 
     The ``repeat_*`` tuples hold one value per repeat: the mean length of all its episodes, of its
     first and of its last ``WINDOW`` episodes. The properties average them over repeats.
-    ``time_step`` is the setting's seconds per step, when its options give one.
+    ``time_step`` is the setting's seconds per step, when its options give one; ``longest_possible``
+    the longest episode any agent could achieve, when the search found it.
     """
 
     label: str
@@ -38,6 +39,7 @@ class SettingSummary:
     repeat_lasts: tuple[float, ...]
     env_steps: int
     time_step: float | None = None
+    longest_possible: int | None = None
 
     @property
     def mean(self) -> float:
@@ -101,5 +103,6 @@ def summarize(result: SweepResult, window: int = WINDOW) -> dict[str, SettingSum
             repeat_lasts=tuple(last[s].tolist()),
             env_steps=int(steps[s]),
             time_step=float(time_step) if isinstance(time_step, (int, float)) else None,
+            longest_possible=result.bounds.get(setting.label),
         )
     return summaries

@@ -13,6 +13,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from modelicagym.experiments.bounds import DEFAULT_BUDGET
 from modelicagym.experiments.config import ConfigError, SweepConfig, load_config
 from modelicagym.experiments.paper import PAPER_SWEEPS
 from modelicagym.experiments.report import render_report
@@ -48,7 +49,14 @@ def _reproduce(args: argparse.Namespace) -> int:
         json.dump([c.to_dict() for c in configs], sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
-    run_sweeps(configs, args.out, resume=args.resume, num_workers=args.num_workers, progress=not args.no_progress)
+    run_sweeps(
+        configs,
+        args.out,
+        resume=args.resume,
+        num_workers=args.num_workers,
+        progress=not args.no_progress,
+        bounds_budget=args.bounds_budget,
+    )
     if args.report:
         render_report(args.out, args.docs)
     return 0
@@ -86,6 +94,14 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     reproduce.add_argument("--num-workers", type=int, help="worker processes of the pool (default: the pool's)")
     reproduce.add_argument("--no-progress", action="store_true", help="no progress bar")
+    reproduce.add_argument(
+        "--bounds-budget",
+        type=int,
+        default=DEFAULT_BUDGET,
+        metavar="STEPS",
+        help="env steps per setting for the exhaustive search of the longest possible episode (0: skip; "
+        f"default {DEFAULT_BUDGET})",
+    )
     reproduce.add_argument("--report", action="store_true", help="render the report into --docs afterwards")
     reproduce.add_argument("--docs", default="docs", help="docs directory for --report (default: docs)")
     reproduce.add_argument(

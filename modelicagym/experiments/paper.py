@@ -134,6 +134,8 @@ def _learns(label: str, expected: bool) -> Callable[[Mapping[str, SettingSummary
             f"{label}: last {WINDOW} / first {WINDOW} = {s.last:.1f} / {s.first:.1f} = {ratio:.2f} {relation} "
             f"{LEARNING_RATIO}"
         )
+        if s.longest_possible is not None:
+            evidence += f", longest possible episode {s.longest_possible} steps"
         return s.learns == expected, evidence
 
     return check

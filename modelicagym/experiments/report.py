@@ -71,7 +71,13 @@ def _mark(holds: bool) -> str:
     return "yes" if holds else "**no**"
 
 
-def _setting_rows(name: str, summaries: dict[str, SettingSummary]) -> list[list[str]]:
+def _longest(label: str, bounds: dict[str, int | None]) -> str:
+    if label not in bounds:
+        return "–"
+    return "not found" if bounds[label] is None else str(bounds[label])
+
+
+def _setting_rows(name: str, summaries: dict[str, SettingSummary], bounds: dict[str, int | None]) -> list[list[str]]:
     rows = []
     for label, s in summaries.items():
         paper = PAPER_NUMBERS.get(name, {}).get(label)
@@ -83,6 +89,7 @@ def _setting_rows(name: str, summaries: dict[str, SettingSummary]) -> list[list[
                 f"{s.last:.1f} ± {s.last_std:.1f}",
                 _paper_value(paper.last if paper else None, paper),
                 "–" if s.last_seconds is None else f"{s.last_seconds:.2f}",
+                _longest(label, bounds),
                 f"{s.first:.1f}",
                 "yes" if s.learns else "no",
             ]
@@ -150,6 +157,9 @@ def _setup_section(results: dict[str, SweepResult]) -> str:
             "repeat r uses the same seeds in every setting and every sweep.",
             f"- A setting *learns* when the mean length of its last {WINDOW} episodes is at least {LEARNING_RATIO:g} "
             f"times that of its first {WINDOW} (the paper's failing settings stay flat at about 9-10 steps).",
+            "- *Longest possible*: the longest episode over all action sequences, by exhaustive search (the env is "
+            "deterministic and starts from a fixed state); *not found* where the search gave up because long "
+            "episodes exist. It bounds what any agent can learn.",
             f"- Machine: {machine.get('platform', '?')}, {machine.get('cpu_count', '?')} CPUs, "
             f"Python {machine.get('python', '?')}; {packages}.",
             f"- Runs started {started}; total wall time of the sweeps shown here {total:.0f} s.",
@@ -256,10 +266,11 @@ def _sweep_section(
                 f"last-{WINDOW} mean (ours)",
                 "paper",
                 f"last-{WINDOW} in simulated s (ours)",
+                "longest possible",
                 f"first-{WINDOW} mean (ours)",
                 "learns",
             ],
-            _setting_rows(name if paper_sweep else "", summaries),
+            _setting_rows(name if paper_sweep else "", summaries, result.bounds),
         )
     )
     findings = _findings(name, summaries) if paper_sweep else []

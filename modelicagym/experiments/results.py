@@ -54,7 +54,9 @@ class SweepResult:
 
     ``lengths[s, r, k]`` and ``returns[s, r, k]`` are the length and total reward of episode ``k``
     of repeat ``r`` of setting ``s`` (in config order). ``timing`` holds wall-clock numbers (see
-    :mod:`modelicagym.experiments.runner`), ``machine`` where and with what it ran.
+    :mod:`modelicagym.experiments.runner`), ``machine`` where and with what it ran, ``bounds`` the
+    longest episode possible per setting label (see :mod:`modelicagym.experiments.bounds`; ``None``:
+    not found by the search).
     """
 
     config: SweepConfig
@@ -62,6 +64,7 @@ class SweepResult:
     returns: np.ndarray
     timing: dict[str, Any] = field(default_factory=dict)
     machine: dict[str, Any] = field(default_factory=dict)
+    bounds: dict[str, int | None] = field(default_factory=dict)
 
     def steps_per_setting(self) -> np.ndarray:
         """Env steps learned from, per setting (all repeats)."""
@@ -109,6 +112,7 @@ def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
         "config": result.config.to_dict(),
         "timing": result.timing,
         "machine": result.machine,
+        "bounds": result.bounds,
     }
     with atomic_write(json_path) as f:
         json.dump(document, f, indent=2, default=_json_default)
@@ -177,7 +181,9 @@ def read_sweep(results_dir: str | Path, name: str) -> SweepResult:
             returns[index] = float(row["reward"])
     if (lengths < 0).any():
         raise ValueError(f"{csv_path} lacks {(lengths < 0).sum()} of the {lengths.size} episodes of {name!r}")
-    return SweepResult(config, lengths, returns, document.get("timing", {}), document.get("machine", {}))
+    return SweepResult(
+        config, lengths, returns, document.get("timing", {}), document.get("machine", {}), document.get("bounds", {})
+    )
 
 
 def write_combined_csv(results_dir: str | Path) -> Path:

@@ -33,6 +33,7 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
 from modelicagym.agents import Discretizer, QLearningAgent, train
+from modelicagym.experiments.bounds import DEFAULT_BUDGET, MakeEnv, sweep_bounds
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.plots import plot_sweep
 from modelicagym.experiments.results import (
@@ -223,11 +224,16 @@ def run_sweeps(
     make_vec: MakeVec | None = None,
     num_workers: int | None = None,
     progress: bool = True,
+    make: MakeEnv | None = None,
+    bounds_budget: int = DEFAULT_BUDGET,
 ) -> list[SweepResult | None]:
     """Run ``configs`` one after the other, writing each sweep's results as soon as it completes.
 
     With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
-    (``None`` in the returned list). An interruption loses only the sweep that was running.
+    (``None`` in the returned list). An interruption loses only the sweep that was running. The
+    longest possible episode of every setting is searched for with single envs from ``make``
+    (default ``modelicagym.make``), at most ``bounds_budget`` env steps per setting (0: no search),
+    and stored with the results.
     """
     results_dir = Path(results_dir)
     outcomes: list[SweepResult | None] = []
@@ -237,6 +243,8 @@ def run_sweeps(
             outcomes.append(None)
             continue
         result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
+        if bounds_budget > 0:
+            result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)
         plot_sweep(result, sweep_dir(results_dir, config.name) / PLOT_PNG)
         write_combined_csv(results_dir)
