@@ -77,12 +77,11 @@ class Variable:
 
     @property
     def settable_in_initialization(self) -> bool:
-        """Whether ``fmiSet*`` is allowed in initialization mode."""
+        """Whether ``fmiSet*`` is allowed in initialization mode (FMI 2.0 table 2 / FMI 3.0 table 18:
+        inputs and variables with ``initial="exact"``; calculated parameters never)."""
         if self.variability == "constant":
             return False
-        if self.causality == "input" or self.initial == "exact":
-            return True
-        return self.causality != "parameter" and self.variability == "tunable"
+        return self.causality == "input" or self.initial == "exact"
 
     @property
     def settable(self) -> bool:
