@@ -1,0 +1,83 @@
+"""The test FMUs themselves: valid model descriptions, declared capabilities, and the variables
+and spaces the runtime derives from them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fmpy.validation import validate_fmu
+from gymnasium import spaces
+
+from fmu_family import FAMILY, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
+from modelicagym.fmu import open_fmu
+from modelicagym.spaces import space_for
+
+
+@pytest.mark.parametrize("name", sorted(FAMILY))
+def test_every_member_is_a_valid_fmu_with_a_binary(fmus, name):
+    assert validate_fmu(str(fmus[name])) == []
+    description = open_fmu(fmus[name])
+    assert description.fmi_version == FAMILY[name].fmi_version
+    assert description.modes == ("cs", "me")
+    assert description.library_path("cs").is_file()
+    assert description.has_sources
+
+
+@pytest.mark.parametrize("name", sorted(FAMILY))
+def test_declared_capabilities(fmus, name):
+    variant, description = FAMILY[name], open_fmu(fmus[name])
+    for mode in ("cs", "me"):
+        assert description.once_per_process(mode) is variant.once_per_process
+        assert description.can_snapshot(mode) is variant.snapshots
+    assert description.default_experiment.start_time == (variant.start_time or 0.0)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_probe_variables(fmus, version):
+    d = open_fmu(fmus[f"probe{version}"])
+    assert [v.name for v in d.inputs] == list(PROBE_INPUTS if version == 2 else PROBE3_INPUTS)
+    assert [v.name for v in d.outputs] == list(PROBE_OUTPUTS if version == 2 else PROBE3_OUTPUTS)
+    gear, mode, enable, fault = d.variable("gear"), d.variable("mode"), d.variable("enable"), d.variable("fault")
+    assert (gear.kind, gear.bounds()) == ("integer", (0, 4))
+    assert gear.fmi_type == ("Integer" if version == 2 else "Int32")
+    assert (mode.kind, mode.bounds(), mode.start) == ("enumeration", (1, 3), 1)
+    assert mode.enumeration_items == (("off", 1), ("heat", 2), ("cool", 3))
+    assert (enable.kind, enable.start) == ("boolean", False)
+    assert fault.kind == "enumeration" and fault.settable_before_initialization
+    assert d.variable("gain").settable and not d.variable("limit").settable
+    assert d.variable("steps").bounds() == (-(2**31), 2**31 - 1)
+    if version == 3:
+        assert d.variable("u").shape == (3,) and d.variable("u").start == [0.0, 0.0, 0.0]
+        assert d.variable("y").shape == (2, 3) and d.variable("y").size == 6
+        assert d.variable("positive").shape == (3,)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_spaces_of_each_kind(fmus, version):
+    d = open_fmu(fmus[f"probe{version}"])
+
+    def space(*names):
+        return space_for([d.variable(n) for n in names])
+
+    assert space("gear") == spaces.Discrete(5, start=0)
+    assert space("mode") == spaces.Discrete(3, start=1)
+    assert space("speed") == spaces.Discrete(17, start=-8)
+    assert space("enable") == spaces.Discrete(2)
+    assert space("enable", "boost") == spaces.MultiBinary(2)
+    multi = space("gear", "mode")
+    assert isinstance(multi, spaces.MultiDiscrete)
+    np.testing.assert_array_equal(multi.nvec, [5, 3])
+    np.testing.assert_array_equal(multi.start, [0, 1])
+    force = space("force")
+    assert isinstance(force, spaces.Box) and force.shape == (1,)
+    np.testing.assert_array_equal([force.low, force.high], [[-10.0], [10.0]])
+    steps = space("steps")
+    assert isinstance(steps, spaces.Box) and steps.dtype == np.int64 and steps.shape == ()
+    mixed = space("gear", "enable", "force")
+    assert isinstance(mixed, spaces.Dict) and set(mixed.keys()) == {"gear", "enable", "force"}
+    if version == 3:
+        u, y, positive = space("u"), space("y"), space("positive")
+        assert isinstance(u, spaces.Box) and u.shape == (3,) and u.low.tolist() == [-1.0] * 3
+        assert isinstance(y, spaces.Box) and y.shape == (2, 3) and np.all(np.isinf(y.high))
+        assert positive == spaces.MultiBinary([3])
+        assert isinstance(space("u", "force"), spaces.Dict)  # an array next to a scalar
