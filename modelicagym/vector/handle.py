@@ -17,9 +17,12 @@ from modelicagym.vector.protocol import LIVENESS_INTERVAL, Message, WorkerConfig
 from modelicagym.vector.sync import Signal
 from modelicagym.vector.worker import run_worker
 
-__all__ = ["WorkerHandle"]
+__all__ = ["DIED", "DONE", "TIMED_OUT", "WorkerHandle"]
 
 logger = logging.getLogger(__name__)
+
+#: outcomes of :meth:`WorkerHandle.wait_done`
+DONE, DIED, TIMED_OUT = "done", "died", "timed out"
 
 #: seconds a worker gets to exit after SIGTERM before it is sent SIGKILL
 _TERMINATE_GRACE = 1.0
@@ -102,24 +105,27 @@ class WorkerHandle:
             raise self.timeout_error(env_index, doing, timeout)
         raise self.died_error(env_index, doing)
 
-    def wait_done(self, spin_time: float, deadline: float | None, env_index: Callable[[], int], doing: str) -> PoolError | None:
-        """Wait until the worker posts ``done``.
+    def wait_done(self, spin_time: float, deadline: float | None) -> str:
+        """Wait until the worker posts ``done``: returns ``DONE``, ``DIED`` or ``TIMED_OUT``.
 
-        Spins for ``spin_time`` first, then blocks in slices of ``LIVENESS_INTERVAL`` to check that
-        the process lives. Returns ``None`` on success, else the error (died / timed out) that
-        names the env being run, read through ``env_index`` when needed.
+        Spins for up to ``spin_time`` first, then blocks in slices of ``LIVENESS_INTERVAL`` to
+        check that the process lives; ``deadline`` is a ``time.monotonic()`` value or ``None``.
         """
         if self.done.wait(spin_time, _slice(deadline)):
-            return None
+            return DONE
         while True:
             if not self.process.is_alive():
-                if self.done.wait(0.0, 0.0):
-                    return None
-                return self.died_error(env_index(), doing)
+                return DONE if self.done.wait(0.0, 0.0) else DIED
             if deadline is not None and time.monotonic() >= deadline:
-                return self.timeout_error(env_index(), doing, None)
+                return TIMED_OUT
             if self.done.wait(0.0, _slice(deadline)):
-                return None
+                return DONE
+
+    def failure(self, status: str, env_index: int | None, doing: str) -> PoolError:
+        """The error for a :meth:`wait_done` status other than ``DONE``."""
+        if status == DIED:
+            return self.died_error(env_index, doing)
+        return self.timeout_error(env_index, doing, None)
 
     def died_error(self, env_index: int | None, doing: str) -> WorkerDiedError:
         """The error reporting that this worker died while running ``doing`` on ``env_index``."""

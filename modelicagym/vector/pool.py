@@ -20,7 +20,7 @@ from gymnasium.vector.utils import batch_space
 
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.errors import PoolError
-from modelicagym.vector.handle import WorkerHandle
+from modelicagym.vector.handle import DONE, WorkerHandle
 from modelicagym.vector.protocol import Command, EnvDescription, Message, Reply, WorkerConfig
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 
@@ -344,7 +344,8 @@ class PoolVectorEnv(VectorEnv):
         results = []
         try:
             for handle, _, _ in pending:
-                failure = handle.wait_done(self._spin_time, deadline, lambda h=handle: int(current_env[h.index]), doing)
+                status = handle.wait_done(self._spin_time, deadline)
+                failure = None if status == DONE else handle.failure(status, int(current_env[handle.index]), doing)
                 message = None
                 if failure is None and reply[handle.index] == Reply.MESSAGE:
                     try:

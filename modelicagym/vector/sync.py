@@ -20,37 +20,58 @@ class Signal:
     """A counting signal (a process-shared semaphore) whose waiter spins before it blocks.
 
     Posts are never lost: every :meth:`post` is matched by exactly one successful :meth:`wait`, so
-    the spin phase cannot race with the blocking phase. The semaphore is passed to the worker as a
-    process argument; :meth:`close` drops it so that (with ``forkserver``/``spawn``, where it is a
-    named POSIX semaphore) its name is unlinked at once, even if a traceback still references this
-    object.
+    the spin phase cannot race with the blocking phase.
+
+    The spin adapts: a waiter spins only if its previous wait ended within the spin window. When
+    posts come late (an env step of hundreds of microseconds, an agent that thinks between steps)
+    it blocks at once and leaves the core to whoever does the work; one short wait switches
+    spinning back on. Each process adapts to what it waits for (the parent to the workers' step
+    time, a worker to the parent's time between steps).
+
+    The semaphore is passed to the worker as a process argument; :meth:`close` drops it so that
+    (with ``forkserver``/``spawn``, where it is a named POSIX semaphore) its name is unlinked at
+    once, even if a traceback still references this object.
     """
 
     def __init__(self, ctx: BaseContext) -> None:
         self._sem = ctx.Semaphore(0)
+        self._spin = True
+
+    def __getstate__(self) -> dict:
+        return {"_sem": self._sem}
+
+    def __setstate__(self, state: dict) -> None:
+        self._sem = state["_sem"]
+        self._spin = True
 
     def post(self) -> None:
         """Wake the waiter (or let its next :meth:`wait` return at once)."""
         self._sem.release()
 
     def wait(self, spin_time: float, timeout: float | None) -> bool:
-        """Wait for a post: poll for up to ``spin_time`` seconds, then block for up to ``timeout``.
+        """Wait for a post: poll for up to ``spin_time`` seconds (if waits have been short), then
+        block for up to ``timeout``.
 
         Returns ``True`` if a post was consumed, ``False`` if ``timeout`` expired (``None`` blocks
         until a post arrives).
         """
         sem = self._sem
         if sem.acquire(False):
+            self._spin = True
             return True
-        if spin_time > 0.0:
-            end = time.perf_counter() + spin_time
+        start = time.perf_counter()
+        if self._spin and spin_time > 0.0:
+            end = start + spin_time
             while True:
                 os.sched_yield()
                 if sem.acquire(False):
                     return True
                 if time.perf_counter() >= end:
                     break
-        return sem.acquire(True, timeout)
+        if not sem.acquire(True, timeout):
+            return False
+        self._spin = time.perf_counter() - start < spin_time
+        return True
 
     def close(self) -> None:
         """Release the semaphore; the signal is unusable afterwards."""

@@ -70,8 +70,8 @@ def run_worker(
             return
         conn.send(Message("ready", description))
         worker = Worker(worker_index, envs, first_env, conn, go, done, config)
-        if worker.attach():
-            worker.serve()
+        worker.attach()
+        worker.serve()
     except (EOFError, BrokenPipeError, ConnectionResetError):
         logger.debug("worker %d: pipe to the parent closed, exiting", worker_index)
     finally:
@@ -141,12 +141,9 @@ class Worker:
             "set_attr": self._set_attr,
         }
 
-    def attach(self) -> bool:
-        """Receive and map the shared memory; ``False`` if the parent is going away instead."""
-        message = self._conn.recv()
-        if message.kind != "buffers":
-            return False
-        spec, needs_reset = message.data
+    def attach(self) -> None:
+        """Receive and map the shared memory, then confirm."""
+        spec, needs_reset = self._conn.recv().data
         fd = recv_handle(self._conn)
         try:
             self._buffers = SharedBuffers.attach(spec, fd)
@@ -154,7 +151,6 @@ class Worker:
             os.close(fd)
         self._needs_reset = [needs_reset] * len(self._envs)
         self._conn.send(Message("ok"))
-        return True
 
     def serve(self) -> None:
         """Run commands until told to close (the envs are closed on the way out) or the parent dies."""
