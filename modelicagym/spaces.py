@@ -85,10 +85,13 @@ class Observer:
         self.space = space
         self._views: list[tuple[str, spaces.Space, np.ndarray]] | None = None
         self._flat: np.ndarray | None = None
+        self._parts: list[np.ndarray] = []
         if isinstance(space, spaces.Dict):
             self._views = [(name, space[name], buffer.views[name]) for name in space.keys()]
         else:
-            self._flat = buffer.flat if buffer.flat is not None else next(iter(buffer.views.values()))
+            self._flat = buffer.flat
+            if self._flat is None:  # one flat space over several FMI types (Integer + Enumeration)
+                self._parts = [buffer.views[v.name] for v in buffer.variables]
         plain = isinstance(space, spaces.Box) and self._flat is not None and self._flat.dtype == space.dtype
         self._copy = plain and self._flat.shape == space.shape
 
@@ -97,7 +100,8 @@ class Observer:
         if self._copy:
             return self._flat.copy()
         if self._views is None:
-            return _as_space_value(self.space, self._flat)
+            flat = self._flat if self._flat is not None else np.concatenate([p.ravel() for p in self._parts])
+            return _as_space_value(self.space, flat)
         return {name: _as_space_value(sub, np.asarray(view)) for name, sub, view in self._views}
 
 
@@ -180,11 +184,14 @@ def _action_problem(space: spaces.Space, action: Any) -> str | None:
 
 
 def write_values(buffer: ValueBuffer, values: Any) -> None:
-    """Write input ``values`` (one array-like for a single-type buffer, or a dict by name)."""
+    """Write input ``values``: an array-like in variable order, or a dict by name."""
     if isinstance(values, dict):
         for name, value in values.items():
             buffer.views[name][...] = value
     elif buffer.flat is not None:
         buffer.flat[:] = np.ravel(values) if np.ndim(values) else values
-    else:
-        raise ValueError("inputs of several types need a dict {variable name: value}")
+    else:  # one flat action over several FMI types: split it in variable order
+        flat, offset = np.ravel(values), 0
+        for v in buffer.variables:
+            buffer.views[v.name][...] = flat[offset : offset + v.size].reshape(v.shape)
+            offset += v.size
