@@ -1,0 +1,348 @@
+"""`FMUEnv` on the Probe test FMU: spaces of every kind, the Gymnasium contract, what the model
+computes, the episode ends an FMU can cause (terminated, error, crash), start time, logging, and
+clear errors for every kind of bad input."""
+
+from __future__ import annotations
+
+import logging
+import signal
+import subprocess
+import sys
+import textwrap
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium import spaces
+from gymnasium.utils.env_checker import check_env
+
+from fmu_family import FAULTS, MODES, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
+from modelicagym import FMUEnv
+from modelicagym.fmu import FMUCallError, FMUError, VariableError
+
+
+@pytest.fixture
+def make_env(fmus):
+    """``make_env(name, **config)`` -> FMUEnv on the family member ``name``; closed after the test."""
+    made: list[FMUEnv] = []
+
+    def make(name: str, **config) -> FMUEnv:
+        version = 3 if "3" in name else 2
+        config.setdefault("inputs", PROBE3_INPUTS if version == 3 else PROBE_INPUTS)
+        config.setdefault("outputs", PROBE3_OUTPUTS if version == 3 else PROBE_OUTPUTS)
+        env = FMUEnv(fmu=fmus[name], **config)
+        made.append(env)
+        return env
+
+    yield make
+    for env in made:
+        env.close()
+
+
+def full_action(version: int, gear=3, mode="cool", enable=True, boost=True, force=0.5, u=(0.5, -1.0, 0.25)):
+    action = {"gear": gear, "mode": MODES[mode], "enable": int(enable), "boost": int(boost), "force": np.array(force)}
+    if version == 3:
+        action["u"] = np.array(u)
+    return action
+
+
+def run(env: FMUEnv, actions, **reset) -> list:
+    """Observations of an episode driven by ``actions`` (stops when it ends)."""
+    observation, _ = env.reset(**reset)
+    trajectory = [observation]
+    for action in actions:
+        observation, _, terminated, truncated, _ = env.step(action)
+        trajectory.append(observation)
+        if terminated or truncated:
+            break
+    return trajectory
+
+
+# -- spaces and the Gymnasium contract --------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "inputs, expected",
+    [
+        (["gear"], spaces.Discrete(5)),
+        (["mode"], spaces.Discrete(3, start=1)),
+        (["enable", "boost"], spaces.MultiBinary(2)),
+        (["gear", "mode"], spaces.MultiDiscrete([5, 3], start=[0, 1])),
+        (["force"], spaces.Box(-10.0, 10.0, (1,), np.float64)),
+        (None, None),  # every input: a Dict
+    ],
+    ids=["Discrete", "Discrete-enum", "MultiBinary", "MultiDiscrete", "Box", "Dict"],
+)
+@pytest.mark.parametrize("version", [2, 3])
+def test_env_checker_passes_for_every_kind_of_action_space(make_env, version, inputs, expected):
+    config = {"inputs": inputs} if inputs else {}
+    env = make_env(f"probe{version}", max_episode_steps=20, parameters={"enable": True}, **config)
+    if expected is not None:
+        assert env.action_space == expected
+    else:
+        assert isinstance(env.action_space, spaces.Dict)
+        assert set(env.action_space.keys()) == set(PROBE3_INPUTS if version == 3 else PROBE_INPUTS)
+    assert isinstance(env.observation_space, spaces.Dict)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unbounded observation spaces
+        check_env(env, skip_render_check=True)
+    for _ in range(3):  # random actions of the space drive the FMU and observations stay inside
+        env.reset(seed=1)
+        for _ in range(5):
+            observation, *_ = env.step(env.action_space.sample())
+            assert env.observation_space.contains(observation)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_observations_follow_the_model_equations(make_env, version):
+    env = make_env(f"probe{version}")
+    observation, info = env.reset()
+    assert info == {}
+    assert observation["steps"] == 0 and observation["clock"] == 0.0 and observation["mode_out"] == 1
+    observation, reward, terminated, truncated, info = env.step(full_action(version))
+    assert (reward, terminated, truncated, info) == (1.0, False, False, {})
+    speed = 3 * -1 * 2  # gear * direction(cool) * boost
+    assert observation["speed"] == speed
+    assert observation["mode_out"] == MODES["cool"]
+    assert observation["moving"] == 1
+    assert observation["steps"] == 1
+    assert observation["clock"] == pytest.approx(0.1, abs=1e-15)
+    assert observation["position"] == pytest.approx((speed + 0.5) * 0.1, abs=1e-12)
+    if version == 3:
+        u = np.array([0.5, -1.0, 0.25])
+        np.testing.assert_allclose(observation["y"], [3 * u, u + 0.1], rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(observation["positive"], [1, 0, 1])
+    observation, *_ = env.step(full_action(version, enable=False, force=-2.0))
+    assert observation["speed"] == 0 and observation["moving"] == 1 and observation["steps"] == 2
+    assert observation["position"] == pytest.approx((speed + 0.5) * 0.1 - 0.2, abs=1e-12)
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_flat_discrete_spaces_move_values_of_different_fmi_types(make_env, version):
+    """gear (Integer) and mode (Enumeration) share one MultiDiscrete action, speed (Integer) and
+    mode_out (Enumeration) one MultiDiscrete observation, though the FMI moves them with different
+    calls in FMI 3.0 and different declared types in FMI 2.0."""
+    env = make_env(f"probe{version}", inputs=["gear", "mode"], outputs=["speed", "mode_out"],
+                   parameters={"enable": True})
+    assert isinstance(env.observation_space, spaces.MultiDiscrete)
+    observation, _ = env.reset()
+    np.testing.assert_array_equal(observation, [0, 1])
+    assert env.observation_space.contains(observation)
+    observation, *_ = env.step(np.array([4, MODES["heat"]]))
+    np.testing.assert_array_equal(observation, [4, MODES["heat"]])
+    observation, *_ = env.step(np.array([2, MODES["cool"]]))
+    np.testing.assert_array_equal(observation, [-2, MODES["cool"]])
+    assert env.observation_space.contains(observation)
+
+
+def test_tunable_parameter_mid_episode_and_fixed_one_refused(make_env):
+    env = make_env("probe2", inputs=["force"], outputs=["position"])
+    env.reset()
+    env.fmu.set_values({"gain": 3.0})
+    observation, *_ = env.step(np.array([1.0]))
+    assert observation[0] == pytest.approx(0.3, abs=1e-12)
+    with pytest.raises(FMUCallError, match="cannot be set in step mode"):
+        env.fmu.set_values({"position_0": 1.0})
+    env.reset()  # back to the configured values: gain = 1
+    observation, *_ = env.step(np.array([1.0]))
+    assert observation[0] == pytest.approx(0.1, abs=1e-12)
+
+
+# -- episode ends caused by the FMU -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_discard_with_terminated_ends_the_episode(make_env, version):
+    env = make_env(f"probe{version}", parameters={"fault": FAULTS["terminate"], "fault_after": 3})
+    for episode in range(2):
+        env.reset()
+        for k in range(3):
+            observation, reward, terminated, truncated, info = env.step(full_action(version))
+            assert (terminated, truncated, info) == (False, False, {})
+        observation, reward, terminated, truncated, info = env.step(full_action(version))
+        assert terminated and not truncated, f"episode {episode}"
+        assert info == {"fmu_terminated": True}
+        assert reward == env.negative_reward
+        assert observation["steps"] == 3
+        assert not env.fmu.broken
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, version, monkeypatch, caplog):
+    env = make_env(f"probe{version}", parameters={"fault": FAULTS["error"], "fault_after": 3})
+    actions = [full_action(version, gear=k % 5) for k in range(10)]
+    observation, _ = env.reset()
+    first = [observation]
+    for action in actions[:3]:
+        observation, reward, terminated, truncated, info = env.step(action)
+        assert (terminated, truncated, info) == (False, False, {})
+        first.append(observation)
+    with caplog.at_level(logging.WARNING):
+        observation, reward, terminated, truncated, info = env.step(actions[3])
+    assert truncated and not terminated and reward == 0.0
+    assert "injected fault: doStep at t=0.3 fails after 3 steps" in info["fmu_error"]
+    assert "returned Error" in info["fmu_error"]
+    assert env.fmu.broken
+    assert observation["steps"] == 3  # the last good outputs
+    assert any("injected fault" in r.getMessage() and r.levelno == logging.ERROR for r in caplog.records)
+
+    instantiations = []
+    instantiate = env.fmu.binding.instantiate
+    monkeypatch.setattr(env.fmu.binding, "instantiate", lambda *a: (instantiations.append(a), instantiate(*a)))
+    replay = run(env, actions)  # same parameters: a new instance, the same 3 good steps, the same error
+    assert len(instantiations) == 1
+    assert len(replay) == 5
+    for a, b in zip(first, replay):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name])
+    normal = run(env, actions, options={"parameters": {"fault": FAULTS["none"]}})
+    assert len(instantiations) == 2  # the error broke the instance again
+    assert len(normal) == 11 and normal[-1]["steps"] == 10 and not env.fmu.broken
+    for a, b in zip(first, normal):
+        for name in a:
+            np.testing.assert_array_equal(a[name], b[name])
+
+
+def test_segfault_kills_only_the_child_process(fmus):
+    script = textwrap.dedent(
+        f"""
+        import numpy as np
+        from modelicagym import FMUEnv
+        env = FMUEnv(fmu={str(fmus["probe2"])!r}, inputs=["force"], outputs=["steps"],
+                     parameters={{"fault": {FAULTS["crash"]}, "fault_after": 2}})
+        env.reset()
+        for k in range(5):
+            observation, *_ = env.step(np.array([0.0]))
+            print("step", k, int(observation["steps"] if isinstance(observation, dict) else observation), flush=True)
+        print("survived", flush=True)
+        """
+    )
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert result.returncode == -signal.SIGSEGV, result.stderr
+    assert result.stdout.split("\n")[:2] == ["step 0 1", "step 1 2"]
+    assert "survived" not in result.stdout
+    # the parent is fine and can run the same FMU
+    env = FMUEnv(fmu=fmus["probe2"], inputs=["force"], outputs=["steps"])
+    env.reset()
+    for k in range(5):
+        observation, *_ = env.step(np.array([0.0]))
+    assert observation == 5
+    env.close()
+
+
+# -- time -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_nonzero_start_time_without_drift(make_env, version):
+    env = make_env(f"probe{version}_late", inputs=["force"], outputs=["clock", "position"])
+    dt = env.time_step
+    assert dt == 0.1
+    for episode in range(2):
+        observation, _ = env.reset()
+        assert env.time == 10.0 and observation[0] == 10.0
+        for k in range(1, 10_001 if episode == 0 else 11):
+            observation, *_ = env.step(np.array([1.0]))
+            assert env.time == 10.0 + k * dt
+        assert observation[0] == pytest.approx(env.time, rel=1e-13)  # the FMU's own time
+        assert observation[1] == pytest.approx((k * dt), rel=1e-9)
+
+
+def test_start_time_from_the_config_overrides_the_model(make_env):
+    env = make_env("probe2", inputs=["force"], outputs=["clock"], start_time=-3.0, time_step=0.25)
+    observation, _ = env.reset()
+    assert env.time == -3.0 and observation[0] == -3.0
+    for k in range(1, 9):
+        observation, *_ = env.step(np.array([0.0]))
+        assert env.time == -3.0 + k * 0.25 and observation[0] == pytest.approx(env.time, abs=1e-15)
+
+
+# -- logging ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_fmu_messages_go_to_logging_not_stdout(make_env, version, caplog, capfd):
+    env = make_env(f"probe{version}", inputs=["force"], outputs=["steps"], logging_on=True,
+                   parameters={"fault": FAULTS["terminate"], "fault_after": 1})
+    with caplog.at_level(logging.DEBUG, logger="modelicagym.fmu"):
+        env.reset()
+        env.step(np.array([0.0]))
+        *_, info = env.step(np.array([0.0]))
+    assert info == {"fmu_terminated": True}
+    records = [r for r in caplog.records if r.name == "modelicagym.fmu.Probe"]
+    messages = [r.getMessage() for r in records]
+    assert any("injected fault: the model ends the simulation at t=0.1" in m for m in messages), messages
+    assert all(r.levelno == logging.DEBUG for r in records if "injected fault" in r.getMessage())
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+# -- bad input --------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "config, error, patterns",
+    [
+        ({"inputs": ["gaer"]}, VariableError, ["no input named 'gaer'", "Did you mean 'gear'"]),
+        ({"outputs": ["postion"]}, VariableError, ["'postion'", "Did you mean 'position'"]),
+        ({"parameters": {"fault_afer": 1}}, VariableError, ["'fault_afer'", "Did you mean 'fault_after'"]),
+        ({"inputs": ["position"]}, VariableError, ["'position' cannot be an action", "causality 'output'", "gear"]),
+        ({"parameters": {"limit": 1.0}}, VariableError, ["'limit' cannot be set", "calculatedParameter"]),
+        ({"parameters": {"steps": 1}}, VariableError, ["'steps' cannot be set"]),
+        ({"termination": {"postion": (-1, 1)}}, VariableError, ["Did you mean 'position'"]),
+        ({"termination": {"clock": (-1, 1)}}, ValueError, ["'clock', which is not in 'outputs'"]),
+        ({"time_stepp": 0.1}, TypeError, ["unknown FMUEnv config key 'time_stepp'", "Did you mean 'time_step'"]),
+        ({"time_step": -1.0}, ValueError, ["time_step must be positive"]),
+        ({"mode": "xx"}, ValueError, ["mode must be one of"]),
+        ({"reset_rung": "sometimes"}, ValueError, ["reset_rung must be"]),
+    ],
+    ids=lambda x: None,
+)
+def test_configuration_errors_are_clear(make_env, config, error, patterns):
+    config = {"inputs": ["force"], "outputs": ["position"], **config}
+    with pytest.raises(error) as raised:
+        make_env("probe2", **config)
+    for pattern in patterns:
+        assert pattern in str(raised.value)
+
+
+def test_parameter_values_the_fmu_rejects_surface_its_message(make_env):
+    env = make_env("probe2", inputs=["force"], outputs=["position"], parameters={"fault_after": -1})
+    with pytest.raises(FMUCallError, match=r"invalid values: .*fault_after=-1"):
+        env.reset()
+    observation, _ = env.reset(options={"parameters": {"fault_after": 0}})  # recovers
+    assert observation[0] == 0.0
+    with pytest.raises(VariableError, match="Did you mean 'gain'"):
+        env.reset(options={"parameters": {"gian": 2.0}})
+
+
+@pytest.mark.parametrize(
+    "inputs, action, problem",
+    [
+        (["force"], np.array([1.0, 2.0]), "expected shape (1,), got shape (2,)"),
+        (["force"], np.array([np.nan]), "NaN"),
+        (["force"], np.array([10.5]), "outside the bounds"),
+        (["force"], "push", "expected numbers"),
+        (["gear"], 5, "out of range [0, 4]"),
+        (["gear"], 1.5, "expected integers"),
+        (["gear"], np.array([1, 2]), "expected a single integer"),
+        (["mode"], 0, "out of range [1, 3]"),
+        (["gear", "mode"], np.array([4, 4]), "out of range"),
+        (["gear", "mode"], np.array([1]), "expected shape (2,)"),
+        (["enable", "boost"], np.array([1, 2]), "expected 0 or 1"),
+        (["gear", "force"], {"gear": 1}, "expected a dict with keys ['force', 'gear']"),
+        (["gear", "force"], {"gear": 1, "force": np.array(11.0)}, "'force': outside the bounds"),
+    ],
+    ids=lambda x: None,
+)
+def test_invalid_actions_name_the_action_and_the_space(make_env, inputs, action, problem):
+    env = make_env("probe2", inputs=inputs, outputs=["position"])
+    env.reset()
+    with pytest.raises(ValueError) as raised:
+        env.step(action)
+    message = str(raised.value)
+    assert problem in message
+    assert message.startswith(f"invalid action {action!r}"[:40])
+    assert str(env.action_space) in message
+    assert env.time == 0.0  # nothing reached the FMU
