@@ -386,6 +386,7 @@ def test_report_from_results(tmp_path):
     assert (docs / "figures" / "force.png").exists() and (docs / "figures" / "mine.png").exists()
     assert "![force](figures/force.png)" in text
     assert "| 5 N | " in text and "| 9.3 | " in text  # a paper number next to ours
+    assert " SE) |" in text  # ours - paper, in standard errors
     assert "5 N is too weak" in text and "Force prose." in text and "Summary prose." in text
     assert "fewer than 40" in text
     assert "add a `## mine` section" in text

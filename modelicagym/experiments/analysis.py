@@ -67,6 +67,12 @@ class SettingSummary:
         return float(np.std(self.repeat_lasts))
 
     @property
+    def last_standard_error(self) -> float:
+        """Standard error of the last-``WINDOW`` mean over repeats (0 with a single repeat)."""
+        n = len(self.repeat_lasts)
+        return float(np.std(self.repeat_lasts, ddof=1) / np.sqrt(n)) if n > 1 else 0.0
+
+    @property
     def last_seconds(self) -> float | None:
         """The last-``WINDOW`` mean in simulated seconds (``None`` without a time step)."""
         return None if self.time_step is None else self.last * self.time_step

@@ -27,7 +27,7 @@ logger = logging.getLogger(__name__)
 MakeEnv = Callable[..., gymnasium.Env]
 
 #: Env steps one setting's search may take (a few seconds at most).
-DEFAULT_BUDGET = 100_000
+DEFAULT_BUDGET = 50_000
 
 
 def _terminates(env: gymnasium.Env, actions: tuple[int, ...], seed: int) -> bool:

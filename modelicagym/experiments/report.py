@@ -77,6 +77,16 @@ def _longest(label: str, bounds: dict[str, int | None]) -> str:
     return "not found" if bounds[label] is None else str(bounds[label])
 
 
+def _difference(s: SettingSummary, paper_last: float | None) -> str:
+    """Ours minus the paper's last-``WINDOW`` mean, also in standard errors of our repeats."""
+    if paper_last is None:
+        return "–"
+    difference = s.last - paper_last
+    if s.last_standard_error == 0:
+        return f"{difference:+.1f}"
+    return f"{difference:+.1f} ({difference / s.last_standard_error:+.1f} SE)"
+
+
 def _setting_rows(name: str, summaries: dict[str, SettingSummary], bounds: dict[str, int | None]) -> list[list[str]]:
     rows = []
     for label, s in summaries.items():
@@ -88,6 +98,7 @@ def _setting_rows(name: str, summaries: dict[str, SettingSummary], bounds: dict[
                 _paper_value(paper.mean if paper else None, paper),
                 f"{s.last:.1f} ± {s.last_std:.1f}",
                 _paper_value(paper.last if paper else None, paper),
+                _difference(s, paper.last if paper else None),
                 "–" if s.last_seconds is None else f"{s.last_seconds:.2f}",
                 _longest(label, bounds),
                 f"{s.first:.1f}",
@@ -157,6 +168,9 @@ def _setup_section(results: dict[str, SweepResult]) -> str:
             "repeat r uses the same seeds in every setting and every sweep.",
             f"- A setting *learns* when the mean length of its last {WINDOW} episodes is at least {LEARNING_RATIO:g} "
             f"times that of its first {WINDOW} (the paper's failing settings stay flat at about 9-10 steps).",
+            "- Tables: *ours* is the mean over repeats ± the standard deviation over repeats; *ours − paper* is "
+            f"the difference of the last-{WINDOW} means, also in standard errors of our repeats (sample standard "
+            "deviation / sqrt(repeats)); the paper gives no spread.",
             "- *Longest possible*: the longest episode over all action sequences, by exhaustive search (the env is "
             "deterministic and starts from a fixed state); *not found* where the search gave up because long "
             "episodes exist. It bounds what any agent can learn.",
@@ -265,6 +279,7 @@ def _sweep_section(
                 "paper",
                 f"last-{WINDOW} mean (ours)",
                 "paper",
+                "ours − paper",
                 f"last-{WINDOW} in simulated s (ours)",
                 "longest possible",
                 f"first-{WINDOW} mean (ours)",
