@@ -39,7 +39,10 @@ DEFAULT_CLOSE_TIMEOUT = 30.0
 
 _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 
+#: ``(env index, info)`` pairs, in env order, to merge into the vector infos
 _Entries = list[tuple[int, dict[str, Any]]]
+#: a command for one worker: its handle, the ``Command`` code and the message that goes with it
+_Command = tuple[WorkerHandle, int, Message | None]
 
 
 def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: int | None) -> list[range]:
@@ -229,7 +232,7 @@ class PoolVectorEnv(VectorEnv):
         ctx = multiprocessing.get_context(self.start_method)
 
         self._state = AsyncState.DEFAULT
-        self._pending: list[tuple[WorkerHandle, Command, Message | None]] = []
+        self._pending: list[_Command] = []
         self._timing = TimingRecorder()
         self._timing_enabled = False
         self._step_started_ns = 0
@@ -311,7 +314,7 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ dispatch and gather
 
-    def _dispatch(self, commands: list[tuple[WorkerHandle, Command, Message | None]], state: AsyncState) -> None:
+    def _dispatch(self, commands: list[_Command], state: AsyncState) -> None:
         """Wake the workers with their commands, then send the messages that go with them.
 
         Waking first means a large message can never fill the pipe while its reader sleeps. A
@@ -466,7 +469,7 @@ class PoolVectorEnv(VectorEnv):
                 entries += message.data
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
 
-    def _retry_reset(self, handle: WorkerHandle, failure: PoolError, command: tuple) -> _Entries:
+    def _retry_reset(self, handle: WorkerHandle, failure: PoolError, command: _Command) -> _Entries:
         """Restart a worker that failed a reset and reset its new envs the same way, once."""
         reason = self._recover(handle, failure)
         _, code, message = command
