@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import doctest
 import multiprocessing
 from functools import partial
 from typing import Any
@@ -14,6 +15,7 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from gymnasium.wrappers.vector import NormalizeObservation, RecordEpisodeStatistics
 from vector_envs import SPACES, CountEnv, FaultyEnv, SpacedEnv, TrivialEnv
 
+import modelicagym.vector.pool
 from modelicagym.vector import PoolVectorEnv, StepTiming, plan_workers
 
 pytestmark = pytest.mark.timeout(120)
@@ -303,3 +305,8 @@ def test_envs_without_fmu_time_count_as_python_time() -> None:
             pool.step(pool.action_space.sample())
         timing = pool.timing()
     assert timing.steps == 5 and timing.fmu_s == 0.0 and timing.env_python_s > 0.0009
+
+
+def test_docstring_example_runs() -> None:
+    results = doctest.testmod(modelicagym.vector.pool, optionflags=doctest.ELLIPSIS)
+    assert results.attempted > 0 and results.failed == 0
