@@ -107,6 +107,11 @@ class FMUInstance:
         self.inputs = ValueBuffer(self.binding, self.input_variables)
         self.outputs = ValueBuffer(self.binding, self.output_variables)
         self._integrator: ModelExchangeIntegrator | None = None
+        # Model exchange sets discrete inputs (any non-float type, or variability "discrete")
+        # in event mode only: continuous-time mode accepts continuous Real inputs alone.
+        self._event_mode_inputs = self.mode == "me" and any(
+            v.variability != "continuous" for v in self.input_variables
+        )
         if self.mode == "me":
             self._integrator = ModelExchangeIntegrator(
                 self.binding,
@@ -169,10 +174,10 @@ class FMUInstance:
         now = self.time
         target = self._origin + (self.steps + 1) * dt
         started = _time.perf_counter_ns()
-        status = self.inputs.write()
-        if status > 1:
-            self._broken_by("set inputs", status)
-        if self._integrator is None:
+        ended = self._in_event_mode(now, self._write_inputs) if self._event_mode_inputs else self._write_inputs()
+        if ended:
+            self.terminated = True
+        elif self._integrator is None:
             status = self._do_step(now, target - now)
             if status:
                 self._step_status(status)
@@ -189,6 +194,22 @@ class FMUInstance:
         if status > 1:
             self._broken_by("get outputs", status)
         return self.terminated
+
+    def _write_inputs(self) -> bool:
+        status = self.inputs.write()
+        if status > 1:
+            self._broken_by("set inputs", status)
+        return False
+
+    def _in_event_mode(self, time: float, apply: Any) -> bool:
+        """Model exchange: run ``apply`` in event mode (discrete inputs and tunable parameters
+        may only be set there) and settle the event iteration; True if the model ended."""
+        assert self._integrator is not None
+        try:
+            return self._integrator.event(time, apply)
+        except FMUError:
+            self.broken = True
+            raise
 
     def read_outputs(self) -> None:
         """Refresh ``self.outputs`` (after a reset, for the first observation)."""

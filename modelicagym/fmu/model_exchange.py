@@ -13,6 +13,7 @@ every ``advance``: a multistep solver must not carry history across an input jum
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 from fmpy.simulation import ForwardEuler
@@ -124,6 +125,18 @@ class ModelExchangeIntegrator:
                     return True
                 self.binding.enter_continuous_time_mode()
                 solver.reset(time)
+        return False
+
+    def event(self, time: float, apply: Callable[[], None]) -> bool:
+        """Enter event mode at ``time``, call ``apply()`` (which sets discrete inputs or tunable
+        parameters: FMI allows those in event mode only), settle the event iteration and return to
+        continuous-time mode. Returns True if the model asked to terminate."""
+        self._set_time(time)
+        self.binding.enter_event_mode()
+        apply()
+        if self._event_iteration():
+            return True
+        self.binding.enter_continuous_time_mode()
         return False
 
     def _event_iteration(self) -> bool:
