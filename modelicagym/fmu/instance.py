@@ -216,8 +216,17 @@ class FMUInstance:
         self.outputs.check(self.outputs.read(), "get outputs")
 
     def set_values(self, values: Mapping[str, Any]) -> None:
-        """Set variables by name now (e.g. a tunable parameter mid-episode)."""
-        self.binding.set_values(dict(values))
+        """Set variables by name now (e.g. a tunable parameter mid-episode).
+
+        In model exchange a running instance takes them in event mode (FMI allows tunable
+        parameters and discrete variables nowhere else), followed by the event iteration.
+        """
+        values = dict(values)
+        if self._integrator is not None and self.initialized and not self.broken:
+            if self._in_event_mode(self.time, lambda: self.binding.set_values(values)):
+                self.terminated = True
+        else:
+            self.binding.set_values(values)
 
     def get_values(self, names: Sequence[str]) -> dict[str, Any]:
         """Read variables by name (slow path, for inspection)."""
