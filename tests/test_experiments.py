@@ -61,6 +61,7 @@ class StandInCartPole(gym.Wrapper):
         positive_reward=1.0,
         negative_reward=-100.0,
         max_episode_steps=None,
+        mode="cs",
     ):
         super().__init__(gym.make("CartPole-v1", max_episode_steps=max_episode_steps))
         u = self.env.unwrapped
@@ -389,15 +390,17 @@ def test_report_from_results(tmp_path):
     assert " SE) |" in text  # ours - paper, in standard errors
     assert "5 N is too weak" in text and "Force prose." in text and "Summary prose." in text
     assert "fewer than 40" in text
-    assert "add a `## mine` section" in text
+    assert "add a `## mine` section" in text and "`max_episode_steps=500`" in text
     assert read_notes(docs / "reproduction-notes.md")["summary"] == "Summary prose."
 
 
 def test_report_flags_a_changed_paper_sweep(tmp_path):
-    changed = replace(PAPER_SWEEPS["force"], repeats=2, episodes=3)
+    paper = PAPER_SWEEPS["force"]
+    changed = replace(paper, repeats=2, episodes=3, base_options={**paper.base_options, "mode": "cs"})
     run_sweeps([changed], tmp_path, make_vec=Recorder(), progress=False, bounds_budget=0)
     text = render_report(tmp_path, tmp_path / "docs").read_text()
     assert "differs from the paper's" in text and "5 N is too weak" not in text
+    assert "`mode='cs'`" in text
 
 
 def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):

@@ -48,11 +48,8 @@ def read_notes(path: Path) -> dict[str, str]:
     """The ``## key`` sections of the notes file (empty if it does not exist)."""
     if not path.exists():
         return {}
-    sections: dict[str, str] = {}
     parts = re.split(r"^## +(\S+) *$", path.read_text(encoding="utf-8"), flags=re.MULTILINE)
-    for key, body in zip(parts[1::2], parts[2::2], strict=True):
-        sections[key] = body.strip()
-    return sections
+    return {key: body.strip() for key, body in zip(parts[1::2], parts[2::2], strict=True)}
 
 
 def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
@@ -65,6 +62,11 @@ def _paper_value(value: float | None, numbers: PaperNumbers | None) -> str:
     if value is None:
         return "–"
     return f"~{value:g}" if numbers and numbers.approximate else f"{value:g}"
+
+
+def _option(value: Any) -> str:
+    numeric = isinstance(value, (int, float)) and not isinstance(value, bool)
+    return f"{value:g}" if numeric else repr(value)
 
 
 def _mark(holds: bool) -> str:
@@ -150,7 +152,7 @@ def _setup_section(results: dict[str, SweepResult]) -> str:
         if spec.intervals
         else "the observation bounds"
     )
-    options = ", ".join(f"`{k}={v:g}`" for k, v in first.config.base_options.items())
+    options = ", ".join(f"`{k}={_option(v)}`" for k, v in first.config.base_options.items())
     packages = ", ".join(f"{k} {v}" for k, v in machine.get("packages", {}).items())
     truncation = "bootstrap" if q.bootstrap_on_truncation else "no bootstrap"
     return "\n".join(
