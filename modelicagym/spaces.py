@@ -42,8 +42,8 @@ def variable_space(v: Variable, dtype: Any = np.float64) -> spaces.Space:
         if v.shape:
             return spaces.MultiDiscrete(np.full(v.shape, n), start=np.full(v.shape, int(low)))
         return spaces.Discrete(n, start=int(low))
-    if v.kind == "integer":
-        return spaces.Box(low, high, shape=v.shape, dtype=np.int64)
+    if v.kind == "integer":  # UInt64 values above 2**63 - 1 need their own dtype
+        return spaces.Box(low, high, shape=v.shape, dtype=np.uint64 if v.fmi_type == "UInt64" else np.int64)
     return spaces.Box(np.float32(low) if dtype == np.float32 else low, high, shape=v.shape, dtype=dtype)
 
 
