@@ -270,7 +270,7 @@ def test_save_load_roundtrip_gives_the_same_greedy_policy(tmp_path):
     config = QLearningConfig(learning_rate=0.3, discount=0.95, bootstrap_on_truncation=False)
     agent = QLearningAgent(Discretizer(CARTPOLE_INTERVALS, [10, 5, 10, 4]), 2, n_envs=2, config=config, seeds=4)
     drive([agent], 50, seed=0)
-    path = tmp_path / "agent.npz"
+    path = tmp_path / "agent"  # written as given, no suffix added
     agent.save(path)
     loaded = QLearningAgent.load(path)
     np.testing.assert_array_equal(loaded.q_table, agent.q_table)

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import modelicagym
+from modelicagym.agents import QLearningAgent
 from modelicagym.experiments import (
     PAPER_SWEEPS,
     ConfigError,
@@ -301,6 +302,10 @@ def test_tiny_sweep_end_to_end(tmp_path):
     assert all(b is None or b >= n for b, n in zip(run["bounds"].values(), lengths.max(axis=(1, 2)), strict=True))
     assert (tmp_path / "tiny" / "episode_lengths.png").stat().st_size > 0
     assert (tmp_path / "episodes.csv").read_text() == (tmp_path / "tiny" / "episodes.csv").read_text()
+
+    agent = QLearningAgent.load(tmp_path / "tiny" / "agent.npz")
+    np.testing.assert_array_equal(agent.q_table, result.agent.q_table)
+    assert agent.q_table.shape == (4, 10**4, 2)
 
     back = read_sweep(tmp_path, "tiny")
     assert back.config == tiny() and back.bounds == run["bounds"]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields
+from typing import BinaryIO
 
 import numpy as np
 
@@ -194,15 +195,19 @@ class QLearningAgent:
         state = self.discretizer.states(observation)
         return int(self.q_table[env_index, state].argmax())
 
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Write Q-tables, epsilons, discretizer and hyperparameters to ``path`` (``.npz``).
+    def save(self, file: str | os.PathLike[str] | BinaryIO) -> None:
+        """Write Q-tables, epsilons, discretizer and hyperparameters to ``file`` (``.npz``; a path,
+        written as given, or a binary file object).
 
         Generator states are not saved: a loaded agent explores with fresh draws.
         """
         arrays = {f"discretizer_{k}": v for k, v in self.discretizer.to_dict().items()}
         arrays.update({f"config_{k}": np.asarray(v) for k, v in asdict(self.config).items()})
-        with open(path, "wb") as f:
-            np.savez(f, q_table=self.q_table, epsilon=self.epsilon, **arrays)
+        if hasattr(file, "write"):
+            np.savez(file, q_table=self.q_table, epsilon=self.epsilon, **arrays)
+            return
+        with open(file, "wb") as f:
+            self.save(f)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str], *, seeds: SeedLike | Sequence[SeedLike] = None) -> QLearningAgent:

@@ -4,6 +4,7 @@ Layout of a results directory::
 
     episodes.csv            all completed sweeps in one tidy table (rewritten after every sweep)
     <name>/episodes.csv     tidy episodes of one sweep: experiment,setting,repeat,episode,length,reward
+    <name>/agent.npz        the trained Q-tables, one per (setting, repeat) in env order (see below)
     <name>/run.json         the sweep's config, timing and machine; written last: marks completion
     <name>/episode_lengths.png   the learning curves (see plots.py)
 
@@ -25,6 +26,7 @@ from typing import IO, Any
 
 import numpy as np
 
+from modelicagym.agents import QLearningAgent
 from modelicagym.experiments.config import SweepConfig
 
 __all__ = [
@@ -45,6 +47,7 @@ logger = logging.getLogger(__name__)
 COLUMNS = ("experiment", "setting", "repeat", "episode", "length", "reward")
 EPISODES_CSV = "episodes.csv"
 RUN_JSON = "run.json"
+AGENT_NPZ = "agent.npz"
 PLOT_PNG = "episode_lengths.png"
 
 
@@ -56,7 +59,9 @@ class SweepResult:
     of repeat ``r`` of setting ``s`` (in config order). ``timing`` holds wall-clock numbers (see
     :mod:`modelicagym.experiments.runner`), ``machine`` where and with what it ran, ``bounds`` the
     longest episode possible per setting label (see :mod:`modelicagym.experiments.bounds`; ``None``:
-    not found by the search).
+    not found by the search), ``agent`` the trained agent (not read back by :func:`read_sweep`; load
+    ``<name>/agent.npz`` with ``QLearningAgent.load``: Q-table ``s * repeats + r`` is repeat ``r`` of
+    setting ``s``).
     """
 
     config: SweepConfig
@@ -65,6 +70,7 @@ class SweepResult:
     timing: dict[str, Any] = field(default_factory=dict)
     machine: dict[str, Any] = field(default_factory=dict)
     bounds: dict[str, int | None] = field(default_factory=dict)
+    agent: QLearningAgent | None = None
 
     def steps_per_setting(self) -> np.ndarray:
         """Env steps learned from, per setting (all repeats)."""
@@ -101,12 +107,16 @@ def _rows(result: SweepResult) -> Iterator[tuple[Any, ...]]:
 
 
 def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
-    """Write ``<name>.csv`` then ``<name>.json`` (the completion marker), each atomically."""
+    """Write the sweep's episodes, its agent (if any) and last ``run.json`` (the completion
+    marker), each atomically."""
     csv_path, json_path = _paths(Path(results_dir), result.config.name)
     with atomic_write(csv_path) as f:
         writer = csv.writer(f)
         writer.writerow(COLUMNS)
         writer.writerows(_rows(result))
+    if result.agent is not None:
+        with atomic_write(csv_path.parent / AGENT_NPZ, "wb") as f:
+            result.agent.save(f)
     document = {
         "experiment": result.config.name,
         "config": result.config.to_dict(),

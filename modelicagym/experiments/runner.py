@@ -213,7 +213,7 @@ def run_sweep(
         wall_seconds,
         1e6 * wall_seconds / env_steps,
     )
-    return SweepResult(config, log.lengths.reshape(shape), log.returns.reshape(shape), timing, _machine())
+    return SweepResult(config, log.lengths.reshape(shape), log.returns.reshape(shape), timing, _machine(), agent=agent)
 
 
 def run_sweeps(
