@@ -39,13 +39,16 @@ def _table(variables: list[Variable]) -> list[str]:
     return ["    " + "  ".join(cell.ljust(w) for cell, w in zip(row, widths)).rstrip() for row in rows]
 
 
+_NOT_IN_SPACES = ("binary", "clock", "string")  # no action or observation space for these
+
+
 def suggested_config(description: FMUDescription) -> dict[str, Any]:
     """A starting `FMUEnv` config: all inputs as actions, all outputs as observations, parameters at their starts."""
     step = description.default_experiment.step_size
     return {
         "fmu": str(description.path),
-        "inputs": [v.name for v in description.inputs],
-        "outputs": [v.name for v in description.outputs],
+        "inputs": [v.name for v in description.inputs if v.kind not in _NOT_IN_SPACES],
+        "outputs": [v.name for v in description.outputs if v.kind not in _NOT_IN_SPACES],
         "parameters": {v.name: v.start for v in description.parameters if v.start is not None and v.kind != "string"},
         "time_step": step if step else 0.1,
         "mode": description.default_mode() if description.modes else None,
