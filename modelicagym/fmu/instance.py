@@ -134,6 +134,7 @@ class FMUInstance:
         self._dt = 0.0
         self._snapshot: Any = None
         self._snapshot_key: tuple | None = None
+        self._snapshot_next_event: float | None = None
         self._fresh: tuple[tuple, np.ndarray] | None = None
         self._verified: set[str] = set()
         self._instantiate()
@@ -284,7 +285,7 @@ class FMUInstance:
             return
         self._after_initialization(values, take_snapshot=False)
         if self._integrator is not None:
-            self._integrator.restart(self.time)
+            self._integrator.restart(self.time, self._snapshot_next_event)
 
     def _reset_and_initialize(self, values: dict[str, Any]) -> None:
         try:
@@ -358,6 +359,7 @@ class FMUInstance:
             try:
                 self._snapshot = self.binding.get_state(self._snapshot)
                 self._snapshot_key = _freeze(values)
+                self._snapshot_next_event = self._integrator.next_event_time if self._integrator else None
             except FMUCallError as error:
                 self._demote(f"failed ({error})")
         self.read_outputs()

@@ -77,8 +77,10 @@ class ModelExchangeIntegrator:
         self._make_solver(time)
         return False
 
-    def restart(self, time: float) -> None:
-        """After the FMU's state was restored from a snapshot taken right after `start`."""
+    def restart(self, time: float, next_event_time: float | None) -> None:
+        """After the FMU's state was restored from a snapshot taken right after `start`;
+        ``next_event_time`` is the one `start` left (the FMU announces it only in event mode)."""
+        self.next_event_time = next_event_time
         self._make_solver(time)
 
     def _make_solver(self, time: float) -> None:
