@@ -89,7 +89,8 @@ def format_info(description: FMUDescription) -> str:
         "parameters (set per episode):",
         *_table(d.parameters),
         "",
-        "a config to start from (Python):",
+        "a config to start from (Python):"
+        + ("" if suggested_config(d)["inputs"] else " (this FMU has no inputs: pick 'inputs' to act on, an env needs one)"),
         "",
         "    from modelicagym import FMUEnv",
         "    env = FMUEnv(" + pprint.pformat(suggested_config(d), sort_dicts=False, width=90).replace("\n", "\n    ") + ")",
