@@ -90,7 +90,7 @@ def format_info(description: FMUDescription) -> str:
         *_table(d.parameters),
         "",
         "a config to start from (Python):"
-        + ("" if suggested_config(d)["inputs"] else " (this FMU has no inputs: pick 'inputs' to act on, an env needs one)"),
+        + ("" if suggested_config(d)["inputs"] else " (note: this FMU has no inputs, and an FMUEnv acts through inputs)"),
         "",
         "    from modelicagym import FMUEnv",
         "    env = FMUEnv(" + pprint.pformat(suggested_config(d), sort_dicts=False, width=90).replace("\n", "\n    ") + ")",
