@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import doctest
 import multiprocessing
+import pickle
 from functools import partial
 from typing import Any
 
@@ -164,6 +165,17 @@ def test_call_get_attr_set_attr() -> None:
         assert pool.call_wait(timeout=5) == (2, 2, 2)
         pool.reset(seed=0)
         pool.step(pool.action_space.sample())
+
+
+def test_unpicklable_arguments_and_results_keep_the_pool_usable() -> None:
+    with PoolVectorEnv(count_fns(2), num_workers=2) as pool:
+        with pytest.raises((AttributeError, TypeError, pickle.PicklingError)):
+            pool.reset(options={"callback": lambda: 0})
+        pool.reset(seed=0)
+        with pytest.raises(TypeError, match="pickle"):
+            pool.call("generator")
+        pool.step(pool.action_space.sample())
+        assert pool.get_attr("max_len") == (4, 7)
 
 
 def test_misuse_raises_the_errors_async_vector_env_raises() -> None:

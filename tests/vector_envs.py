@@ -117,6 +117,9 @@ class CountEnv(gym.Env):
     def fail(self) -> None:
         raise KeyError("requested failure")
 
+    def generator(self) -> Any:
+        return (x for x in range(3))
+
 
 class FaultyEnv(CountEnv):
     """A :class:`CountEnv` that fails on purpose.

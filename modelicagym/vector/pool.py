@@ -8,6 +8,7 @@ import multiprocessing
 import os
 import time
 import weakref
+from multiprocessing.reduction import ForkingPickler
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -317,16 +318,22 @@ class PoolVectorEnv(VectorEnv):
     def _dispatch(self, commands: list[_Command], state: AsyncState) -> None:
         """Wake the workers with their commands, then send the messages that go with them.
 
-        Waking first means a large message can never fill the pipe while its reader sleeps. A
-        worker that died meanwhile makes ``send`` fail; that is reported by :meth:`_gather`.
+        Messages are pickled before anything else happens, so an unpicklable argument raises here
+        with no worker woken. Waking before sending means a large message can never fill the pipe
+        while its reader sleeps. A worker that died meanwhile makes the send fail; that is reported
+        by :meth:`_gather`.
         """
+        payloads: dict[int, bytes] = {}
+        for _, _, message in commands:
+            if message is not None and id(message) not in payloads:
+                payloads[id(message)] = bytes(ForkingPickler.dumps(message))
         command = self._buffers.command
         for handle, code, message in commands:
             command[handle.index] = code
             handle.go.post()
             if message is not None:
                 try:
-                    handle.send(message)
+                    handle.conn.send_bytes(payloads[id(message)])
                 except OSError:
                     logger.debug("worker %d: pipe broken while sending %s", handle.index, message.kind)
         self._pending = commands

@@ -189,7 +189,8 @@ class Worker:
         return self._parent is None or self._parent.is_alive()
 
     def _answer(self, reply: Message | None) -> None:
-        """Post ``done``; then send the reply, pickled first so a pickling error becomes the reply."""
+        """Post ``done``; then send the reply, pickled first so a pickling error becomes the reply
+        (a ``call_error`` for results of ``call``, which leaves the env usable; else an ``error``)."""
         if reply is None:
             self._buffers.reply[self._index] = Reply.NONE
             self._done.post()
@@ -197,7 +198,8 @@ class Worker:
         try:
             data = ForkingPickler.dumps(reply)
         except Exception as exc:
-            data = ForkingPickler.dumps(Message("error", RemoteError.capture(exc, None)))
+            kind = "call_error" if reply.kind == "results" else "error"
+            data = ForkingPickler.dumps(Message(kind, RemoteError.capture(exc, None)))
         self._buffers.reply[self._index] = Reply.MESSAGE
         self._done.post()
         self._conn.send_bytes(data)
