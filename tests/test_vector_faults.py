@@ -185,6 +185,18 @@ def test_call_raising_keeps_the_pool_usable_and_a_crash_in_call_restarts(tmp_pat
         assert pool.call("double", 2) == (4,) * 4
 
 
+@pytest.mark.usefixtures("no_leaks")
+@pytest.mark.parametrize("terminate", [False, True])
+def test_close_with_a_hung_call_pending_gives_up(terminate: bool) -> None:
+    pool = PoolVectorEnv(fns_with_fault("hang"), num_workers=2, step_timeout=0.5)
+    pool.reset(seed=0)
+    pool.step(np.zeros(4, dtype=np.int64))
+    pool.step_async(np.zeros(4, dtype=np.int64))
+    start = time.monotonic()
+    pool.close(terminate=terminate)
+    assert pool.closed and time.monotonic() - start < 3.0
+
+
 def test_close_releases_everything() -> None:
     before = Snapshot.take()
     pool = PoolVectorEnv([CountEnv] * 3, num_workers=3)

@@ -680,15 +680,15 @@ class PoolVectorEnv(VectorEnv):
         """Close the envs in their workers, stop the workers and free the shared memory.
 
         Args:
-            timeout: seconds to wait for a pending call and then for the workers to close their
-                envs and exit; ``None`` waits up to ``DEFAULT_CLOSE_TIMEOUT``. Workers still running
-                after that are terminated.
+            timeout: seconds to wait, in all, for a pending call and then for the workers to close
+                their envs and exit; ``None`` means ``step_timeout``, or ``DEFAULT_CLOSE_TIMEOUT``
+                if that is ``None`` too. Workers still running after that are terminated.
             terminate: terminate the workers at once, without closing the envs.
         """
         if not self._finalizer.alive:
             return
         if timeout is None:
-            timeout = DEFAULT_CLOSE_TIMEOUT
+            timeout = DEFAULT_CLOSE_TIMEOUT if self.step_timeout is None else self.step_timeout
         deadline = time.monotonic() + timeout
         if self._state != AsyncState.DEFAULT and not terminate:
             logger.warning("closing %s while a call to `%s` is pending; waiting for it", self, self._state.value)
