@@ -87,6 +87,15 @@ def test_identical_to_sync_on_cartpole() -> None:
     assert_same(expected, actual)
 
 
+@pytest.mark.parametrize("start_method", ["fork", "forkserver", "spawn"])
+def test_start_methods(start_method: str) -> None:
+    fns = count_fns(3)
+    sync = SyncVectorEnv(fns)
+    with PoolVectorEnv(fns, num_workers=2, start_method=start_method) as pool:
+        assert_same(rollout(sync, 30), rollout(pool, 30))
+    sync.close()
+
+
 @pytest.mark.parametrize(
     "obs, act",
     [(obs, "discrete") for obs in SPACES] + [("box", act) for act in SPACES if act != "box"],
