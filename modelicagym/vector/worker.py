@@ -15,6 +15,7 @@ The worker exits when told to close, or when it notices its parent has died.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import multiprocessing
 import os
@@ -66,7 +67,8 @@ def run_worker(
                 envs.append(fn())
             description = _describe(envs, first_env)
         except Exception as exc:
-            conn.send(Message("error", RemoteError.capture(exc, first_env + len(envs))))
+            failed = first_env + len(envs) if len(envs) < len(env_fns.fn) else None
+            conn.send(Message("error", RemoteError.capture(exc, failed)))
             return
         conn.send(Message("ready", description))
         worker = Worker(worker_index, envs, first_env, conn, go, done, config)
@@ -94,9 +96,7 @@ def _describe(envs: list[gym.Env], first_env: int) -> EnvDescription:
     try:
         ForkingPickler.dumps(description.spec)
     except Exception:
-        description = EnvDescription(
-            description.observation_space, description.action_space, description.metadata, description.render_mode, None
-        )
+        description = dataclasses.replace(description, spec=None)
     return description
 
 
