@@ -35,12 +35,14 @@ TERMINATED = 10
 class FMIBinding:
     """One loaded FMU library and at most one live instance of it.
 
-    Subclasses set ``TYPE_FUNCTIONS``: for every FMI value type, the suffix of its get/set
-    functions and the ctypes type of its values.
+    Subclasses set ``PREFIX``, ``FMPY_CLASSES`` and ``TYPE_FUNCTIONS``: for every FMI value type,
+    the suffix of its get/set functions and the ctypes type of its values.
     """
 
     TYPE_FUNCTIONS: dict[str, tuple[str, Any]] = {}
     PREFIX = ""
+    FMPY_CLASSES: dict[str, type] = {}
+    """fmpy's class for each mode; it loads the library and declares the C signatures."""
 
     def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None):
         self.description = description
@@ -57,7 +59,13 @@ class FMIBinding:
         self.log = FMULog(description.model_name, self.instance_name)
 
     def _load_library(self, library: str) -> Any:
-        raise NotImplementedError
+        return self.FMPY_CLASSES[self.mode](
+            guid=self.description.guid,
+            modelIdentifier=self.description.interface(self.mode).modelIdentifier,
+            unzipDirectory=str(self.description.unzip_dir),
+            instanceName=self.instance_name,
+            libraryPath=library,
+        )
 
     # -- status handling -------------------------------------------------------------------------
 

@@ -6,7 +6,6 @@ import ctypes
 import pathlib
 from collections.abc import Callable
 from functools import partial
-from typing import Any
 
 from fmpy.fmi2 import (
     FMU2Model,
@@ -30,6 +29,7 @@ _FREE = fmi2CallbackFreeMemoryTYPE(free)
 
 class FMI2Binding(FMIBinding):
     PREFIX = "fmi2"
+    FMPY_CLASSES = {"cs": FMU2Slave, "me": FMU2Model}
     TYPE_FUNCTIONS = {
         "Real": ("Real", ctypes.c_double),
         "Integer": ("Integer", ctypes.c_int),
@@ -37,17 +37,6 @@ class FMI2Binding(FMIBinding):
         "Boolean": ("Boolean", ctypes.c_int),
         "String": ("String", ctypes.c_char_p),
     }
-
-    def _load_library(self, library: str) -> Any:
-        cls = FMU2Slave if self.mode == "cs" else FMU2Model
-        interface = self.description.interface(self.mode)
-        return cls(
-            guid=self.description.guid,
-            modelIdentifier=interface.modelIdentifier,
-            unzipDirectory=str(self.description.unzip_dir),
-            instanceName=self.instance_name,
-            libraryPath=library,
-        )
 
     def instantiate(self, logging_on: bool = False) -> None:
         callbacks = fmi2CallbackFunctions()

@@ -5,7 +5,6 @@ from __future__ import annotations
 import ctypes
 from collections.abc import Callable
 from functools import partial
-from typing import Any
 
 from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3IntermediateUpdateCallback
 
@@ -18,31 +17,17 @@ _NO_INTERMEDIATE_UPDATE = fmi3IntermediateUpdateCallback()
 
 class FMI3Binding(FMIBinding):
     PREFIX = "fmi3"
+    FMPY_CLASSES = {"cs": FMU3Slave, "me": FMU3Model}
     TYPE_FUNCTIONS = {
-        "Float64": ("Float64", ctypes.c_double),
-        "Float32": ("Float32", ctypes.c_float),
-        "Int8": ("Int8", ctypes.c_int8),
-        "UInt8": ("UInt8", ctypes.c_uint8),
-        "Int16": ("Int16", ctypes.c_int16),
-        "UInt16": ("UInt16", ctypes.c_uint16),
-        "Int32": ("Int32", ctypes.c_int32),
-        "UInt32": ("UInt32", ctypes.c_uint32),
-        "Int64": ("Int64", ctypes.c_int64),
-        "UInt64": ("UInt64", ctypes.c_uint64),
+        **{name: (name, ctype) for name, ctype in (
+            ("Float64", ctypes.c_double), ("Float32", ctypes.c_float),
+            ("Int8", ctypes.c_int8), ("UInt8", ctypes.c_uint8), ("Int16", ctypes.c_int16),
+            ("UInt16", ctypes.c_uint16), ("Int32", ctypes.c_int32), ("UInt32", ctypes.c_uint32),
+            ("Int64", ctypes.c_int64), ("UInt64", ctypes.c_uint64),
+            ("Boolean", ctypes.c_bool), ("String", ctypes.c_char_p),
+        )},
         "Enumeration": ("Int64", ctypes.c_int64),
-        "Boolean": ("Boolean", ctypes.c_bool),
-        "String": ("String", ctypes.c_char_p),
     }
-
-    def _load_library(self, library: str) -> Any:
-        cls = FMU3Slave if self.mode == "cs" else FMU3Model
-        interface = self.description.interface(self.mode)
-        return cls(
-            guid=self.description.guid,
-            modelIdentifier=interface.modelIdentifier,
-            unzipDirectory=str(self.description.unzip_dir),
-            instanceName=self.instance_name,
-        )
 
     def _value_count_args(self, n_values: int) -> tuple[int, ...]:
         return (n_values,)
