@@ -156,7 +156,8 @@ class FMUInstance:
         self.inputs.fill_start_values()
         if self.broken or not self.initialized:
             self._restart(values, fresh=not self.initialized and not self.broken)
-        elif self.reset_rung == "snapshot" and key == self._snapshot_key:
+            return  # a new instance served this episode: no rung to verify
+        if self.reset_rung == "snapshot" and key == self._snapshot_key:
             self._restore_snapshot(values)
         elif self.reset_rung in ("snapshot", "reset"):
             self._reset_and_initialize(values)
@@ -316,8 +317,7 @@ class FMUInstance:
             self._verified.add(rung)
             return
         self._demote(f"gave different initial outputs than a fresh instance ({actual} instead of {expected})")
-        self._restart(values, fresh=False)
-        self._verify(key, values)
+        self._restart(values, fresh=False)  # the lower rung is verified when it first serves
 
     # -- lifecycle -------------------------------------------------------------------------------
 
