@@ -1,0 +1,133 @@
+"""Bad FMU files and unsupported requests fail early with a clear error, before any FMI call."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from lxml import etree
+
+from fmu_family import fmus  # noqa: F401
+from modelicagym import FMUEnv
+from modelicagym.fmu import (
+    FMUInstance,
+    FMUNotFoundError,
+    InvalidFMUError,
+    PlatformNotSupportedError,
+    UnsupportedFeatureError,
+    open_fmu,
+)
+
+
+def rewrite(source: Path, target: Path, rename=lambda name: name, edit_description=lambda text: text) -> Path:
+    """A copy of the FMU ``source`` with entries renamed (None drops one) and the model description edited."""
+    with zipfile.ZipFile(source) as old, zipfile.ZipFile(target, "w") as new:
+        for item in old.infolist():
+            name = rename(item.filename)
+            if name is None:
+                continue
+            data = old.read(item)
+            if name == "modelDescription.xml":
+                data = edit_description(data.decode()).encode()
+            new.writestr(name, data)
+    return target
+
+
+def test_missing_file(tmp_path):
+    missing = tmp_path / "nowhere" / "Model.fmu"
+    with pytest.raises(FMUNotFoundError, match="FMU not found: .*nowhere/Model.fmu"):
+        open_fmu(missing)
+    with pytest.raises(FileNotFoundError):  # also the builtin kind
+        FMUEnv(fmu=missing, inputs=["u"], outputs=["y"])
+
+
+def test_not_a_zip(tmp_path):
+    path = tmp_path / "Model.fmu"
+    path.write_text("this is not an FMU")
+    with pytest.raises(InvalidFMUError, match="is not an FMU: an FMU is a zip archive"):
+        open_fmu(path)
+
+
+def test_zip_without_model_description(tmp_path, fmus):
+    path = rewrite(fmus["probe2"], tmp_path / "Probe.fmu", rename=lambda n: None if n == "modelDescription.xml" else n)
+    with pytest.raises(InvalidFMUError, match="no modelDescription.xml"):
+        open_fmu(path)
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    with pytest.raises(InvalidFMUError, match="no modelDescription.xml"):
+        open_fmu(folder)
+
+
+def test_unreadable_model_description(tmp_path, fmus):
+    path = rewrite(fmus["probe2"], tmp_path / "Probe.fmu", edit_description=lambda t: t.replace("</ModelVariables>", ""))
+    with pytest.raises(InvalidFMUError, match="cannot read modelDescription.xml"):
+        open_fmu(path)
+
+
+def test_schema_validation_can_be_skipped(tmp_path, fmus):
+    path = rewrite(fmus["probe2"], tmp_path / "Probe.fmu",
+                   edit_description=lambda t: t.replace('modelName="Probe"', 'modelName="Probe" madeUpAttribute="1"'))
+    with pytest.raises(InvalidFMUError, match="pass validate=False"):
+        open_fmu(path)
+    env = FMUEnv(fmu=path, inputs=["force"], outputs=["position"], validate=False)
+    env.reset()
+    observation, *_ = env.step(np.array([2.0]))
+    assert observation[0] == pytest.approx(0.2, abs=1e-12)
+    env.close()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_no_binary_for_this_platform(tmp_path, fmus, version):
+    source = fmus[f"probe{version}"]
+    here = open_fmu(source).platform_dir
+    others = ("darwin64", "win64") if version == 2 else ("aarch64-darwin", "x86_64-windows")
+
+    no_binaries = rewrite(source, tmp_path / "none.fmu", rename=lambda n: None if n.startswith("binaries/") else n)
+    assert open_fmu(no_binaries).platforms == ()
+    with pytest.raises(PlatformNotSupportedError) as raised:
+        FMUEnv(fmu=no_binaries, inputs=["force"], outputs=["position"])
+    message = str(raised.value)
+    assert f"no binary for this platform ({here})" in message
+    assert "It has binaries for: no platform" in message
+    assert "modelicagym build" in message  # the FMU has sources: say how to build one
+
+    moved = tmp_path / "elsewhere.fmu"
+    with zipfile.ZipFile(source) as old, zipfile.ZipFile(moved, "w") as new:
+        for item in old.infolist():
+            data = old.read(item)
+            if item.filename.startswith(f"binaries/{here}/"):
+                for platform in others:
+                    new.writestr(item.filename.replace(here, platform, 1), data)
+            else:
+                new.writestr(item.filename, data)
+    assert open_fmu(moved).platforms == tuple(sorted(others))
+    with pytest.raises(PlatformNotSupportedError, match=f"It has binaries for: {', '.join(sorted(others))}"):
+        FMUInstance(moved)
+
+
+def test_interface_type_the_fmu_lacks(tmp_path, fmus):
+    def drop_model_exchange(text: str) -> str:
+        root = etree.fromstring(text.encode())
+        root.remove(root.find("ModelExchange"))
+        return etree.tostring(root, encoding="unicode")
+
+    path = rewrite(fmus["probe2"], tmp_path / "ProbeCS.fmu", edit_description=drop_model_exchange)
+    assert open_fmu(path).modes == ("cs",)
+    with pytest.raises(UnsupportedFeatureError, match=r"does not support model exchange \(mode='me'\); it supports: co-simulation \('cs'\)"):
+        FMUEnv(fmu=path, inputs=["force"], outputs=["position"], mode="me")
+    env = FMUEnv(fmu=path, inputs=["force"], outputs=["position"])  # co-simulation by default
+    assert env.fmu.mode == "cs"
+    env.close()
+
+
+def test_an_extracted_folder_is_an_fmu_too(tmp_path, fmus):
+    folder = tmp_path / "probe"
+    with zipfile.ZipFile(fmus["probe3"]) as archive:
+        archive.extractall(folder)
+    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["y"])
+    env.reset()
+    observation, *_ = env.step(np.array([0.5, 0.0, -0.5]))
+    np.testing.assert_allclose(observation, [[0.0, 0.0, 0.0], [0.6, 0.1, -0.4]], atol=1e-15)
+    env.close()
