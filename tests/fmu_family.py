@@ -37,7 +37,7 @@ BALL_DIR = FMUS_DIR / "ball"
 PROBE_INPUTS = ("gear", "mode", "enable", "boost", "force")
 PROBE_OUTPUTS = ("position", "clock", "speed", "mode_out", "moving", "steps")
 PROBE3_INPUTS = (*PROBE_INPUTS, "u")
-PROBE3_OUTPUTS = (*PROBE_OUTPUTS, "y", "positive")
+PROBE3_OUTPUTS = (*PROBE_OUTPUTS, "y", "positive", "ticks")
 FAULTS = {"none": 0, "terminate": 1, "error": 2, "crash": 3}
 MODES = {"off": 1, "heat": 2, "cool": 3}
 

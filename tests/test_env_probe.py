@@ -113,8 +113,11 @@ def test_observations_follow_the_model_equations(make_env, version):
         u = np.array([0.5, -1.0, 0.25])
         np.testing.assert_allclose(observation["y"], [3 * u, u + 0.1], rtol=0, atol=1e-15)
         np.testing.assert_array_equal(observation["positive"], [1, 0, 1])
+        assert observation["ticks"] == 10**12 and observation["ticks"].dtype == np.int64
     observation, *_ = env.step(full_action(version, enable=False, force=-2.0))
     assert observation["speed"] == 0 and observation["moving"] == 1 and observation["steps"] == 2
+    if version == 3:
+        assert observation["ticks"] == 2 * 10**12
     assert observation["position"] == pytest.approx((speed + 0.5) * 0.1 - 0.2, abs=1e-12)
 
 
@@ -204,12 +207,13 @@ def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, versi
             np.testing.assert_array_equal(a[name], b[name])
 
 
-def test_segfault_kills_only_the_child_process(fmus):
+@pytest.mark.parametrize("version", [2, 3])
+def test_segfault_kills_only_the_child_process(fmus, version):
     script = textwrap.dedent(
         f"""
         import numpy as np
         from modelicagym import FMUEnv
-        env = FMUEnv(fmu={str(fmus["probe2"])!r}, inputs=["force"], outputs=["steps"],
+        env = FMUEnv(fmu={str(fmus[f"probe{version}"])!r}, inputs=["force"], outputs=["steps"],
                      parameters={{"fault": {FAULTS["crash"]}, "fault_after": 2}})
         env.reset()
         for k in range(5):
@@ -223,7 +227,7 @@ def test_segfault_kills_only_the_child_process(fmus):
     assert result.stdout.split("\n")[:2] == ["step 0 1", "step 1 2"]
     assert "survived" not in result.stdout
     # the parent is fine and can run the same FMU
-    env = FMUEnv(fmu=fmus["probe2"], inputs=["force"], outputs=["steps"])
+    env = FMUEnv(fmu=fmus[f"probe{version}"], inputs=["force"], outputs=["steps"])
     env.reset()
     for k in range(5):
         observation, *_ = env.step(np.array([0.0]))
@@ -269,13 +273,25 @@ def test_fmu_messages_go_to_logging_not_stdout(make_env, version, caplog, capfd)
         env.reset()
         env.step(np.array([0.0]))
         *_, info = env.step(np.array([0.0]))
-    assert info == {"fmu_terminated": True}
-    records = [r for r in caplog.records if r.name == "modelicagym.fmu.Probe"]
-    messages = [r.getMessage() for r in records]
-    assert any("injected fault: the model ends the simulation at t=0.1" in m for m in messages), messages
-    assert all(r.levelno == logging.DEBUG for r in records if "injected fault" in r.getMessage())
+        assert info == {"fmu_terminated": True}
+        env.reset(options={"parameters": {"fault": FAULTS["error"], "fault_after": 0}})
+        *_, info = env.step(np.array([0.0]))
+        assert "injected fault: doStep at t=0 fails" in info["fmu_error"]
+    records = [(r.levelno, r.getMessage()) for r in caplog.records if r.name == "modelicagym.fmu.Probe"]
+    assert (logging.DEBUG, "Probe [logEvents] injected fault: the model ends the simulation at t=0.1") in records
+    assert (logging.ERROR, "Probe [logStatusError] injected fault: doStep at t=0 fails after 0 steps") in records
     out, err = capfd.readouterr()
     assert out == "" and err == ""
+
+
+def test_debug_messages_only_when_logging_is_on(make_env, caplog):
+    env = make_env("probe2", inputs=["force"], outputs=["steps"],
+                   parameters={"fault": FAULTS["terminate"], "fault_after": 0})
+    with caplog.at_level(logging.DEBUG, logger="modelicagym.fmu"):
+        env.reset()
+        *_, info = env.step(np.array([0.0]))
+    assert info == {"fmu_terminated": True}
+    assert [r for r in caplog.records if r.name == "modelicagym.fmu.Probe"] == []
 
 
 # -- bad input --------------------------------------------------------------------------------

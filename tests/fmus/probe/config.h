@@ -7,7 +7,8 @@
  *            u (Float64[3], FMI 3.0 only)
  *   outputs  position (continuous state), clock (= time), speed (Int32, -8..8),
  *            mode_out (Mode), moving (Boolean), steps (Int32, no bounds),
- *            y (Float64[2,3], FMI 3.0 only), positive (Boolean[3], FMI 3.0 only)
+ *            y (Float64[2,3], FMI 3.0 only), positive (Boolean[3], FMI 3.0 only),
+ *            ticks (Int64, FMI 3.0 only)
  *   params   position_0, fault (enumeration Fault), fault_after (fixed),
  *            gain (tunable), limit (calculated: 10 * gain, cannot be set)
  *
@@ -17,6 +18,7 @@
  *   der(position) = speed + gain * force
  *   y[0][j] = gear * u[j],  y[1][j] = u[j] + time,  positive[j] = u[j] > 0
  *   steps     = number of doStep calls in this episode (co-simulation)
+ *   ticks     = steps * 10^12 (beyond the Int32 range)
  *
  * Fault injection (co-simulation): the doStep after `fault_after` completed
  * ones ends the episode (fault = terminate: Discard + terminated), fails with a
@@ -53,6 +55,7 @@ enum {
     VR_STEPS = 16,
     VR_Y = 17,
     VR_POSITIVE = 18,
+    VR_TICKS = 19,
     VR_POSITION_0 = 20,
     VR_FAULT = 21,
     VR_FAULT_AFTER = 22,
@@ -75,6 +78,7 @@ typedef struct {
     bool moving;
     double y[2][3];
     bool positive[3];
+    int64_t ticks;
     /* parameters */
     double position_0, gain, limit;
     int32_t fault, fault_after;

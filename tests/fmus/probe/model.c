@@ -50,6 +50,7 @@ static void calculate_values(ModelInstance *comp) {
     m->mode_out = m->mode;
     m->moving = m->der_position != 0.0;
     m->limit = 10.0 * m->gain;
+    m->ticks = (int64_t)m->steps * INT64_C(1000000000000);
     for (j = 0; j < 3; j++) {
         m->y[0][j] = m->gear * m->u[j];
         m->y[1][j] = m->u[j] + comp->s.time;
@@ -117,6 +118,7 @@ static const VariableInfo variables[] = {
     INT32_VAR(VR_STEPS, steps, VarReadOnly),
     FLOAT64_VAR(VR_Y, y, VarReadOnly),
     BOOLEAN_VAR(VR_POSITIVE, positive, VarReadOnly),
+    INT64_VAR(VR_TICKS, ticks, VarReadOnly),
     FLOAT64_VAR(VR_POSITION_0, position_0, VarFixed),
     ENUM_VAR(VR_FAULT, fault, VarFixed),
     INT32_VAR(VR_FAULT_AFTER, fault_after, VarFixed),
