@@ -238,9 +238,10 @@ def test_segfault_kills_only_the_child_process(fmus, version):
 # -- time -------------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("mode", ["cs", "me"])
 @pytest.mark.parametrize("version", [2, 3])
-def test_nonzero_start_time_without_drift(make_env, version):
-    env = make_env(f"probe{version}_late", inputs=["force"], outputs=["clock", "position"])
+def test_nonzero_start_time_without_drift(make_env, version, mode):
+    env = make_env(f"probe{version}_late", inputs=["force"], outputs=["clock", "position"], mode=mode)
     dt = env.time_step
     assert dt == 0.1
     for episode in range(2):
