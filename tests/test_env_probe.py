@@ -11,7 +11,6 @@ import sys
 import textwrap
 import warnings
 
-import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium import spaces
@@ -19,7 +18,7 @@ from gymnasium.utils.env_checker import check_env
 
 from fmu_family import FAULTS, MODES, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
 from modelicagym import FMUEnv
-from modelicagym.fmu import FMUCallError, FMUError, VariableError
+from modelicagym.fmu import FMUCallError, VariableError
 
 
 @pytest.fixture
