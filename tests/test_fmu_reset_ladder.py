@@ -167,6 +167,20 @@ def test_a_buggy_reset_is_demoted_with_a_warning_and_episodes_stay_right(fmus, v
     env.close()
 
 
+def test_an_inexact_snapshot_is_demoted_to_reset(fmus, caplog):
+    env = FMUEnv(fmu=fmus["probe2_inexact"], inputs=["force"], outputs=["position", "steps"])
+    assert env.fmu.reset_rung == "snapshot"
+    actions = fixed_actions(env, 10, seed=8)
+    with caplog.at_level(logging.WARNING):
+        runs = [episode(env, actions) for _ in range(4)]
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 1 and "reset rung 'snapshot' gave different initial outputs" in warnings[0]
+    assert env.fmu.reset_rung == "reset"
+    for run in runs[1:]:
+        assert identical(run, runs[0])
+    env.close()
+
+
 @pytest.mark.parametrize("version", [2, 3])
 def test_a_buggy_reset_can_be_skipped_by_config(fmus, version, caplog):
     env = FMUEnv(fmu=fmus[f"probe{version}_buggy"], inputs=["force"], outputs=["steps"], reset_rung="reinstantiate")

@@ -29,6 +29,7 @@
  *   ONCE_PER_PROCESS  refuse a second live instance in the process
  *   NO_SNAPSHOTS      refuse getFMUstate (pair with canGetAndSetFMUstate="false")
  *   BUGGY_RESET       fmiReset leaves `steps` un-reset (an exporter bug)
+ *   INEXACT_SNAPSHOTS setFMUstate restores `position` with an error of 1e-9
  */
 #ifndef PROBE_CONFIG_H
 #define PROBE_CONFIG_H
@@ -86,7 +87,7 @@ typedef struct {
 
 /*
  * Test-only interception of framework calls (see hooks.c). The framework has
- * no hooks for instantiation, freeing, reset or getFMUstate, so in the FMI
+ * no hooks for instantiation, freeing, reset or FMU states, so in the FMI
  * adapters' translation units -- the only ones that include an FMI header
  * before this file -- those calls are renamed to probe_* wrappers that hooks.c
  * defines around the real functions.
@@ -96,6 +97,7 @@ typedef struct {
 #define fmu_free probe_free
 #define fmu_reset probe_reset
 #define fmu_get_state probe_get_state
+#define fmu_set_state probe_set_state
 #endif
 
 #endif /* PROBE_CONFIG_H */
