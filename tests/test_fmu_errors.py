@@ -12,6 +12,7 @@ from lxml import etree
 from fmu_family import fmus  # noqa: F401
 from modelicagym import FMUEnv
 from modelicagym.fmu import (
+    FMUError,
     FMUInstance,
     FMUNotFoundError,
     InvalidFMUError,
@@ -131,3 +132,19 @@ def test_an_extracted_folder_is_an_fmu_too(tmp_path, fmus):
     observation, *_ = env.step(np.array([0.5, 0.0, -0.5]))
     np.testing.assert_allclose(observation, [[0.0, 0.0, 0.0], [0.6, 0.1, -0.4]], atol=1e-15)
     env.close()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_instantiation_refused_by_the_fmu_shows_its_reason(tmp_path, fmus, version):
+    """A model description edited without rebuilding the binary: the FMU rejects the guid /
+    instantiation token, and the error carries the FMU's own message."""
+    token = "guid" if version == 2 else "instantiationToken"
+
+    def new_token(text: str) -> str:
+        root = etree.fromstring(text.encode())
+        root.set(token, "{00000000-0000-0000-0000-000000000000}")
+        return etree.tostring(root, encoding="unicode")
+
+    path = rewrite(fmus[f"probe{version}"], tmp_path / "Probe.fmu", edit_description=new_token)
+    with pytest.raises(FMUError, match=r"Instantiate failed: \[Error\] instantiation token .*00000000.* does not match"):
+        FMUEnv(fmu=path, inputs=["force"], outputs=["position"])
