@@ -21,6 +21,7 @@ module: ``from fmu_family import fmus``.
 from __future__ import annotations
 
 import hashlib
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -127,6 +128,20 @@ def build_family() -> dict[str, Path]:
     process races with a concurrent one ("XMLSchemaParseError: Internal error").
     """
     return {name: build(name) for name in FAMILY}
+
+
+def rewrite(source: Path, target: Path, rename=lambda name: name, edit_description=lambda text: text) -> Path:
+    """A copy of the FMU ``source`` with entries renamed (None drops one) and the model description edited."""
+    with zipfile.ZipFile(source) as old, zipfile.ZipFile(target, "w") as new:
+        for item in old.infolist():
+            name = rename(item.filename)
+            if name is None:
+                continue
+            data = old.read(item)
+            if name == "modelDescription.xml":
+                data = edit_description(data.decode()).encode()
+            new.writestr(name, data)
+    return target
 
 
 @pytest.fixture(scope="session")

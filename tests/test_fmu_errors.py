@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 from lxml import etree
 
-from fmu_family import fmus  # noqa: F401
+from fmu_family import fmus, rewrite  # noqa: F401
 from modelicagym import FMUEnv
 from modelicagym.fmu import (
     FMUError,
@@ -20,20 +19,6 @@ from modelicagym.fmu import (
     UnsupportedFeatureError,
     open_fmu,
 )
-
-
-def rewrite(source: Path, target: Path, rename=lambda name: name, edit_description=lambda text: text) -> Path:
-    """A copy of the FMU ``source`` with entries renamed (None drops one) and the model description edited."""
-    with zipfile.ZipFile(source) as old, zipfile.ZipFile(target, "w") as new:
-        for item in old.infolist():
-            name = rename(item.filename)
-            if name is None:
-                continue
-            data = old.read(item)
-            if name == "modelDescription.xml":
-                data = edit_description(data.decode()).encode()
-            new.writestr(name, data)
-    return target
 
 
 def test_missing_file(tmp_path):

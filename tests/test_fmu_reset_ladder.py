@@ -13,7 +13,7 @@ from fmpy import extract
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 
-from fmu_family import FAULTS, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
+from fmu_family import FAULTS, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus, rewrite  # noqa: F401
 from modelicagym import FMUEnv
 from modelicagym.fmu import FMUError, FMUInstance, UnsupportedFeatureError, open_fmu
 
@@ -178,6 +178,25 @@ def test_an_inexact_snapshot_is_demoted_to_reset(fmus, caplog):
     assert env.fmu.reset_rung == "reset"
     for run in runs[1:]:
         assert identical(run, runs[0])
+    env.close()
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_snapshots_declared_but_refused_fall_back_to_reset(fmus, version, tmp_path, caplog):
+    """probe*_late refuses getFMUstate; this copy claims canGetAndSetFMUstate="true" anyway."""
+    attribute = "canGetAndSetFMUstate" if version == 2 else "canGetAndSetFMUState"
+    path = rewrite(fmus[f"probe{version}_late"], tmp_path / "Probe.fmu",
+                   edit_description=lambda t: t.replace(f'{attribute}="false"', f'{attribute}="true"'))
+    env = FMUEnv(fmu=path, inputs=["force"], outputs=["position", "steps"])
+    assert env.fmu.reset_rung == "snapshot"
+    actions = fixed_actions(env, 10, seed=9)
+    with caplog.at_level(logging.WARNING):
+        runs = [episode(env, actions) for _ in range(3)]
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 1, warnings
+    assert "reset rung 'snapshot' failed" in warnings[0] and "getFMUstate is not supported" in warnings[0]
+    assert env.fmu.reset_rung == "reset"
+    assert identical(runs[1], runs[0]) and identical(runs[2], runs[0])
     env.close()
 
 
