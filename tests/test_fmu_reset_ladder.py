@@ -256,9 +256,6 @@ def test_several_instances_of_an_ordinary_fmu_live_side_by_side(fmus):
         env.close()
 
 
-@pytest.mark.xfail(strict=True, reason="known gap: a rung is verified only on an episode whose parameters "
-                   "equal those of a fresh episode, so with per-episode parameters (domain randomisation) "
-                   "a buggy fmiReset is never caught")
 def test_a_buggy_reset_is_caught_when_parameters_change_every_episode(fmus):
     env = FMUEnv(fmu=fmus["probe2_buggy"], inputs=["force"], outputs=["steps"],
                  parameters={"gain": lambda rng: rng.uniform(0.5, 2.0)})

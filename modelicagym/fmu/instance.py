@@ -135,7 +135,7 @@ class FMUInstance:
         self._snapshot: Any = None
         self._snapshot_key: tuple | None = None
         self._snapshot_next_event: float | None = None
-        self._fresh: tuple[tuple, np.ndarray] | None = None
+        self._fresh: tuple[tuple, np.ndarray, dict[str, Any]] | None = None
         self._verified: set[str] = set()
         self._instantiate()
 
@@ -157,13 +157,16 @@ class FMUInstance:
         if self.broken or not self.initialized:
             self._restart(values, fresh=not self.initialized and not self.broken)
             return  # a new instance served this episode: no rung to verify
+        self._verify(self._serve(key, values), key, values)
+
+    def _serve(self, key: tuple, values: dict[str, Any]) -> str:
+        """Start an episode with ``values`` on the current rung; returns the rung that served it."""
         if self.reset_rung == "snapshot" and key == self._snapshot_key:
-            self._restore_snapshot(values)
-        elif self.reset_rung in ("snapshot", "reset"):
-            self._reset_and_initialize(values)
-        else:
-            self._restart(values, fresh=True)
-        self._verify(key, values)
+            return self._restore_snapshot(values)
+        if self.reset_rung in ("snapshot", "reset"):
+            return self._reset_and_initialize(values)
+        self._restart(values, fresh=True)
+        return "reinstantiate"
 
     def step(self, dt: float) -> bool:
         """Write inputs, advance by ``dt``, read outputs. Returns True if the model ended the episode.
@@ -271,31 +274,34 @@ class FMUInstance:
             )
         return requested
 
-    def _demote(self, reason: str) -> None:
-        lower = RUNGS[RUNGS.index(self.reset_rung) + 1]
-        logger.warning("%s: reset rung %r %s; using %r from now on", self.fmu_name, self.reset_rung, reason, lower)
+    def _demote(self, rung: str, reason: str) -> None:
+        """Stop using ``rung`` (and any rung above it): it failed or gave wrong values."""
+        lower = RUNGS[RUNGS.index(rung) + 1]
+        logger.warning("%s: reset rung %r %s; using %r from now on", self.fmu_name, rung, reason, lower)
         self.reset_rung = lower
         self._free_snapshot()
 
-    def _restore_snapshot(self, values: dict[str, Any]) -> None:
+    def _restore_snapshot(self, values: dict[str, Any]) -> str:
         try:
             self.binding.set_state(self._snapshot)
         except FMUCallError as error:
-            self._demote(f"failed ({error})")
+            self._demote("snapshot", f"failed ({error})")
             self._restart(values, fresh=False)
-            return
+            return "reinstantiate"
         self._after_initialization(values, take_snapshot=False)
         if self._integrator is not None:
             self._integrator.restart(self.time, self._snapshot_next_event)
+        return "snapshot"
 
-    def _reset_and_initialize(self, values: dict[str, Any]) -> None:
+    def _reset_and_initialize(self, values: dict[str, Any]) -> str:
         try:
             self.binding.reset()
         except FMUCallError as error:
-            self._demote(f"failed ({error})")
+            self._demote("reset", f"failed ({error})")
             self._restart(values, fresh=False)
-            return
+            return "reinstantiate"
         self._initialize(values)
+        return "reset"
 
     def _restart(self, values: dict[str, Any], fresh: bool) -> None:
         """Re-instantiate (unless this is the first episode) and initialize."""
@@ -305,18 +311,31 @@ class FMUInstance:
             self._instantiate()
         self._initialize(values)
         if fresh:
-            self._fresh = (_freeze(values), self._output_copy())
+            self._fresh = (_freeze(values), self._output_copy(), values)
 
-    def _verify(self, key: tuple, values: dict[str, Any]) -> None:
-        """Compare a rung's first reproduction of a fresh episode with the fresh one."""
-        rung = self.reset_rung
-        if rung == "reinstantiate" or rung in self._verified or self._fresh is None or self._fresh[0] != key:
+    def _verify(self, rung: str, key: tuple, values: dict[str, Any]) -> None:
+        """Check the first episode a rung serves against a reference; demote the rung if it differs.
+
+        A restored snapshot must give the outputs recorded when the snapshot was taken; a reset
+        must give the outputs of a fresh instance. That reference exists only for the values of
+        the first episode, so a reset with other values (domain randomisation) is checked by a
+        detour: reset to the reference's values, compare, then reset to the requested ones.
+        """
+        if rung == "reinstantiate" or rung in self._verified or self._fresh is None:
             return
-        expected, actual = self._fresh[1], self._output_copy()
+        if rung == "snapshot":
+            expected = self._snapshot_outputs
+        elif self._fresh[0] == key:
+            expected = self._fresh[1]
+        else:
+            self._verify(self._reset_and_initialize(self._fresh[2]), self._fresh[0], self._fresh[2])
+            self._serve(key, values)
+            return
+        actual = self._output_copy()
         if np.array_equal(expected, actual, equal_nan=True) and self.time == self.start_time:
             self._verified.add(rung)
             return
-        self._demote(f"gave different initial outputs than a fresh instance ({actual} instead of {expected})")
+        self._demote(rung, f"gave different initial outputs than a fresh instance ({actual} instead of {expected})")
         self._restart(values, fresh=False)  # the lower rung is verified when it first serves
 
     # -- lifecycle -------------------------------------------------------------------------------
@@ -360,8 +379,9 @@ class FMUInstance:
                 self._snapshot = self.binding.get_state(self._snapshot)
                 self._snapshot_key = _freeze(values)
                 self._snapshot_next_event = self._integrator.next_event_time if self._integrator else None
+                self._snapshot_outputs = self._output_copy()
             except FMUCallError as error:
-                self._demote(f"failed ({error})")
+                self._demote("snapshot", f"failed ({error})")
         self.read_outputs()
 
     def _free_snapshot(self) -> None:
