@@ -5,11 +5,10 @@ Two C models (see each folder's ``config.h``), compiled with the framework in
 hash, so only the first session pays for compilation):
 
 ``probe``
-    integer / enumeration / boolean inputs and outputs, FMI 3.0 arrays and Int64, a time-dependent
-    output, fault injection in ``doStep`` (parameters ``fault`` and ``fault_after``). Build-time
+    integer / enumeration / boolean inputs and outputs, FMI 3.0 arrays and Int64, a time-dependent output, fault injection in ``doStep`` (parameters ``fault`` and ``fault_after``). Build-time
     variants reproduce FMUs in the wild: once per process, no state snapshots, a non-zero start
     time, a buggy ``fmiReset``, inexact snapshots. A variant is the same C code with preprocessor
-    definitions plus a model description derived from ``modelDescription_fmi<v>.xml`` by
+    definitions (which switch on lifecycle hooks of the C framework) plus a model description derived from ``modelDescription_fmi<v>.xml`` by
     `derive_description`.
 ``ball``
     a bouncing ball with a state event and a time event, model exchange and co-simulation.
@@ -75,6 +74,7 @@ FAMILY: dict[str, Variant] = {
     "probe3_buggy": _probe(3, "BUGGY_RESET", "NO_SNAPSHOTS", snapshots=False),
     # setFMUstate restores the position with a small error: "auto" starts at "snapshot"
     "probe2_inexact": _probe(2, "INEXACT_SNAPSHOTS"),
+    "probe3_inexact": _probe(3, "INEXACT_SNAPSHOTS"),
     # bouncing ball, model exchange + co-simulation
     "ball2": Variant(BALL_DIR, 2),
     "ball3": Variant(BALL_DIR, 3),

@@ -3,6 +3,11 @@ and spaces the runtime derives from them."""
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+from pathlib import Path
+
+import fmpy
 import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
@@ -10,6 +15,7 @@ from gymnasium import spaces
 
 from fmu_family import FAMILY, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
 from modelicagym.fmu import open_fmu
+from modelicagym.fmu.build import FRAMEWORK_DIR
 from modelicagym.spaces import space_for
 
 
@@ -21,6 +27,24 @@ def test_every_member_is_a_valid_fmu_with_a_binary(fmus, name):
     assert description.modes == ("cs", "me")
     assert description.library_path("cs").is_file()
     assert description.has_sources
+
+
+@pytest.mark.parametrize("name", sorted(n for n, v in FAMILY.items() if v.fmi_version == 2))
+def test_sources_compile_without_warnings(name: str, tmp_path: Path) -> None:
+    """The framework (both adapters) and the model, with the variant's definitions (hooks included)."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        pytest.skip("gcc not available")
+    variant = FAMILY[name]
+    defines = "".join(f"#define {k} {'' if v is None else v}\n" for k, v in variant.defines.items())
+    (tmp_path / "build_config.h").write_text(f'#define FMU_INSTANTIATION_TOKEN "x"\n{defines}')
+    sources = [FRAMEWORK_DIR / f for f in ("fmu_instance.c", "fmu_solver.c", "fmi2Functions.c", "fmi3Functions.c")]
+    result = subprocess.run(
+        [gcc, "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-fsyntax-only", f"-I{tmp_path}",
+         f"-I{FRAMEWORK_DIR}", f"-I{variant.model_dir}", f"-I{Path(fmpy.__file__).parent / 'c-code'}",
+         *map(str, sources), *map(str, sorted(variant.model_dir.glob("*.c")))],
+        capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
 
 
 @pytest.mark.parametrize("name", sorted(FAMILY))

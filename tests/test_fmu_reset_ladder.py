@@ -167,8 +167,9 @@ def test_a_buggy_reset_is_demoted_with_a_warning_and_episodes_stay_right(fmus, v
     env.close()
 
 
-def test_an_inexact_snapshot_is_demoted_to_reset(fmus, caplog):
-    env = FMUEnv(fmu=fmus["probe2_inexact"], inputs=["force"], outputs=["position", "steps"])
+@pytest.mark.parametrize("version", [2, 3])
+def test_an_inexact_snapshot_is_demoted_to_reset(fmus, version, caplog):
+    env = FMUEnv(fmu=fmus[f"probe{version}_inexact"], inputs=["force"], outputs=["position", "steps"])
     assert env.fmu.reset_rung == "snapshot"
     actions = fixed_actions(env, 10, seed=8)
     with caplog.at_level(logging.WARNING):

@@ -120,6 +120,12 @@ static char *copy_string(const char *s) {
     return copy;
 }
 
+/* Free an instance's memory (no hook: also for instances never handed out). */
+static void release(ModelInstance *comp) {
+    free(comp->instance_name);
+    free(comp);
+}
+
 ModelInstance *fmu_instantiate(const char *instance_name, InterfaceType type, const char *token,
                                bool logging_on, LogSink sink, void *log_env,
                                void (*log_callback)(void)) {
@@ -137,24 +143,28 @@ ModelInstance *fmu_instantiate(const char *instance_name, InterfaceType type, co
         comp->log_enabled[i] = logging_on;
     }
     if (!comp->instance_name) {
-        fmu_free(comp);
+        release(comp);
         return NULL;
     }
 #ifdef FMU_INSTANTIATION_TOKEN
     if (!token || strcmp(token, FMU_INSTANTIATION_TOKEN) != 0) {
         fmu_fail(comp, "instantiation token \"%s\" does not match \"%s\"", token ? token : "(null)",
              FMU_INSTANTIATION_TOKEN);
-        fmu_free(comp);
+        release(comp);
         return NULL;
     }
 #else
     (void)token;
 #endif
     if (!definition_is_complete(comp)) {
-        fmu_free(comp);
+        release(comp);
         return NULL;
     }
     reset_state(comp);
+    if (model_definition.on_instantiate && model_definition.on_instantiate(comp) > StatusWarning) {
+        release(comp);
+        return NULL;
+    }
     return comp;
 }
 
@@ -162,8 +172,10 @@ void fmu_free(ModelInstance *comp) {
     if (!comp) {
         return;
     }
-    free(comp->instance_name);
-    free(comp);
+    if (model_definition.on_free) {
+        model_definition.on_free(comp);
+    }
+    release(comp);
 }
 
 Status fmu_set_debug_logging(ModelInstance *comp, bool logging_on, size_t n_categories,
@@ -278,10 +290,15 @@ Status fmu_terminate(ModelInstance *comp) {
 }
 
 Status fmu_reset(ModelInstance *comp) {
+    ModelData before;
     if (!comp) {
         return StatusError;
     }
+    before = comp->s.data;
     reset_state(comp);
+    if (model_definition.on_reset) {
+        model_definition.on_reset(comp, &before);
+    }
     return StatusOK;
 }
 
@@ -452,6 +469,12 @@ Status fmu_get_state(ModelInstance *comp, void **state) {
     if (!comp || !state) {
         return comp ? fmu_fail(comp, "getFMUState: NULL state pointer") : StatusError;
     }
+    if (model_definition.on_get_state) {
+        Status status = model_definition.on_get_state(comp);
+        if (status > StatusWarning) {
+            return status;
+        }
+    }
     if (!*state) {
         *state = malloc(sizeof(InstanceState));
         if (!*state) {
@@ -467,6 +490,10 @@ Status fmu_set_state(ModelInstance *comp, const void *state) {
         return comp ? fmu_fail(comp, "setFMUState: NULL state") : StatusError;
     }
     memcpy(&comp->s, state, sizeof(InstanceState));
+    if (model_definition.on_set_state) {
+        model_definition.on_set_state(comp);
+        comp->s.dirty = true;
+    }
     return StatusOK;
 }
 

@@ -57,6 +57,25 @@
  *   cs_step_size            optional, co-simulation only: the internal fixed
  *                           RK4 step (s); DEFAULT_CS_STEP_SIZE when NULL.
  *
+ * Lifecycle hooks, all optional, called by the core for both FMI versions. A
+ * hook returning a Status fails the FMI call when it returns more than
+ * StatusWarning (log the reason with fmu_log):
+ *   on_instantiate          the instance is complete (start values set,
+ *                           comp->type known). Failing refuses it: the
+ *                           instance is freed without on_free and the
+ *                           importer gets NULL (e.g. a second live instance
+ *                           of a once-per-process FMU).
+ *   on_free                 an instance that on_instantiate accepted is about
+ *                           to be freed.
+ *   on_reset                after fmiReset restored the start values, with
+ *                           a copy of the data from before the reset: what
+ *                           it writes into M(comp) survives the reset.
+ *   on_get_state            before a snapshot (getFMUState) is taken; failing
+ *                           refuses it and leaves the snapshot untouched.
+ *   on_set_state            after a snapshot was restored (setFMUState); may
+ *                           alter ModelData (calculated values are refreshed
+ *                           before the next read).
+ *
  * The co-simulation solver is classical RK4 on a grid anchored at the start
  * of each doStep: ceil(h / cs_step_size) substeps, the last one partial.
  * Time events cut a substep exactly at next_event_time. A state event (an
@@ -215,6 +234,11 @@ typedef struct {
     Status (*event_update)(ModelInstance *comp);
     Status (*before_step)(ModelInstance *comp, double t, double h);
     double (*cs_step_size)(const ModelInstance *comp);
+    Status (*on_instantiate)(ModelInstance *comp);
+    void (*on_free)(ModelInstance *comp);
+    void (*on_reset)(ModelInstance *comp, const ModelData *before);
+    Status (*on_get_state)(ModelInstance *comp);
+    void (*on_set_state)(ModelInstance *comp);
 } ModelDefinition;
 
 extern const ModelDefinition model_definition;

@@ -25,7 +25,7 @@
  * logged message (fault = error) or crashes the process with SIGSEGV
  * (fault = crash).
  *
- * Build-time variants (preprocessor definitions, see hooks.c):
+ * Build-time variants (preprocessor definitions; lifecycle hooks in model.c):
  *   ONCE_PER_PROCESS  refuse a second live instance in the process
  *   NO_SNAPSHOTS      refuse getFMUstate (pair with canGetAndSetFMUstate="false")
  *   BUGGY_RESET       fmiReset leaves `steps` un-reset (an exporter bug)
@@ -84,20 +84,5 @@ typedef struct {
     double position_0, gain, limit;
     int32_t fault, fault_after;
 } ModelData;
-
-/*
- * Test-only interception of framework calls (see hooks.c). The framework has
- * no hooks for instantiation, freeing, reset or FMU states, so in the FMI
- * adapters' translation units -- the only ones that include an FMI header
- * before this file -- those calls are renamed to probe_* wrappers that hooks.c
- * defines around the real functions.
- */
-#if defined(fmi2Functions_h) || defined(fmi3Functions_h)
-#define fmu_instantiate probe_instantiate
-#define fmu_free probe_free
-#define fmu_reset probe_reset
-#define fmu_get_state probe_get_state
-#define fmu_set_state probe_set_state
-#endif
 
 #endif /* PROBE_CONFIG_H */

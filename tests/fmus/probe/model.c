@@ -1,5 +1,6 @@
 /*
- * model.c -- the Probe test FMU (see config.h for its variables and equations).
+ * model.c -- the Probe test FMU (see config.h for its variables, equations and
+ * build-time variants).
  */
 #include <signal.h>
 
@@ -102,6 +103,49 @@ static double cs_step_size(const ModelInstance *comp) {
     return 0.01; /* the dynamics are piecewise linear: RK4 is exact at any step */
 }
 
+/* ------------------------------------------------- build-time variants */
+
+#ifdef ONCE_PER_PROCESS
+static int live_instances = 0;
+
+static Status refuse_a_second_instance(ModelInstance *comp) {
+    if (live_instances > 0) {
+        fmu_log(comp, StatusError, LogStatusError,
+                "this FMU can be instantiated only once per process, and %d instance(s) are alive",
+                live_instances);
+        return StatusError;
+    }
+    live_instances++;
+    return StatusOK;
+}
+
+static void count_a_freed_instance(ModelInstance *comp) {
+    (void)comp;
+    live_instances--;
+}
+#endif
+
+#ifdef BUGGY_RESET
+/* The bug: the step counter survives fmiReset. */
+static void keep_steps(ModelInstance *comp, const ModelData *before) {
+    M(comp)->steps = before->steps;
+}
+#endif
+
+#ifdef NO_SNAPSHOTS
+static Status refuse_snapshots(ModelInstance *comp) {
+    fmu_log(comp, StatusError, LogStatusError, "getFMUstate is not supported by this FMU");
+    return StatusError;
+}
+#endif
+
+#ifdef INEXACT_SNAPSHOTS
+/* The bug: a state that is not restored exactly. */
+static void restore_inexactly(ModelInstance *comp) { M(comp)->position += 1e-9; }
+#endif
+
+/* ------------------------------------------------------ model definition */
+
 static const VariableInfo variables[] = {
     INT32_VAR(VR_GEAR, gear, VarInput),
     ENUM_VAR(VR_MODE, mode, VarInput),
@@ -137,4 +181,17 @@ const ModelDefinition model_definition = {
     .get_derivatives = get_derivatives,
     .before_step = before_step,
     .cs_step_size = cs_step_size,
+#ifdef ONCE_PER_PROCESS
+    .on_instantiate = refuse_a_second_instance,
+    .on_free = count_a_freed_instance,
+#endif
+#ifdef BUGGY_RESET
+    .on_reset = keep_steps,
+#endif
+#ifdef NO_SNAPSHOTS
+    .on_get_state = refuse_snapshots,
+#endif
+#ifdef INEXACT_SNAPSHOTS
+    .on_set_state = restore_inexactly,
+#endif
 };
