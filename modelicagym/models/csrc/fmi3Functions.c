@@ -1,17 +1,13 @@
 /*
  * fmi3Functions.c -- the FMI 3.0 API (co-simulation and model exchange in one
  * binary) as a thin adapter onto the framework core (fmu_instance.h).
- * Supported variable types: Float64, Int32, Int64 (also enumerations), Boolean,
- * scalars and arrays.
+ * Supported variable types: Float32/64, (U)Int8/16/32/64 (Int64 also for
+ * enumerations) and Boolean, scalars and arrays.
  */
 #include "fmi3Functions.h"
 #include "fmu_instance.h"
 
 #define COMP ((ModelInstance *)instance)
-
-typedef char assert_fmi3Int32_is_int32[sizeof(fmi3Int32) == sizeof(int32_t) ? 1 : -1];
-typedef char assert_fmi3Int64_is_int64[sizeof(fmi3Int64) == sizeof(int64_t) ? 1 : -1];
-typedef char assert_fmi3Boolean_is_bool[sizeof(fmi3Boolean) == sizeof(bool) ? 1 : -1];
 
 static void log_to_fmi3(ModelInstance *comp, Status status, const char *category,
                         const char *message) {
@@ -124,45 +120,29 @@ fmi3Status fmi3Reset(fmi3Instance instance) { return (fmi3Status)fmu_reset(COMP)
 
 /* ------------------------------------------------------ get and set */
 
-fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
-    return (fmi3Status)fmu_get(COMP, VarFloat64, valueReferences, nValueReferences, values, nValues);
-}
+/* fmi3Get<Type> and fmi3Set<Type> for a type stored as `ctype` in ModelData. */
+#define GET_SET(Type, var_type, ctype)                                                         \
+    typedef char assert_fmi3##Type##_is_##ctype[sizeof(fmi3##Type) == sizeof(ctype) ? 1 : -1]; \
+    fmi3Status fmi3Get##Type(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, \
+                             fmi3##Type values[], size_t nValues) {                            \
+        return (fmi3Status)fmu_get(COMP, var_type, vr, nvr, values, nValues);                  \
+    }                                                                                          \
+    fmi3Status fmi3Set##Type(fmi3Instance instance, const fmi3ValueReference vr[], size_t nvr, \
+                             const fmi3##Type values[], size_t nValues) {                      \
+        return (fmi3Status)fmu_set(COMP, var_type, vr, nvr, values, nValues);                  \
+    }
 
-fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                        size_t nValueReferences, fmi3Int32 values[], size_t nValues) {
-    return (fmi3Status)fmu_get(COMP, VarInt32, valueReferences, nValueReferences, values, nValues);
-}
-
-fmi3Status fmi3GetInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                        size_t nValueReferences, fmi3Int64 values[], size_t nValues) {
-    return (fmi3Status)fmu_get(COMP, VarInt64, valueReferences, nValueReferences, values, nValues);
-}
-
-fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, fmi3Boolean values[], size_t nValues) {
-    return (fmi3Status)fmu_get(COMP, VarBoolean, valueReferences, nValueReferences, values, nValues);
-}
-
-fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, const fmi3Float64 values[], size_t nValues) {
-    return (fmi3Status)fmu_set(COMP, VarFloat64, valueReferences, nValueReferences, values, nValues);
-}
-
-fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                        size_t nValueReferences, const fmi3Int32 values[], size_t nValues) {
-    return (fmi3Status)fmu_set(COMP, VarInt32, valueReferences, nValueReferences, values, nValues);
-}
-
-fmi3Status fmi3SetInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                        size_t nValueReferences, const fmi3Int64 values[], size_t nValues) {
-    return (fmi3Status)fmu_set(COMP, VarInt64, valueReferences, nValueReferences, values, nValues);
-}
-
-fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                          size_t nValueReferences, const fmi3Boolean values[], size_t nValues) {
-    return (fmi3Status)fmu_set(COMP, VarBoolean, valueReferences, nValueReferences, values, nValues);
-}
+GET_SET(Float64, VarFloat64, double)
+GET_SET(Float32, VarFloat32, float)
+GET_SET(Int8, VarInt8, int8_t)
+GET_SET(UInt8, VarUInt8, uint8_t)
+GET_SET(Int16, VarInt16, int16_t)
+GET_SET(UInt16, VarUInt16, uint16_t)
+GET_SET(Int32, VarInt32, int32_t)
+GET_SET(UInt32, VarUInt32, uint32_t)
+GET_SET(Int64, VarInt64, int64_t)
+GET_SET(UInt64, VarUInt64, uint64_t)
+GET_SET(Boolean, VarBoolean, bool)
 
 /* ---------------------------------------------------------- FMU state */
 
@@ -330,21 +310,10 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
 #define UNSUPPORTED(name, parameters) \
     fmi3Status name parameters { return (fmi3Status)fmu_unsupported(COMP, #name); }
 
-#define GET_SET_UNSUPPORTED(Type, CType)                                                        \
-    UNSUPPORTED(fmi3Get##Type, (fmi3Instance instance, const fmi3ValueReference valueReferences[], \
-                                size_t nValueReferences, CType values[], size_t nValues))      \
-    UNSUPPORTED(fmi3Set##Type, (fmi3Instance instance, const fmi3ValueReference valueReferences[], \
-                                size_t nValueReferences, const CType values[], size_t nValues))
-
-GET_SET_UNSUPPORTED(Float32, fmi3Float32)
-GET_SET_UNSUPPORTED(Int8, fmi3Int8)
-GET_SET_UNSUPPORTED(UInt8, fmi3UInt8)
-GET_SET_UNSUPPORTED(Int16, fmi3Int16)
-GET_SET_UNSUPPORTED(UInt16, fmi3UInt16)
-GET_SET_UNSUPPORTED(UInt32, fmi3UInt32)
-GET_SET_UNSUPPORTED(UInt64, fmi3UInt64)
-GET_SET_UNSUPPORTED(String, fmi3String)
-
+UNSUPPORTED(fmi3GetString, (fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                            size_t nValueReferences, fmi3String values[], size_t nValues))
+UNSUPPORTED(fmi3SetString, (fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                            size_t nValueReferences, const fmi3String values[], size_t nValues))
 UNSUPPORTED(fmi3GetBinary, (fmi3Instance instance, const fmi3ValueReference valueReferences[],
                             size_t nValueReferences, size_t valueSizes[], fmi3Binary values[],
                             size_t nValues))

@@ -304,27 +304,22 @@ Status fmu_reset(ModelInstance *comp) {
 
 /* ------------------------------------------------------- variable access */
 
-static size_t type_size(VarType type) {
-    switch (type) {
-    case VarFloat64: return sizeof(double);
-    case VarInt32: return sizeof(int32_t);
-    case VarInt64: return sizeof(int64_t);
-    case VarBoolean: return sizeof(bool);
-    case VarEnumeration: return sizeof(int32_t);
-    }
-    return 0;
-}
+/* Size and FMI name of each VarType. */
+static const struct {
+    size_t size;
+    const char *name;
+} VAR_TYPES[] = {
+    [VarFloat64] = {sizeof(double), "Float64"},   [VarFloat32] = {sizeof(float), "Float32"},
+    [VarInt8] = {sizeof(int8_t), "Int8"},         [VarUInt8] = {sizeof(uint8_t), "UInt8"},
+    [VarInt16] = {sizeof(int16_t), "Int16"},      [VarUInt16] = {sizeof(uint16_t), "UInt16"},
+    [VarInt32] = {sizeof(int32_t), "Int32"},      [VarUInt32] = {sizeof(uint32_t), "UInt32"},
+    [VarInt64] = {sizeof(int64_t), "Int64"},      [VarUInt64] = {sizeof(uint64_t), "UInt64"},
+    [VarBoolean] = {sizeof(bool), "Boolean"},     [VarEnumeration] = {sizeof(int32_t), "Enumeration"},
+};
 
-static const char *type_name(VarType type) {
-    switch (type) {
-    case VarFloat64: return "Float64";
-    case VarInt32: return "Int32";
-    case VarInt64: return "Int64";
-    case VarBoolean: return "Boolean";
-    case VarEnumeration: return "Enumeration";
-    }
-    return "unknown";
-}
+static size_t type_size(VarType type) { return VAR_TYPES[type].size; }
+
+static const char *type_name(VarType type) { return VAR_TYPES[type].name; }
 
 /* The variable `vr` if it can be accessed as `type`, else NULL. */
 static const VariableInfo *find_variable(ValueReference vr, VarType type) {

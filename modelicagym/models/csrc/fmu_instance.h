@@ -31,8 +31,8 @@ Status fmu_reset(ModelInstance *comp);
 
 /* Typed access; values are the concatenated blocks of the value references
  * (a VR of an array variable maps to `count` contiguous values). `type` is the
- * type of `values`: VarFloat64, VarInt32, VarInt64 or VarBoolean; enumeration
- * variables are accessible as VarInt32 and VarInt64. */
+ * type of `values`, any VarType but VarEnumeration: a variable is accessible
+ * as its own type, and enumeration variables also as VarInt32 and VarInt64. */
 Status fmu_get(ModelInstance *comp, VarType type, const ValueReference vr[], size_t nvr,
                void *values, size_t n_values);
 Status fmu_set(ModelInstance *comp, VarType type, const ValueReference vr[], size_t nvr,

@@ -23,10 +23,12 @@
  *
  * model.c must define `const ModelDefinition model_definition = {...};`:
  *   variables, n_variables  table mapping value references to ModelData
- *                           fields (FLOAT64_VAR, INT32_VAR, INT64_VAR,
- *                           BOOLEAN_VAR, ENUM_VAR below; a field may be a
- *                           fixed-size array: one VR, `count` values). VR 0
- *                           is reserved for `time` (Float64, read-only).
+ *                           fields (FLOAT64_VAR, INT32_VAR, ..., ENUM_VAR
+ *                           below; a field may be a fixed-size array: one
+ *                           VR, `count` values). VR 0 is reserved for `time`
+ *                           (Float64, read-only). FMI 2.0 reaches Float64,
+ *                           Int32, Boolean and enumerations; FMI 3.0 every
+ *                           type of VarType.
  *   set_start_values        required: write every start value into ModelData.
  *   initialize              optional: compute initial states and calculated
  *                           parameters from parameters; validate parameters
@@ -147,9 +149,14 @@ typedef enum {
     ModeError = 1 << 6
 } Mode;
 
-/* Storage types of ModelData fields. Enumerations are stored as int32_t and are
+/* Storage types of ModelData fields: VarFloat32 is a float, VarInt8 an int8_t,
+ * VarUInt64 a uint64_t, and so on. Enumerations are stored as int32_t and are
  * accessed as Integer in FMI 2.0 and as Int64 in FMI 3.0 (the core converts). */
-typedef enum { VarFloat64, VarInt32, VarInt64, VarBoolean, VarEnumeration } VarType;
+typedef enum {
+    VarFloat64, VarFloat32,
+    VarInt8, VarUInt8, VarInt16, VarUInt16, VarInt32, VarUInt32, VarInt64, VarUInt64,
+    VarBoolean, VarEnumeration
+} VarType;
 
 /* Who may set a variable, and when. */
 typedef enum {
@@ -169,16 +176,20 @@ typedef struct {
 
 /* Table entries for a ModelData field (scalar or fixed-size array). */
 #define MODEL_FIELD_COUNT(field, ctype) (sizeof(((ModelData *)0)->field) / sizeof(ctype))
-#define FLOAT64_VAR(vr, field, kind) \
-    { (vr), VarFloat64, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, double) }
-#define INT32_VAR(vr, field, kind) \
-    { (vr), VarInt32, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, int32_t) }
-#define INT64_VAR(vr, field, kind) \
-    { (vr), VarInt64, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, int64_t) }
-#define BOOLEAN_VAR(vr, field, kind) \
-    { (vr), VarBoolean, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, bool) }
-#define ENUM_VAR(vr, field, kind) \
-    { (vr), VarEnumeration, (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, int32_t) }
+#define MODEL_VAR(vr, type, ctype, field, kind) \
+    { (vr), (type), (kind), offsetof(ModelData, field), MODEL_FIELD_COUNT(field, ctype) }
+#define FLOAT64_VAR(vr, field, kind) MODEL_VAR(vr, VarFloat64, double, field, kind)
+#define FLOAT32_VAR(vr, field, kind) MODEL_VAR(vr, VarFloat32, float, field, kind)
+#define INT8_VAR(vr, field, kind) MODEL_VAR(vr, VarInt8, int8_t, field, kind)
+#define UINT8_VAR(vr, field, kind) MODEL_VAR(vr, VarUInt8, uint8_t, field, kind)
+#define INT16_VAR(vr, field, kind) MODEL_VAR(vr, VarInt16, int16_t, field, kind)
+#define UINT16_VAR(vr, field, kind) MODEL_VAR(vr, VarUInt16, uint16_t, field, kind)
+#define INT32_VAR(vr, field, kind) MODEL_VAR(vr, VarInt32, int32_t, field, kind)
+#define UINT32_VAR(vr, field, kind) MODEL_VAR(vr, VarUInt32, uint32_t, field, kind)
+#define INT64_VAR(vr, field, kind) MODEL_VAR(vr, VarInt64, int64_t, field, kind)
+#define UINT64_VAR(vr, field, kind) MODEL_VAR(vr, VarUInt64, uint64_t, field, kind)
+#define BOOLEAN_VAR(vr, field, kind) MODEL_VAR(vr, VarBoolean, bool, field, kind)
+#define ENUM_VAR(vr, field, kind) MODEL_VAR(vr, VarEnumeration, int32_t, field, kind)
 
 /* Event flags, as reported by newDiscreteStates / updateDiscreteStates. */
 typedef struct {
