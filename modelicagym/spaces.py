@@ -62,8 +62,9 @@ def space_for(variables: Sequence[Variable]) -> spaces.Space:
     if scalar and len(kinds) == 1 and len({_float_dtype(v) for v in variables}) == 1:
         kind = kinds.pop()
         if kind == "float":
-            bounds = np.array([v.bounds() for v in variables], dtype=np.float64)
-            return spaces.Box(bounds[:, 0], bounds[:, 1], dtype=_float_dtype(variables[0]))
+            dtype = _float_dtype(variables[0])
+            bounds = np.array([v.bounds() for v in variables], dtype=dtype)
+            return spaces.Box(bounds[:, 0], bounds[:, 1], dtype=dtype)
         if kind == "int":
             bounds = np.array([v.bounds() for v in variables], dtype=np.int64)
             return spaces.MultiDiscrete(bounds[:, 1] - bounds[:, 0] + 1, start=bounds[:, 0])
