@@ -5,7 +5,8 @@ Two C models (see each folder's ``config.h``), compiled with the framework in
 hash, so only the first session pays for compilation):
 
 ``probe``
-    integer / enumeration / boolean inputs and outputs, FMI 3.0 arrays and Int64, a time-dependent output, fault injection in ``doStep`` (parameters ``fault`` and ``fault_after``). Build-time
+    integer / enumeration / boolean inputs and outputs, FMI 3.0 arrays and Float32 / Int8 / UInt16 /
+    (U)Int64 variables, a time-dependent output, fault injection in ``doStep`` (parameters ``fault`` and ``fault_after``). Build-time
     variants reproduce FMUs in the wild: once per process, no state snapshots, a non-zero start
     time, a buggy ``fmiReset``, inexact snapshots. A variant is the same C code with preprocessor
     definitions (which switch on lifecycle hooks of the C framework) plus a model description derived from ``modelDescription_fmi<v>.xml`` by
@@ -36,8 +37,8 @@ BALL_DIR = FMUS_DIR / "ball"
 # Names of the probe's variables, per FMI version.
 PROBE_INPUTS = ("gear", "mode", "enable", "boost", "force")
 PROBE_OUTPUTS = ("position", "clock", "speed", "mode_out", "moving", "steps")
-PROBE3_INPUTS = (*PROBE_INPUTS, "u")
-PROBE3_OUTPUTS = (*PROBE_OUTPUTS, "y", "positive", "ticks")
+PROBE3_INPUTS = (*PROBE_INPUTS, "u", "trim", "tag")
+PROBE3_OUTPUTS = (*PROBE_OUTPUTS, "y", "positive", "ticks", "thrust", "level", "tag_out")
 FAULTS = {"none": 0, "terminate": 1, "error": 2, "crash": 3}
 MODES = {"off": 1, "heat": 2, "cool": 3}
 

@@ -39,10 +39,11 @@ def make_env(fmus):
         env.close()
 
 
-def full_action(version: int, gear=3, mode="cool", enable=True, boost=True, force=0.5, u=(0.5, -1.0, 0.25)):
+def full_action(version: int, gear=3, mode="cool", enable=True, boost=True, force=0.5, u=(0.5, -1.0, 0.25),
+                trim=-7, tag=2**64 - 5):
     action = {"gear": gear, "mode": MODES[mode], "enable": int(enable), "boost": int(boost), "force": np.array(force)}
     if version == 3:
-        action["u"] = np.array(u)
+        action.update(u=np.array(u), trim=trim, tag=tag)
     return action
 
 
@@ -113,6 +114,9 @@ def test_observations_follow_the_model_equations(make_env, version):
         np.testing.assert_allclose(observation["y"], [3 * u, u + 0.1], rtol=0, atol=1e-15)
         np.testing.assert_array_equal(observation["positive"], [1, 0, 1])
         assert observation["ticks"] == 10**12 and observation["ticks"].dtype == np.int64
+        assert observation["thrust"] == 0.5 and observation["thrust"].dtype == np.float32
+        assert observation["level"] == 1000 - 70
+        assert observation["tag_out"] == 2**64 - 5 and observation["tag_out"].dtype == np.uint64
     observation, *_ = env.step(full_action(version, enable=False, force=-2.0))
     assert observation["speed"] == 0 and observation["moving"] == 1 and observation["steps"] == 2
     if version == 3:
@@ -136,6 +140,51 @@ def test_flat_discrete_spaces_move_values_of_different_fmi_types(make_env, versi
     observation, *_ = env.step(np.array([2, MODES["cool"]]))
     np.testing.assert_array_equal(observation, [-2, MODES["cool"]])
     assert env.observation_space.contains(observation)
+
+
+@pytest.mark.parametrize("mode", ["cs", "me"])
+def test_fmi3_value_types_round_trip_through_step(make_env, mode):
+    """Int8 and UInt64 inputs, Float32, UInt16 and UInt64 outputs, exactly: 2**64 - 5 does not survive
+    a float64 on the way, and the model rounds gain * force to Float32."""
+    env = make_env("probe3", inputs=["force", "trim", "tag"], outputs=["thrust", "level", "tag_out"], mode=mode)
+    assert env.action_space["trim"] == spaces.Discrete(201, start=-100)
+    assert env.action_space["tag"] == spaces.Box(0, 2**64 - 1, (), np.uint64)
+    assert env.observation_space["thrust"] == spaces.Box(-np.inf, np.inf, (), np.float32)
+    assert env.observation_space["level"] == spaces.Box(0, 2**16 - 1, (), np.int64)
+    assert env.observation_space["tag_out"] == spaces.Box(0, 2**64 - 1, (), np.uint64)
+    observation, _ = env.reset()
+    assert (observation["thrust"], observation["level"], observation["tag_out"]) == (0.0, 1000, 0)
+    for force, trim, tag in [(0.1, -100, 2**64 - 5), (-3.3, 100, 2**63), (10.0, 0, 0), (-0.7, 55, 2**64 - 1)]:
+        observation, *_ = env.step({"force": np.array(force), "trim": trim, "tag": tag})
+        assert env.observation_space.contains(observation)
+        assert observation["thrust"].dtype == np.float32 and observation["thrust"] == np.float32(force)
+        assert observation["level"] == 1000 + 10 * trim
+        assert observation["tag_out"].dtype == np.uint64 and int(observation["tag_out"]) == tag
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unbounded observation spaces
+        check_env(env, skip_render_check=True)
+
+
+@pytest.mark.parametrize(
+    "inputs, outputs, action, expected",
+    [
+        (["tag"], ["tag_out"], 2**64 - 5, np.uint64(2**64 - 5)),
+        (["trim"], ["level"], -100, np.int64(0)),
+        (["force"], ["thrust"], np.array([0.1]), np.array([0.1], dtype=np.float32)),
+    ],
+    ids=["UInt64", "Int8-UInt16", "Float32"],
+)
+def test_fmi3_value_types_in_flat_spaces(make_env, inputs, outputs, action, expected):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # e.g. gymnasium's warning for float64 bounds of a float32 Box
+        env = make_env("probe3", inputs=inputs, outputs=outputs)
+    assert env.observation_space.dtype == expected.dtype and env.observation_space.shape == expected.shape
+    env.reset()
+    observation, *_ = env.step(action)
+    assert observation.dtype == expected.dtype and observation == expected
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unbounded observation spaces
+        check_env(env, skip_render_check=True)
 
 
 def test_tunable_parameter_mid_episode_and_fixed_one_refused(make_env):

@@ -74,6 +74,11 @@ def test_probe_variables(fmus, version):
         assert d.variable("u").shape == (3,) and d.variable("u").start == [0.0, 0.0, 0.0]
         assert d.variable("y").shape == (2, 3) and d.variable("y").size == 6
         assert d.variable("positive").shape == (3,)
+        trim, tag, thrust, level = (d.variable(n) for n in ("trim", "tag", "thrust", "level"))
+        assert (trim.fmi_type, trim.kind, trim.bounds()) == ("Int8", "integer", (-100, 100))
+        assert (tag.fmi_type, tag.kind, tag.bounds()) == ("UInt64", "integer", (0, 2**64 - 1))
+        assert (thrust.fmi_type, thrust.kind) == ("Float32", "float")
+        assert (level.fmi_type, level.bounds()) == ("UInt16", (0, 2**16 - 1))  # the type's limits
 
 
 @pytest.mark.parametrize("version", [2, 3])
@@ -105,3 +110,12 @@ def test_spaces_of_each_kind(fmus, version):
         assert isinstance(y, spaces.Box) and y.shape == (2, 3) and np.all(np.isinf(y.high))
         assert positive == spaces.MultiBinary([3])
         assert isinstance(space("u", "force"), spaces.Dict)  # an array next to a scalar
+        assert space("trim") == spaces.Discrete(201, start=-100)
+        assert space("trim", "gear") == spaces.MultiDiscrete([201, 5], start=[-100, 0])
+        thrust, tag, level = space("thrust"), space("tag"), space("level")
+        assert isinstance(thrust, spaces.Box) and (thrust.dtype, thrust.shape) == (np.float32, (1,))
+        assert isinstance(tag, spaces.Box) and (tag.dtype, tag.shape) == (np.uint64, ())
+        assert (int(tag.low), int(tag.high)) == (0, 2**64 - 1)
+        assert isinstance(level, spaces.Box) and level.dtype == np.int64  # no declared bounds
+        assert (int(level.low), int(level.high)) == (0, 2**16 - 1)
+        assert isinstance(space("thrust", "position"), spaces.Dict)  # float32 next to float64

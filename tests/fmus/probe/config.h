@@ -4,11 +4,12 @@
  *
  *   inputs   gear (Int32, 0..4), mode (enumeration Mode: off=1, heat=2, cool=3),
  *            enable, boost (Boolean), force (Float64, -10..10),
- *            u (Float64[3], FMI 3.0 only)
+ *            FMI 3.0 only: u (Float64[3]), trim (Int8, -100..100),
+ *            tag (UInt64, no bounds)
  *   outputs  position (continuous state), clock (= time), speed (Int32, -8..8),
  *            mode_out (Mode), moving (Boolean), steps (Int32, no bounds),
- *            y (Float64[2,3], FMI 3.0 only), positive (Boolean[3], FMI 3.0 only),
- *            ticks (Int64, FMI 3.0 only)
+ *            FMI 3.0 only: y (Float64[2,3]), positive (Boolean[3]), ticks (Int64),
+ *            thrust (Float32), level (UInt16, no bounds), tag_out (UInt64)
  *   params   position_0, fault (enumeration Fault), fault_after (fixed),
  *            gain (tunable), limit (calculated: 10 * gain, cannot be set)
  *
@@ -19,6 +20,9 @@
  *   y[0][j] = gear * u[j],  y[1][j] = u[j] + time,  positive[j] = u[j] > 0
  *   steps     = number of doStep calls in this episode (co-simulation)
  *   ticks     = steps * 10^12 (beyond the Int32 range)
+ *   thrust    = gain * force, rounded to Float32
+ *   level     = 1000 + 10 * trim
+ *   tag_out   = tag
  *
  * Fault injection (co-simulation): the doStep after `fault_after` completed
  * ones ends the episode (fault = terminate: Discard + terminated), fails with a
@@ -61,7 +65,12 @@ enum {
     VR_FAULT = 21,
     VR_FAULT_AFTER = 22,
     VR_GAIN = 23,
-    VR_LIMIT = 24
+    VR_LIMIT = 24,
+    VR_TRIM = 25,
+    VR_TAG = 26,
+    VR_THRUST = 27,
+    VR_LEVEL = 28,
+    VR_TAG_OUT = 29
 };
 
 enum { MODE_OFF = 1, MODE_HEAT = 2, MODE_COOL = 3 };
@@ -73,6 +82,8 @@ typedef struct {
     bool enable, boost;
     double force;
     double u[3];
+    int8_t trim;
+    uint64_t tag;
     /* state, derivative and outputs */
     double position, der_position, clock;
     int32_t speed, mode_out, steps;
@@ -80,6 +91,9 @@ typedef struct {
     double y[2][3];
     bool positive[3];
     int64_t ticks;
+    float thrust;
+    uint16_t level;
+    uint64_t tag_out;
     /* parameters */
     double position_0, gain, limit;
     int32_t fault, fault_after;

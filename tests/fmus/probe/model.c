@@ -16,6 +16,8 @@ static void set_start_values(ModelData *m) {
     for (j = 0; j < 3; j++) {
         m->u[j] = 0.0;
     }
+    m->trim = 0;
+    m->tag = 0;
     m->position_0 = 0.0;
     m->gain = 1.0;
     m->fault = FAULT_NONE;
@@ -52,6 +54,9 @@ static void calculate_values(ModelInstance *comp) {
     m->moving = m->der_position != 0.0;
     m->limit = 10.0 * m->gain;
     m->ticks = (int64_t)m->steps * INT64_C(1000000000000);
+    m->thrust = (float)(m->gain * m->force);
+    m->level = (uint16_t)(1000 + 10 * m->trim);
+    m->tag_out = m->tag;
     for (j = 0; j < 3; j++) {
         m->y[0][j] = m->gear * m->u[j];
         m->y[1][j] = m->u[j] + comp->s.time;
@@ -153,6 +158,8 @@ static const VariableInfo variables[] = {
     BOOLEAN_VAR(VR_BOOST, boost, VarInput),
     FLOAT64_VAR(VR_FORCE, force, VarInput),
     FLOAT64_VAR(VR_U, u, VarInput),
+    INT8_VAR(VR_TRIM, trim, VarInput),
+    UINT64_VAR(VR_TAG, tag, VarInput),
     FLOAT64_VAR(VR_POSITION, position, VarReadOnly),
     FLOAT64_VAR(VR_DER_POSITION, der_position, VarReadOnly),
     FLOAT64_VAR(VR_CLOCK, clock, VarReadOnly),
@@ -163,6 +170,9 @@ static const VariableInfo variables[] = {
     FLOAT64_VAR(VR_Y, y, VarReadOnly),
     BOOLEAN_VAR(VR_POSITIVE, positive, VarReadOnly),
     INT64_VAR(VR_TICKS, ticks, VarReadOnly),
+    FLOAT32_VAR(VR_THRUST, thrust, VarReadOnly),
+    UINT16_VAR(VR_LEVEL, level, VarReadOnly),
+    UINT64_VAR(VR_TAG_OUT, tag_out, VarReadOnly),
     FLOAT64_VAR(VR_POSITION_0, position_0, VarFixed),
     ENUM_VAR(VR_FAULT, fault, VarFixed),
     INT32_VAR(VR_FAULT_AFTER, fault_after, VarFixed),
