@@ -104,8 +104,6 @@ class FMUEnv(gym.Env):
         super().reset(seed=seed)
         options = options or {}
         overrides = options.get("parameters") or {}
-        for name in overrides:
-            self.description.settable_variable(name)
         parameters = {**self.config.parameters, **overrides}
         self.episode_parameters = {
             name: value(self.np_random) if callable(value) else value for name, value in parameters.items()

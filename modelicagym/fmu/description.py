@@ -183,15 +183,15 @@ class FMUDescription:
     def _with_causality(self, *causalities: str) -> list[Variable]:
         return [v for v in self.variables.values() if v.causality in causalities]
 
-    @property
+    @cached_property
     def inputs(self) -> list[Variable]:
         return self._with_causality("input")
 
-    @property
+    @cached_property
     def outputs(self) -> list[Variable]:
         return self._with_causality("output")
 
-    @property
+    @cached_property
     def parameters(self) -> list[Variable]:
         return [v for v in self._with_causality("parameter", "structuralParameter") if v.settable]
 

@@ -47,7 +47,8 @@ _BINDINGS: dict[int, type[FMIBinding]] = {2: FMI2Binding, 3: FMI3Binding}
 
 
 def _freeze(values: Mapping[str, Any]) -> tuple:
-    return tuple(sorted((k, np.asarray(v).tobytes()) for k, v in values.items()))
+    """A hashable key of ``values``: episodes with equal keys start from the same state."""
+    return tuple(sorted((k, v if isinstance(v, (int, float, str)) else np.asarray(v).tobytes()) for k, v in values.items()))
 
 
 class FMUInstance:
@@ -137,6 +138,7 @@ class FMUInstance:
         self._snapshot_next_event: float | None = None
         self._fresh: tuple[tuple, np.ndarray, dict[str, Any]] | None = None
         self._verified: set[str] = set()
+        self._settable_names: set[str] = set()
         self._instantiate()
 
     # -- public API ------------------------------------------------------------------------------
@@ -349,8 +351,9 @@ class FMUInstance:
         self.initialized = False
 
     def _check_settable(self, values: Mapping[str, Any]) -> None:
-        for name in values:
+        for name in values.keys() - self._settable_names:
             self.description.settable_variable(name)
+            self._settable_names.add(name)
 
     def _initialize(self, values: dict[str, Any]) -> None:
         variables = self.description.variables
