@@ -163,8 +163,10 @@ class FMUEnv(gym.Env):
         if callable(termination):
             return bool(termination(self, observation))
         if self._bounds:
-            values = self.fmu.outputs.views
-            return any(not (low <= float(values[name]) <= high) for name, low, high in self._bounds)
+            values = self._bounds_source()
+            for index, low, high in self._bounds:
+                if not low <= values[index] <= high:
+                    return True
         return False
 
     def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
@@ -187,13 +189,31 @@ class FMUEnv(gym.Env):
 
     # -- helpers ---------------------------------------------------------------------------------
 
-    def _termination_bounds(self, termination: Any) -> list[tuple[str, float, float]]:
+    def _termination_bounds(self, termination: Any) -> list[tuple[Any, float, float]]:
+        """``(index, low, high)`` per bounded output; indices into `_bounds_source`'s values.
+
+        When all outputs share one FMI type the values are read as one list (fast); otherwise
+        by variable name.
+        """
         if termination is None or callable(termination):
             return []
+        outputs = self.fmu.outputs
+        positions, offset = {}, 0
+        for v in self.fmu.output_variables:
+            positions[v.name] = offset if v.size == 1 else None
+            offset += v.size
+        flat = outputs.flat is not None
+
+        def scalar_outputs() -> dict[str, float]:
+            return {name: float(view) for name, view in outputs.views.items() if view.size == 1}
+
+        self._bounds_source = outputs.flat.tolist if flat else scalar_outputs
         bounds = []
         for name, (low, high) in dict(termination).items():
-            if name not in self.fmu.outputs.views:
+            if name not in positions:
                 self.description.variable(name)
                 raise ValueError(f"{self.description.name}: termination bound on {name!r}, which is not in 'outputs'")
-            bounds.append((name, float(low), float(high)))
+            if positions[name] is None:
+                raise ValueError(f"{self.description.name}: termination bound on {name!r}, an array; use a callable")
+            bounds.append((positions[name] if flat else name, float(low), float(high)))
         return bounds

@@ -190,7 +190,10 @@ def write_values(buffer: ValueBuffer, values: Any) -> None:
         for name, value in values.items():
             buffer.views[name][...] = value
     elif buffer.flat is not None:
-        buffer.flat[:] = np.ravel(values) if np.ndim(values) else values
+        try:
+            buffer.flat[:] = values
+        except ValueError:  # e.g. an array action of shape (1, n) for n inputs
+            buffer.flat[:] = np.ravel(values)
     else:  # one flat action over several FMI types: split it in variable order
         flat, offset = np.ravel(values), 0
         for v in buffer.variables:
