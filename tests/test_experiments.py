@@ -414,6 +414,7 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
     argv = ["reproduce", "--out", str(out), "--sweeps", "force", "--episodes-scale", "0.03", "--no-progress"]
     argv += ["--bounds-budget", "0"]
     assert main([*argv, "--report", "--docs", str(docs)]) == 0
+    assert "5 N is too weak" in capsys.readouterr().out  # the summary printed at the end
     assert completed_sweeps(out) == ["force"] and read_sweep(out, "force").config.episodes == 3
     assert (docs / "reproduction.md").exists()
     assert main(["report", "--results", str(out), "--docs", str(docs)]) == 0

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from modelicagym.experiments.bounds import DEFAULT_BUDGET
 from modelicagym.experiments.config import ConfigError, SweepConfig, load_config
 from modelicagym.experiments.paper import PAPER_SWEEPS
-from modelicagym.experiments.report import render_report
+from modelicagym.experiments.report import console_summary, render_report
 from modelicagym.experiments.runner import run_sweeps
 
 __all__ = ["add_parsers", "main", "select_sweeps"]
@@ -57,6 +57,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         bounds_budget=args.bounds_budget,
     )
+    print(console_summary(args.out, [c.name for c in configs]))
     if args.report:
         render_report(args.out, args.docs)
     return 0

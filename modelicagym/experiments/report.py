@@ -364,3 +364,22 @@ def render_report(
         f.write(document + "\n")
     logger.info("wrote %s", output)
     return output
+
+
+def console_summary(results_dir: str | Path, names: Sequence[str]) -> str:
+    """A plain-text summary of sweeps ``names`` for the terminal: our episode lengths next to the
+    paper's, and whether each of the paper's findings holds (the full comparison is the report)."""
+    rows, checks = [], []
+    for name in names:
+        summaries = summarize(read_sweep(results_dir, name))
+        for label, s in summaries.items():
+            paper = PAPER_NUMBERS.get(name, {}).get(label)
+            rows.append([name, label, f"{s.mean:.1f}", _paper_value(paper.mean if paper else None, paper),
+                         f"{s.last:.1f}", _paper_value(paper.last if paper else None, paper),
+                         "yes" if s.learns else "no"])
+        checks += [f"  [{'yes' if holds else 'NO'}] {name}: {claim}" for claim, holds, _ in _findings(name, summaries)]
+    headers = ["sweep", "setting", "mean length", "paper", f"last-{WINDOW} mean", "paper", "learns"]
+    widths = [max(len(str(r[i])) for r in [headers, *rows]) for i in range(len(headers))]
+    lines = ["  ".join(str(c).ljust(w) for c, w in zip(r, widths)).rstrip() for r in [headers, *rows]]
+    findings = ["", "the paper's findings, checked on these runs:", *checks] if checks else []
+    return "\n".join(lines + findings + ["", f"the full comparison: modelicagym report --results {results_dir}"])
