@@ -22,7 +22,7 @@ from gymnasium.vector.utils import batch_space
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.errors import PoolError
 from modelicagym.vector.handle import DONE, WorkerHandle
-from modelicagym.vector.protocol import Command, EnvDescription, Message, Reply, WorkerConfig
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, EnvDescription, Message, Reply, WorkerConfig
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 
 __all__ = ["PoolVectorEnv", "RESTART_INFO_KEY", "plan_workers"]
@@ -245,6 +245,7 @@ class PoolVectorEnv(VectorEnv):
             for k, indices in enumerate(slices)
         ]
         self._resources.handles = self._handles
+        self._step_commands: list[_Command] = [(handle, Command.STEP, None) for handle in self._handles]
         try:
             self._start(self._handles)
         except BaseException:
@@ -338,6 +339,35 @@ class PoolVectorEnv(VectorEnv):
                     logger.debug("worker %d: pipe broken while sending %s", handle.index, message.kind)
         self._pending = commands
         self._state = state
+
+    def _wait_all_done(self, timeout: float | None) -> bool:
+        """The hot path of ``_gather``: ``True`` if every pending worker posted ``done`` within
+        one spin-then-block wait and none has a reply on its pipe; the batch is then complete.
+
+        Otherwise (``False``) nothing is lost: the workers already seen done are left to
+        :meth:`_gather`, which sees them done at once and handles replies, deaths and timeouts.
+        """
+        block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
+        spin_time, pending = self._spin_time, self._pending
+        try:
+            for k, (handle, _, _) in enumerate(pending):
+                if not handle.done.wait(spin_time, block):
+                    self._requeue(pending, k)
+                    return False
+        except BaseException:
+            self._abort()
+            raise
+        if self._buffers.reply.any():
+            self._requeue(pending, len(pending))
+            return False
+        self._pending = []
+        self._state = AsyncState.DEFAULT
+        return True
+
+    def _requeue(self, pending: list[_Command], done: int) -> None:
+        """Post ``done`` again for the first ``done`` pending workers (their wait was consumed)."""
+        for handle, _, _ in pending[:done]:
+            handle.done.post()
 
     def _gather(self, timeout: float | None, doing: str) -> list[tuple[WorkerHandle, Message | None, PoolError | None]]:
         """Wait for every pending worker; per worker its reply message and/or its failure.
@@ -503,8 +533,14 @@ class PoolVectorEnv(VectorEnv):
         self._assert_idle("step_async")
         if self._timing_enabled:
             self._step_started_ns = time.perf_counter_ns()
-        self._buffers.actions.write_batch(actions)
-        self._dispatch([(handle, Command.STEP, None) for handle in self._handles], AsyncState.WAITING_STEP)
+        buffers = self._buffers
+        buffers.actions.write_batch(actions)
+        # the hot path of ``_dispatch``: no messages, every worker steps
+        buffers.command[:] = Command.STEP
+        for handle in self._handles:
+            handle.go.post()
+        self._pending = self._step_commands
+        self._state = AsyncState.WAITING_STEP
 
     def step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Wait for the step started by :meth:`step_async`; ``timeout`` defaults to ``step_timeout``."""
@@ -513,12 +549,18 @@ class PoolVectorEnv(VectorEnv):
         buffers = self._buffers
         entries: _Entries = []
         restarted = False
-        for handle, message, failure in self._gather(timeout, "step"):
-            if failure is not None:
-                entries += self._restart_after_step(handle, failure)
-                restarted = True
-            elif message is not None:
-                entries += message.data
+        if timeout is None:
+            timeout = self.step_timeout
+        started = None if timeout is None else time.monotonic()
+        if not self._wait_all_done(timeout):
+            if started is not None:
+                timeout = max(timeout - (time.monotonic() - started), 0.0)
+            for handle, message, failure in self._gather(timeout, "step"):
+                if failure is not None:
+                    entries += self._restart_after_step(handle, failure)
+                    restarted = True
+                elif message is not None:
+                    entries += message.data
         if self._timing_enabled and not restarted:
             timing = buffers.timing
             self._timing.add(
