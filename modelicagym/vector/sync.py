@@ -20,11 +20,15 @@ sleeps instead of burning a core.
 
 from __future__ import annotations
 
-import os
-import time
+from os import sched_yield
+from time import perf_counter
 from multiprocessing.context import BaseContext
 
 __all__ = ["Signal"]
+
+
+#: waits that lasted longer than this (seconds) are not predicted: the next wait blocks at once
+NAP_LIMIT = 10e-3
 
 
 class Signal:
@@ -33,11 +37,15 @@ class Signal:
     Posts are never lost: every :meth:`post` is matched by exactly one successful :meth:`wait`, so
     the spin phase cannot race with the blocking phase.
 
-    The spin adapts: a waiter spins only if its previous wait ended within the spin window. When
-    posts come late (an env step of hundreds of microseconds, an agent that thinks between steps)
-    it blocks at once and leaves the core to whoever does the work; one short wait switches
-    spinning back on. Each process adapts to what it waits for (the parent to the workers' step
-    time, a worker to the parent's time between steps).
+    The spin is placed where the post is expected: a waiter predicts that a wait lasts 90% of the
+    shorter of its previous two. If that is longer than the spin window, it first blocks (a timed
+    wait, which a post ends at once) until ``spin_time`` before the predicted post, then polls for up to
+    ``spin_time``, then blocks. So a step of hundreds of microseconds leaves the core to whoever
+    does the work, yet its end is usually caught by polling rather than by a blocking wake-up (tens
+    of microseconds). After a wait longer than :data:`NAP_LIMIT` (an idle pool, an agent that
+    thinks between steps) the next wait blocks at once and burns nothing; one shorter wait
+    switches prediction back on. Each process adapts to what it waits for (the parent to the
+    workers' step time, a worker to the parent's time between steps).
 
     The semaphore is passed to the worker as a process argument; :meth:`close` drops it so that
     (with ``forkserver``/``spawn``, where it is a named POSIX semaphore) its name is unlinked at
@@ -46,42 +54,54 @@ class Signal:
 
     def __init__(self, ctx: BaseContext) -> None:
         self._sem = ctx.Semaphore(0)
-        self._spin = True
+        self._last = self._prev = 0.0
 
     def __getstate__(self) -> dict:
         return {"_sem": self._sem}
 
     def __setstate__(self, state: dict) -> None:
         self._sem = state["_sem"]
-        self._spin = True
+        self._last = self._prev = 0.0
 
     def post(self) -> None:
         """Wake the waiter (or let its next :meth:`wait` return at once)."""
         self._sem.release()
 
     def wait(self, spin_time: float, timeout: float | None) -> bool:
-        """Wait for a post: poll for up to ``spin_time`` seconds (if waits have been short), then
-        block for up to ``timeout``.
+        """Wait for a post: block until ``spin_time`` before the predicted post (if previous waits
+        were that long), poll for up to ``spin_time``, then block for the rest of ``timeout``.
 
         Returns ``True`` if a post was consumed, ``False`` if ``timeout`` expired (``None`` blocks
         until a post arrives).
         """
         sem = self._sem
         if sem.acquire(False):
-            self._spin = True
+            self._prev, self._last = self._last, 0.0
             return True
-        start = time.perf_counter()
-        if self._spin and spin_time > 0.0:
-            end = start + spin_time
-            while True:
-                os.sched_yield()
-                if sem.acquire(False):
+        start = perf_counter()
+        last = self._last
+        if spin_time > 0.0 and last < NAP_LIMIT:
+            nap = 0.9 * min(last, self._prev) - spin_time
+            self._prev = last
+            if nap > 0.0:
+                if timeout is not None and nap > timeout:
+                    nap = timeout
+                if sem.acquire(True, nap):
+                    self._last = perf_counter() - start
                     return True
-                if time.perf_counter() >= end:
+            end = perf_counter() + spin_time
+            while True:
+                sched_yield()
+                if sem.acquire(False):
+                    self._last = perf_counter() - start
+                    return True
+                if perf_counter() >= end:
                     break
+        if timeout is not None:
+            timeout = max(start + timeout - perf_counter(), 0.0)
         if not sem.acquire(True, timeout):
             return False
-        self._spin = time.perf_counter() - start < spin_time
+        self._last = perf_counter() - start
         return True
 
     def close(self) -> None:
