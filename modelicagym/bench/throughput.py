@@ -165,6 +165,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     results = []
+    load_before = os.getloadavg()
     step_costs = {s: _doStep_cost(SETTINGS[s]) for s in args.settings}
     for setting in args.settings:
         for n in args.n:
@@ -172,7 +173,10 @@ def run(args: argparse.Namespace) -> int:
             results.append(measure_setting(setting, n, args.repeats, args.seconds))
     print(report(results))
     costs = ", ".join(f"{s}: {1e6 * c:.1f} us" for s, c in step_costs.items())
-    print(f"\nsingle-env step cost: {costs}; cores: {os.cpu_count()}")
-    data = {"cores": os.cpu_count(), "single_env_step_seconds": step_costs, "results": results}
+    load = {"before": load_before, "after": os.getloadavg()}
+    print(f"\nsingle-env step cost: {costs}; cores: {os.cpu_count()}; load average (1, 5, 15 min) "
+          f"before {load_before[0]:.2f} {load_before[1]:.2f} {load_before[2]:.2f}, after "
+          f"{load['after'][0]:.2f} {load['after'][1]:.2f} {load['after'][2]:.2f}")
+    data = {"cores": os.cpu_count(), "load_average": load, "single_env_step_seconds": step_costs, "results": results}
     print(f"wrote {write_json(args.json, data)}")
     return 0
