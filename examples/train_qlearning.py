@@ -11,7 +11,6 @@ Run: ``python examples/train_qlearning.py --episodes 200 --repeats 5 --out agent
 import argparse
 import time
 
-import numpy as np
 
 import modelicagym
 from modelicagym.agents import CARTPOLE_INTERVALS, Discretizer, QLearningAgent, QLearningConfig, train
