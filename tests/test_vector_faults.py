@@ -230,7 +230,7 @@ def test_keyboard_interrupt_while_waiting_stops_the_pool() -> None:
 def test_workers_ignore_sigint() -> None:
     with PoolVectorEnv([CountEnv] * 2, num_workers=2) as pool:
         pool.reset(seed=0)
-        for pid in (handle.process.pid for handle in pool._handles):
+        for pid in pool.worker_pids:
             os.kill(pid, signal.SIGINT)
         time.sleep(0.2)
         pool.step(np.zeros(2, dtype=np.int64))

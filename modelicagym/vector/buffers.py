@@ -39,6 +39,8 @@ from gymnasium.vector.utils import (
     write_to_shared_memory,
 )
 
+from modelicagym.errors import ArgumentError
+
 __all__ = ["BufferSpec", "SharedBatch", "SharedBuffers"]
 
 _ALIGNMENT = 64
@@ -71,7 +73,7 @@ def _assign(batch: Any, values: Any) -> None:
     if isinstance(batch, np.ndarray):
         array = np.asarray(values)
         if array.shape != batch.shape:
-            raise ValueError(f"expected a batch of shape {batch.shape}, got {array.shape}")
+            raise ArgumentError(f"expected a batch of shape {batch.shape}, got {array.shape}")
         batch[...] = array
     elif isinstance(batch, dict):
         for key, sub in batch.items():

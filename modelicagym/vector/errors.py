@@ -1,9 +1,11 @@
 """Exceptions raised by the pool, and the picklable record of an exception raised in a worker.
 
-Misuse of the pool raises Gymnasium's own errors (``AlreadyPendingCallError``, ``NoAsyncCallError``,
-``ClosedEnvironmentError``), exactly like :class:`gymnasium.vector.AsyncVectorEnv`. Failures of the
-environments or of their worker processes raise a :class:`PoolError` that names the env index, and
-the worker's exit code / signal or the original traceback.
+Every class here is a :class:`~modelicagym.errors.ModelicaGymError`. Misuse of the pool raises
+subclasses of Gymnasium's own errors (``AlreadyPendingCallError``, ``NoAsyncCallError``,
+``ClosedEnvironmentError``), so code written for :class:`gymnasium.vector.AsyncVectorEnv` catches
+them as before. Failures of the environments or of their worker processes raise a
+:class:`PoolError` that names the env index, and the worker's exit code / signal or the original
+traceback.
 """
 
 from __future__ import annotations
@@ -14,11 +16,19 @@ import signal
 import traceback
 from dataclasses import dataclass
 
+from gymnasium.error import AlreadyPendingCallError, ClosedEnvironmentError, NoAsyncCallError
+
+from modelicagym.errors import ModelicaGymError
+
 __all__ = [
     "EnvError",
+    "PendingCallError",
+    "NoPendingCallError",
+    "PoolClosedError",
     "PoolError",
     "RemoteError",
     "RemoteTraceback",
+    "SpaceMismatchError",
     "WorkerDiedError",
     "WorkerTimeoutError",
 ]
@@ -35,7 +45,23 @@ class RemoteTraceback(Exception):
         return self.text
 
 
-class PoolError(RuntimeError):
+class PendingCallError(ModelicaGymError, AlreadyPendingCallError):
+    """A call was made while another one (e.g. ``step_async``) is still waiting to be collected."""
+
+
+class NoPendingCallError(ModelicaGymError, NoAsyncCallError):
+    """A ``*_wait`` was called without the ``*_async`` call it collects."""
+
+
+class PoolClosedError(ModelicaGymError, ClosedEnvironmentError):
+    """The pool was used after ``close()`` (or after a failure that stopped it)."""
+
+
+class SpaceMismatchError(ModelicaGymError, RuntimeError):
+    """The envs of one pool do not all have the same observation and action spaces."""
+
+
+class PoolError(ModelicaGymError, RuntimeError):
     """A sub-environment or its worker process failed.
 
     Attributes:

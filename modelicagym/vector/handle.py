@@ -13,16 +13,13 @@ import gymnasium as gym
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Message, WorkerConfig
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Message, WaitStatus, WorkerConfig
 from modelicagym.vector.sync import Signal
 from modelicagym.vector.worker import run_worker
 
-__all__ = ["DIED", "DONE", "TIMED_OUT", "WorkerHandle"]
+__all__ = ["WorkerHandle"]
 
 logger = logging.getLogger(__name__)
-
-#: outcomes of :meth:`WorkerHandle.wait_done`
-DONE, DIED, TIMED_OUT = "done", "died", "timed out"
 
 #: seconds a worker gets to exit after SIGTERM before it is sent SIGKILL
 _TERMINATE_GRACE = 1.0
@@ -105,25 +102,25 @@ class WorkerHandle:
             raise self.timeout_error(env_index, doing, timeout)
         raise self.died_error(env_index, doing)
 
-    def wait_done(self, spin_time: float, deadline: float | None) -> str:
-        """Wait until the worker posts ``done``: returns ``DONE``, ``DIED`` or ``TIMED_OUT``.
+    def wait_done(self, spin_time: float, deadline: float | None) -> WaitStatus:
+        """Wait until the worker posts ``done``; how the wait ended.
 
         Spins for up to ``spin_time`` first, then blocks in slices of ``LIVENESS_INTERVAL`` to
         check that the process lives; ``deadline`` is a ``time.monotonic()`` value or ``None``.
         """
         if self.done.wait(spin_time, _slice(deadline)):
-            return DONE
+            return WaitStatus.DONE
         while True:
             if not self.process.is_alive():
-                return DONE if self.done.wait(0.0, 0.0) else DIED
+                return WaitStatus.DONE if self.done.wait(0.0, 0.0) else WaitStatus.DIED
             if deadline is not None and time.monotonic() >= deadline:
-                return TIMED_OUT
+                return WaitStatus.TIMED_OUT
             if self.done.wait(0.0, _slice(deadline)):
-                return DONE
+                return WaitStatus.DONE
 
-    def failure(self, status: str, env_index: int | None, doing: str) -> PoolError:
+    def failure(self, status: WaitStatus, env_index: int | None, doing: str) -> PoolError:
         """The error for a :meth:`wait_done` status other than ``DONE``."""
-        if status == DIED:
+        if status is WaitStatus.DIED:
             return self.died_error(env_index, doing)
         return self.timeout_error(env_index, doing, None)
 

@@ -1,36 +1,52 @@
-"""``PoolVectorEnv``: a multi-process vector env, a drop-in for ``gymnasium.vector.AsyncVectorEnv``."""
+"""``PoolVectorEnv``: a multi-process vector env, a drop-in for ``gymnasium.vector.AsyncVectorEnv``.
+
+This module is the public API only. The path of one ``step``, and where each part lives:
+
+1. ``PoolVectorEnv.step_async`` (here) writes the batch of actions into shared memory
+   (:mod:`~modelicagym.vector.buffers`) and the :class:`~modelicagym.vector.dispatch.Dispatcher`
+   sets each worker's command slot to ``STEP`` and posts its ``go`` signal
+   (:mod:`~modelicagym.vector.sync`: spin briefly, then sleep).
+2. Each worker process (:mod:`~modelicagym.vector.worker`) wakes, steps its contiguous slice of
+   envs (``env.step``, with the autoreset of the pool's mode), writes observations, rewards and
+   flags straight into its rows of shared memory, and posts ``done``; only non-empty infos or an
+   error follow as a pickled message on its pipe (:mod:`~modelicagym.vector.protocol`).
+3. ``step_wait`` (here) has the dispatcher wait for every ``done``; a worker that died, hung or
+   raised is handled by :mod:`~modelicagym.vector.recovery` (restart it, or stop the pool); the
+   batch is copied out of shared memory and returned with the merged infos.
+
+Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.workers`
+(one :mod:`~modelicagym.vector.handle` per process); the layout of envs over workers is
+:mod:`~modelicagym.vector.plan`; where step time goes is :mod:`~modelicagym.vector.timing`.
+"""
 
 from __future__ import annotations
 
 import logging
-import math
 import multiprocessing
-import os
 import time
-import weakref
-from multiprocessing.reduction import ForkingPickler
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.error import AlreadyPendingCallError, ClosedEnvironmentError, NoAsyncCallError
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_space
 
-from modelicagym.vector.buffers import BufferSpec, SharedBuffers
-from modelicagym.vector.errors import PoolError
-from modelicagym.vector.handle import DONE, WorkerHandle
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, EnvDescription, Message, Reply, WorkerConfig
+from modelicagym.errors import ArgumentError
+from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.dispatch import Dispatcher
+from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError
+from modelicagym.vector.plan import default_start_method, plan_workers
+from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.protocol import Outcome, WorkerConfig
+from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
 from modelicagym.vector.timing import StepTiming, TimingRecorder
+from modelicagym.vector.workers import WorkerSet
 
-__all__ = ["PoolVectorEnv", "RESTART_INFO_KEY", "plan_workers"]
+__all__ = ["PoolVectorEnv", "RESTART_INFO_KEY"]
 
 logger = logging.getLogger(__name__)
-
-#: info key set (to the reason, a string) on envs truncated because their worker was restarted
-RESTART_INFO_KEY = "pool_restart"
 
 #: seconds a waiting party spins before it blocks (see ``modelicagym.vector.sync``)
 DEFAULT_SPIN_TIME = 100e-6
@@ -39,74 +55,6 @@ DEFAULT_SPIN_TIME = 100e-6
 DEFAULT_CLOSE_TIMEOUT = 30.0
 
 _RESERVED_CALLS = frozenset({"reset", "step", "close"})
-
-#: ``(env index, info)`` pairs, in env order, to merge into the vector infos
-_Entries = list[tuple[int, dict[str, Any]]]
-#: a command for one worker: its handle, the ``Command`` code and the message that goes with it
-_Command = tuple[WorkerHandle, int, Message | None]
-
-
-def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: int | None) -> list[range]:
-    """Split ``num_envs`` envs into contiguous slices, one per worker.
-
-    ``num_workers`` defaults to the number of usable cores, never more than ``num_envs``; with
-    ``max_envs_per_worker`` the number of workers grows to ``ceil(num_envs / max_envs_per_worker)``
-    if needed (an explicit ``num_workers`` that is too small for it is an error). The first
-    ``num_envs % workers`` slices hold one env more than the others.
-    """
-    if num_envs < 1:
-        raise ValueError(f"a pool needs at least one env, got {num_envs}")
-    if max_envs_per_worker is not None and max_envs_per_worker < 1:
-        raise ValueError(f"max_envs_per_worker must be >= 1, got {max_envs_per_worker}")
-    needed = 1 if max_envs_per_worker is None else math.ceil(num_envs / max_envs_per_worker)
-    if num_workers is None:
-        workers = max(min(_usable_cores(), num_envs), needed)
-    else:
-        if num_workers < 1:
-            raise ValueError(f"num_workers must be >= 1, got {num_workers}")
-        if num_workers < needed:
-            raise ValueError(
-                f"num_workers={num_workers} cannot hold {num_envs} envs with at most "
-                f"{max_envs_per_worker} env(s) per worker; use at least {needed} workers"
-            )
-        workers = min(num_workers, num_envs)
-    base, extra = divmod(num_envs, workers)
-    slices, start = [], 0
-    for k in range(workers):
-        stop = start + base + (k < extra)
-        slices.append(range(start, stop))
-        start = stop
-    return slices
-
-
-def _usable_cores() -> int:
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
-
-
-def default_start_method() -> str:
-    """``forkserver`` where available, else ``spawn`` (see :class:`PoolVectorEnv`)."""
-    return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-
-
-class _Resources:
-    """What must be released when the pool goes away, however it goes (close, error, GC, exit).
-
-    Kept apart from the pool so that a ``weakref.finalize`` can release it without keeping the
-    pool alive.
-    """
-
-    def __init__(self) -> None:
-        self.handles: list[WorkerHandle] = []
-        self.fd: int | None = None
-
-    def release(self) -> None:
-        for handle in self.handles:
-            handle.release()
-        if self.fd is not None:
-            os.close(self.fd)
-            self.fd = None
 
 
 class PoolVectorEnv(VectorEnv):
@@ -138,24 +86,15 @@ class PoolVectorEnv(VectorEnv):
     - ``DISABLED``: nothing is reset automatically; reset ended envs with
       ``reset(options={"reset_mask": mask})``.
 
-    When a worker is restarted (``restart_dead_workers=True``), each of its envs is recreated and
-    reports ``truncated=True``, ``terminated=False``, reward 0 for that step, with the reason in
-    ``infos["pool_restart"]``. Then, as for any truncation: in ``NEXT_STEP`` the next step resets
-    it (the observation returned with the truncation is its last one from before the failure); in
-    ``SAME_STEP`` it is reset at once (``final_obs`` is that last observation); in ``DISABLED`` you
-    reset it. A failure that is not recovered stops the whole pool (all workers, all shared
-    memory) before the error is raised; further calls raise ``ClosedEnvironmentError``.
+    With ``restart_dead_workers=True`` a failed worker is restarted and its envs report a
+    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.recovery`
+    says exactly what each mode returns); otherwise a failure stops the whole pool (all workers, all
+    shared memory) before the error is raised, and further calls raise ``ClosedEnvironmentError``.
 
-    Start method: ``forkserver`` by default on Linux (``spawn`` where it is missing). Workers are
-    forked from a small, single-threaded server process rather than from the caller, because the
-    caller typically runs threads (PyTorch/BLAS pools, loggers) that make ``fork`` unsafe, and
-    workers are restarted mid-run when such threads certainly exist; workers also inherit nothing
-    else from the caller (no FMU libraries it may have loaded, no other pools' pipes). The cost is
-    paid once per worker start (about 0.2 s on the target machine, small next to creating an FMU
-    env) and env fns must be picklable by ``cloudpickle`` (lambdas and closures are). As with
-    every non-fork start method, a script must guard its entry point with
-    ``if __name__ == "__main__":``. ``start_method="fork"`` starts fastest and suits tests and
-    thread-free callers.
+    The default start method is ``forkserver`` (see
+    :func:`~modelicagym.vector.plan.default_start_method` for why): a script must guard its entry
+    point with ``if __name__ == "__main__":``, and env fns must be picklable by ``cloudpickle``
+    (lambdas and closures are).
 
     Example:
         >>> import gymnasium as gym
@@ -217,232 +156,45 @@ class PoolVectorEnv(VectorEnv):
         """
         self.env_fns = list(env_fns)
         self.num_envs = len(self.env_fns)
-        self.autoreset_mode = (
-            autoreset_mode if isinstance(autoreset_mode, AutoresetMode) else AutoresetMode(autoreset_mode)
-        )
+        self.autoreset_mode = AutoresetMode(autoreset_mode)
         self.step_timeout = step_timeout
         self.restart_dead_workers = restart_dead_workers
         self.startup_timeout = startup_timeout
         self.copy = copy
-        self._spin_time = spin_time
         caps = [max_envs_per_worker] + [getattr(fn, "max_envs_per_process", None) for fn in self.env_fns]
         caps = [cap for cap in caps if cap is not None]
         slices = plan_workers(self.num_envs, num_workers, min(caps) if caps else None)
         self.num_workers = len(slices)
         self.start_method = start_method or default_start_method()
-        ctx = multiprocessing.get_context(self.start_method)
-
         self._state = AsyncState.DEFAULT
-        self._pending: list[_Command] = []
         self._timing = TimingRecorder()
         self._timing_enabled = False
         self._step_started_ns = 0
-        self._resources = _Resources()
-        self._finalizer = weakref.finalize(self, self._resources.release)
-        config = WorkerConfig(self.autoreset_mode, spin_time)
-        self._handles = [
-            WorkerHandle(k, indices, self.env_fns[indices.start : indices.stop], ctx, config)
-            for k, indices in enumerate(slices)
-        ]
-        self._resources.handles = self._handles
-        self._step_commands: list[_Command] = [(handle, Command.STEP, None) for handle in self._handles]
+        self._workers = WorkerSet(
+            self.env_fns,
+            slices,
+            multiprocessing.get_context(self.start_method),
+            WorkerConfig(self.autoreset_mode, spin_time),
+            startup_timeout,
+        )
         try:
-            self._start(self._handles)
+            first = self._workers.start()
         except BaseException:
-            self._finalizer()
             self.closed = True
             raise
-        self.set_timing(measure_timing)
-
-    # ------------------------------------------------------------------ start and restart
-
-    def _start(self, handles: list[WorkerHandle]) -> None:
-        """Start workers, learn the spaces from worker 0, create shared memory and hand it out."""
-        for handle in handles:
-            handle.start()
-        deadline = None if self.startup_timeout is None else time.monotonic() + self.startup_timeout
-        descriptions = [self._await_ready(handle, deadline) for handle in handles]
-        first = descriptions[0]
-        self.metadata = dict(first.metadata)
-        self.metadata["autoreset_mode"] = self.autoreset_mode
+        self.metadata = {**first.metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = first.render_mode
         self.spec = first.spec
         self.single_observation_space = first.observation_space
         self.single_action_space = first.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        for handle, description in zip(handles, descriptions, strict=True):
-            self._check_spaces(handle, description)
-        spec = BufferSpec(self.single_observation_space, self.single_action_space, self.num_envs, self.num_workers)
-        self._buffers, self._resources.fd = SharedBuffers.create(spec)
-        for handle in handles:
-            self._hand_out_buffers(handle, deadline, needs_reset=False)
-
-    def _await_ready(self, handle: WorkerHandle, deadline: float | None) -> EnvDescription:
-        message = handle.receive(deadline, None, "creation")
-        if message.kind == "error":
-            raise message.data.to_env_error(handle.index, "env creation")
-        return message.data
-
-    def _check_spaces(self, handle: WorkerHandle, description: EnvDescription) -> None:
-        if description.observation_space != self.single_observation_space:
-            raise RuntimeError(
-                f"envs {handle.describe_envs()} have observation space {description.observation_space}, "
-                f"env 0 has {self.single_observation_space}: all envs must have the same spaces"
-            )
-        if description.action_space != self.single_action_space:
-            raise RuntimeError(
-                f"envs {handle.describe_envs()} have action space {description.action_space}, "
-                f"env 0 has {self.single_action_space}: all envs must have the same spaces"
-            )
-
-    def _hand_out_buffers(self, handle: WorkerHandle, deadline: float | None, needs_reset: bool) -> None:
-        handle.send(Message("buffers", (self._buffers.spec, needs_reset)))
-        handle.send_fd(self._resources.fd)
-        message = handle.receive(deadline, None, "start-up")
-        if message.kind == "error":
-            raise message.data.to_env_error(handle.index, "start-up")
-
-    def _restart(self, handle: WorkerHandle, failure: PoolError) -> str:
-        """Replace a failed worker by a fresh one with fresh envs; returns the reason, for infos."""
-        reason = str(failure)
-        logger.warning("restarting worker %d: %s", handle.index, reason)
-        handle.release()
-        handle.start()
-        deadline = None if self.startup_timeout is None else time.monotonic() + self.startup_timeout
-        self._check_spaces(handle, self._await_ready(handle, deadline))
-        self._hand_out_buffers(handle, deadline, needs_reset=self.autoreset_mode is AutoresetMode.NEXT_STEP)
-        return reason
-
-    # ------------------------------------------------------------------ dispatch and gather
-
-    def _dispatch(self, commands: list[_Command], state: AsyncState) -> None:
-        """Wake the workers with their commands, then send the messages that go with them.
-
-        Messages are pickled before anything else happens, so an unpicklable argument raises here
-        with no worker woken. Waking before sending means a large message can never fill the pipe
-        while its reader sleeps. A worker that died meanwhile makes the send fail; that is reported
-        by :meth:`_gather`.
-        """
-        payloads: dict[int, bytes] = {}
-        for _, _, message in commands:
-            if message is not None and id(message) not in payloads:
-                payloads[id(message)] = bytes(ForkingPickler.dumps(message))
-        command = self._buffers.command
-        for handle, code, message in commands:
-            command[handle.index] = code
-            handle.go.post()
-            if message is not None:
-                try:
-                    handle.conn.send_bytes(payloads[id(message)])
-                except OSError:
-                    logger.debug("worker %d: pipe broken while sending %s", handle.index, message.kind)
-        self._pending = commands
-        self._state = state
-
-    def _wait_all_done(self, timeout: float | None) -> bool:
-        """The hot path of ``_gather``: ``True`` if every pending worker posted ``done`` within
-        one spin-then-block wait and none has a reply on its pipe; the batch is then complete.
-
-        Otherwise (``False``) nothing is lost: the workers already seen done are left to
-        :meth:`_gather`, which sees them done at once and handles replies, deaths and timeouts.
-        """
-        block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
-        spin_time, pending = self._spin_time, self._pending
-        try:
-            for k, (handle, _, _) in enumerate(pending):
-                if not handle.done.wait(spin_time, block):
-                    self._requeue(pending, k)
-                    return False
-        except BaseException:
-            self._abort()
-            raise
-        if self._buffers.reply.any():
-            self._requeue(pending, len(pending))
-            return False
-        self._pending = []
-        self._state = AsyncState.DEFAULT
-        return True
-
-    def _requeue(self, pending: list[_Command], done: int) -> None:
-        """Post ``done`` again for the first ``done`` pending workers (their wait was consumed)."""
-        for handle, _, _ in pending[:done]:
-            handle.done.post()
-
-    def _gather(self, timeout: float | None, doing: str) -> list[tuple[WorkerHandle, Message | None, PoolError | None]]:
-        """Wait for every pending worker; per worker its reply message and/or its failure.
-
-        On any other exception (e.g. ``KeyboardInterrupt``) while waiting, the pool is stopped
-        before the exception propagates: a half-finished batch cannot be resumed.
-        """
-        if timeout is None:
-            timeout = self.step_timeout
-        deadline = None if timeout is None else time.monotonic() + timeout
-        pending, self._pending = self._pending, []
-        self._state = AsyncState.DEFAULT
-        current_env, reply = self._buffers.current_env, self._buffers.reply
-        results = []
-        try:
-            for handle, _, _ in pending:
-                status = handle.wait_done(self._spin_time, deadline)
-                failure = None if status == DONE else handle.failure(status, int(current_env[handle.index]), doing)
-                message = None
-                if failure is None and reply[handle.index] == Reply.MESSAGE:
-                    try:
-                        message = handle.receive(deadline, int(current_env[handle.index]), doing)
-                    except PoolError as error:
-                        failure = error
-                if message is not None and message.kind == "error":
-                    failure = message.data.to_env_error(handle.index, doing)
-                results.append((handle, message, failure))
-        except BaseException:
-            self._abort()
-            raise
-        return results
-
-    def _recover(self, handle: WorkerHandle, failure: PoolError) -> str:
-        """Restart ``handle`` if allowed, else stop the pool and raise ``failure``."""
-        if not self.restart_dead_workers:
-            self._abort()
-            raise failure
-        try:
-            return self._restart(handle, failure)
-        except BaseException:
-            self._abort()
-            raise
-
-    def _abort(self) -> None:
-        """Stop every worker and free everything, without waiting for the envs to close.
-
-        The parent's mapping of the shared memory goes with the last reference to it: at once,
-        unless the caller still holds observations returned with ``copy=False``.
-        """
-        self._pending = []
-        self._state = AsyncState.DEFAULT
-        self._finalizer()
-        self._buffers = None
-        self.closed = True
-
-    def _assert_is_running(self) -> None:
-        if self.closed:
-            raise ClosedEnvironmentError(f"Trying to operate on `{type(self).__name__}`, after a call to `close()`.")
-
-    def _assert_idle(self, call: str) -> None:
-        if self._state != AsyncState.DEFAULT:
-            raise AlreadyPendingCallError(
-                f"Calling `{call}` while waiting for a pending call to `{self._state.value}` to complete.",
-                str(self._state.value),
-            )
-
-    def _assert_waiting(self, state: AsyncState, call: str, prior: str) -> None:
-        if self._state != state:
-            raise NoAsyncCallError(f"Calling `{call}` without any prior call to `{prior}`.", state.value)
-
-    def _merge_infos(self, entries: _Entries) -> dict[str, Any]:
-        infos: dict[str, Any] = {}
-        for index, info in entries:
-            infos = self._add_info(infos, info, index)
-        return infos
+        self._buffers: SharedBuffers = self._workers.buffers
+        self._dispatcher = Dispatcher(self._workers.handles, self._buffers, spin_time, step_timeout)
+        self._recovery = Recovery(
+            self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
+        )
+        self.set_timing(measure_timing)
 
     # ------------------------------------------------------------------ reset
 
@@ -465,59 +217,27 @@ class PoolVectorEnv(VectorEnv):
     def reset_async(self, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Start resetting; collect the result with :meth:`reset_wait`."""
         self._assert_is_running()
-        if seed is None:
-            seed = [None] * self.num_envs
-        elif isinstance(seed, int):
-            seed = [seed + i for i in range(self.num_envs)]
-        if len(seed) != self.num_envs:
-            raise ValueError(
-                f"If seeds are passed as a list the length must match num_envs={self.num_envs} but got length={len(seed)}."
-            )
+        seeds = seeds_per_env(seed, self.num_envs)
         self._assert_idle("reset_async")
         mask = np.ones(self.num_envs, dtype=np.bool_)
         if options is not None and "reset_mask" in options:
             options = dict(options)
-            mask = _check_reset_mask(options.pop("reset_mask"), self.num_envs)
-        self._buffers.reset_mask[:] = mask
-        fast = all(s is None for s in seed) and not options
-        code = Command.RESET if options is None else Command.RESET_EMPTY_OPTIONS
-        commands = []
-        for handle in self._handles:
-            indices = handle.env_indices
-            if not mask[indices.start : indices.stop].any():
-                continue
-            if fast:
-                commands.append((handle, code, None))
-            else:
-                message = Message("reset", (seed[indices.start : indices.stop], options))
-                commands.append((handle, Command.MESSAGE, message))
-        self._dispatch(commands, AsyncState.WAITING_RESET)
+            mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
+        self._dispatcher.reset(seeds, options, mask)
+        self._state = AsyncState.WAITING_RESET
 
     def reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_RESET, "reset_wait", "reset_async")
-        commands = self._pending
-        entries: _Entries = []
+        commands = self._dispatcher.pending
+        entries: Entries = []
         for (handle, message, failure), command in zip(self._gather(timeout, "reset"), commands, strict=True):
             if failure is not None:
-                entries += self._retry_reset(handle, failure, command)
+                entries += self._recovery.after_reset(handle, failure, command)
             elif message is not None:
                 entries += message.data
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
-
-    def _retry_reset(self, handle: WorkerHandle, failure: PoolError, command: _Command) -> _Entries:
-        """Restart a worker that failed a reset and reset its new envs the same way, once."""
-        reason = self._recover(handle, failure)
-        _, code, message = command
-        self._dispatch([(handle, code, message)], AsyncState.WAITING_RESET)
-        [(_, reply, second)] = self._gather(None, "reset")
-        if second is not None:
-            self._abort()
-            raise second from failure
-        entries = dict(reply.data) if reply is not None else {}
-        mask = self._buffers.reset_mask
-        return [(i, {**entries.get(i, {}), RESTART_INFO_KEY: reason}) for i in handle.env_indices if mask[i]]
 
     # ------------------------------------------------------------------ step
 
@@ -533,13 +253,8 @@ class PoolVectorEnv(VectorEnv):
         self._assert_idle("step_async")
         if self._timing_enabled:
             self._step_started_ns = time.perf_counter_ns()
-        buffers = self._buffers
-        buffers.actions.write_batch(actions)
-        # the hot path of ``_dispatch``: no messages, every worker steps
-        buffers.command[:] = Command.STEP
-        for handle in self._handles:
-            handle.go.post()
-        self._pending = self._step_commands
+        self._buffers.actions.write_batch(actions)
+        self._dispatcher.step_all()
         self._state = AsyncState.WAITING_STEP
 
     def step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -547,17 +262,24 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
         buffers = self._buffers
-        entries: _Entries = []
+        entries: Entries = []
         restarted = False
         if timeout is None:
             timeout = self.step_timeout
         started = None if timeout is None else time.monotonic()
-        if not self._wait_all_done(timeout):
+        try:
+            complete = self._dispatcher.all_done(timeout)
+        except BaseException:
+            self._abort()
+            raise
+        if complete:
+            self._state = AsyncState.DEFAULT
+        else:
             if started is not None:
                 timeout = max(timeout - (time.monotonic() - started), 0.0)
             for handle, message, failure in self._gather(timeout, "step"):
                 if failure is not None:
-                    entries += self._restart_after_step(handle, failure)
+                    entries += self._recovery.after_step(handle, failure)
                     restarted = True
                 elif message is not None:
                     entries += message.data
@@ -576,37 +298,6 @@ class PoolVectorEnv(VectorEnv):
             self._merge_infos(entries),
         )
 
-    def _restart_after_step(self, handle: WorkerHandle, failure: PoolError) -> _Entries:
-        """Restart a worker that failed a step; its envs report a truncation (class docstring)."""
-        buffers = self._buffers
-        indices = handle.env_indices
-        last_observations = [buffers.observations.read(i) for i in indices]
-        reason = self._recover(handle, failure)
-        buffers.rewards[indices.start : indices.stop] = 0.0
-        buffers.terminations[indices.start : indices.stop] = False
-        buffers.truncations[indices.start : indices.stop] = True
-        if self.autoreset_mode is not AutoresetMode.SAME_STEP:
-            return [(i, {RESTART_INFO_KEY: reason}) for i in indices]
-        buffers.reset_mask[indices.start : indices.stop] = True
-        self._dispatch([(handle, Command.RESET, None)], AsyncState.WAITING_STEP)
-        [(_, reply, second)] = self._gather(None, "reset after restart")
-        if second is not None:
-            self._abort()
-            raise second from failure
-        reset_infos = dict(reply.data) if reply is not None else {}
-        return [
-            (
-                i,
-                {
-                    "final_obs": last,
-                    "final_info": {RESTART_INFO_KEY: reason},
-                    **reset_infos.get(i, {}),
-                    RESTART_INFO_KEY: reason,
-                },
-            )
-            for i, last in zip(indices, last_observations, strict=True)
-        ]
-
     # ------------------------------------------------------------------ call, attributes, render
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
@@ -619,9 +310,9 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         self._assert_idle("call_async")
         if name in _RESERVED_CALLS:
-            raise ValueError(f"Trying to call function `{name}` with `call`, use `{name}` directly instead.")
-        message = Message("call", (name, args, kwargs))
-        self._dispatch([(handle, Command.MESSAGE, message) for handle in self._handles], AsyncState.WAITING_CALL)
+            raise ArgumentError(f"Trying to call function `{name}` with `call`, use `{name}` directly instead.")
+        self._dispatcher.call(name, args, kwargs)
+        self._state = AsyncState.WAITING_CALL
 
     def call_wait(self, timeout: float | None = None) -> tuple[Any, ...]:
         """Wait for :meth:`call_async`; ``timeout`` defaults to ``step_timeout``."""
@@ -637,21 +328,10 @@ class PoolVectorEnv(VectorEnv):
         """Set attribute ``name`` of every env: a list/tuple gives one value per env, anything
         else is set on all of them."""
         self._assert_is_running()
-        if not isinstance(values, (list, tuple)):
-            values = [values] * self.num_envs
-        if len(values) != self.num_envs:
-            raise ValueError(
-                "Values must be a list or tuple with length equal to the number of environments. "
-                f"Got `{len(values)}` values for {self.num_envs} environments."
-            )
+        values = values_per_env(values, self.num_envs)
         self._assert_idle("set_attr")
-        self._dispatch(
-            [
-                (h, Command.MESSAGE, Message("set_attr", (name, list(values[h.env_indices.start : h.env_indices.stop]))))
-                for h in self._handles
-            ],
-            AsyncState.WAITING_CALL,
-        )
+        self._dispatcher.set_attr(name, values)
+        self._state = AsyncState.WAITING_CALL
         self._collect_calls(None, "set_attr")
 
     def render(self) -> tuple[Any, ...] | None:
@@ -659,28 +339,12 @@ class PoolVectorEnv(VectorEnv):
         return self.call("render")
 
     def _collect_calls(self, timeout: float | None, doing: str) -> list[Any]:
-        """Results of a pending call/set_attr, in env order; raises the first env's exception.
-
-        A worker that died or hung is restarted (if allowed) so the pool stays usable, and the
-        failure is raised either way: the call has no result for its envs.
-        """
-        results: list[Any] = []
-        call_errors = []
-        for handle, message, failure in self._gather(timeout, doing):
+        """Results of a pending call/set_attr, in env order; raises the first env's exception."""
+        outcomes = self._gather(timeout, doing)
+        for handle, _, failure in outcomes:
             if failure is not None:
-                self._recover(handle, failure)
-                raise failure
-            if message is None:
-                continue
-            if message.kind == "call_error":
-                call_errors.append((handle.index, message.data))
-            elif message.kind == "results":
-                results += message.data
-        if call_errors:
-            worker_index, remote = call_errors[0]
-            original = remote.original()
-            raise original if original is not None else remote.to_env_error(worker_index, doing)
-        return results
+                self._recovery.after_call(handle, failure)
+        return self._dispatcher.call_results(outcomes, doing)
 
     @property
     def np_random_seed(self) -> tuple[int, ...]:
@@ -691,6 +355,11 @@ class PoolVectorEnv(VectorEnv):
     def np_random(self) -> tuple[np.random.Generator, ...]:
         """The ``np_random`` generator of every env."""
         return self.get_attr("np_random")
+
+    @property
+    def worker_pids(self) -> tuple[int, ...]:
+        """The process ids of the workers, in worker order (a restarted worker has a new one)."""
+        return tuple(handle.process.pid for handle in self._workers.handles)
 
     # ------------------------------------------------------------------ timing
 
@@ -727,23 +396,17 @@ class PoolVectorEnv(VectorEnv):
                 if that is ``None`` too. Workers still running after that are terminated.
             terminate: terminate the workers at once, without closing the envs.
         """
-        if not self._finalizer.alive:
+        if not self._workers.alive:
             return
         if timeout is None:
             timeout = DEFAULT_CLOSE_TIMEOUT if self.step_timeout is None else self.step_timeout
         deadline = time.monotonic() + timeout
         if self._state != AsyncState.DEFAULT and not terminate:
             logger.warning("closing %s while a call to `%s` is pending; waiting for it", self, self._state.value)
-            failures = [failure for _, _, failure in self._gather(timeout, self._state.value)]
-            terminate = any(failure is not None for failure in failures)
+            terminate = any(outcome.failure is not None for outcome in self._gather(timeout, self._state.value))
         if not terminate:
-            self._dispatch(
-                [(h, Command.MESSAGE, Message("close")) for h in self._handles if h.is_alive()], AsyncState.DEFAULT
-            )
-            self._pending = []
-            for handle in self._handles:
-                if handle.is_alive():
-                    handle.join(max(deadline - time.monotonic(), 0.0))
+            for handle in self._dispatcher.close():
+                handle.join(max(deadline - time.monotonic(), 0.0))
         self._abort()
 
     def __enter__(self) -> PoolVectorEnv:
@@ -752,17 +415,48 @@ class PoolVectorEnv(VectorEnv):
     def __exit__(self, *args: Any) -> None:
         self.close()
 
+    # ------------------------------------------------------------------ internals
 
-def _check_reset_mask(reset_mask: Any, num_envs: int) -> np.ndarray:
-    """Validate ``options["reset_mask"]`` exactly as ``AsyncVectorEnv`` does."""
-    if not isinstance(reset_mask, np.ndarray):
-        raise TypeError(f"`options['reset_mask']` must be a numpy array, got {type(reset_mask)}")
-    if reset_mask.shape != (num_envs,):
-        raise ValueError(f"`options['reset_mask']` must have shape `({num_envs},)`, got {reset_mask.shape}")
-    if reset_mask.dtype != np.bool_:
-        raise TypeError(f"`options['reset_mask']` must have `dtype=np.bool_`, got {reset_mask.dtype}")
-    if not np.any(reset_mask):
-        raise ValueError(
-            f"`options['reset_mask']` must contain a boolean array with at least one True value, got reset_mask={reset_mask}"
-        )
-    return reset_mask
+    def _gather(self, timeout: float | None, doing: str) -> list[Outcome]:
+        """Every pending worker's outcome. On any exception while waiting (e.g. ``KeyboardInterrupt``)
+        the pool is stopped before it propagates: a half-finished batch cannot be resumed."""
+        self._state = AsyncState.DEFAULT
+        try:
+            return self._dispatcher.gather(timeout, doing)
+        except BaseException:
+            self._abort()
+            raise
+
+    def _abort(self) -> None:
+        """Stop every worker and free everything, without waiting for the envs to close.
+
+        The parent's mapping of the shared memory goes with the last reference to it: at once,
+        unless the caller still holds observations returned with ``copy=False``.
+        """
+        self._state = AsyncState.DEFAULT
+        self._workers.release()
+        self._dispatcher.release()
+        self._buffers = None
+        self.closed = True
+
+    def _assert_is_running(self) -> None:
+        if self.closed:
+            raise PoolClosedError(f"Trying to operate on `{type(self).__name__}`, after a call to `close()`.")
+
+    def _assert_idle(self, call: str) -> None:
+        if self._state != AsyncState.DEFAULT:
+            raise PendingCallError(
+                f"Calling `{call}` while waiting for a pending call to `{self._state.value}` to complete.",
+                str(self._state.value),
+            )
+
+    def _assert_waiting(self, state: AsyncState, call: str, prior: str) -> None:
+        if self._state != state:
+            raise NoPendingCallError(f"Calling `{call}` without any prior call to `{prior}`.", state.value)
+
+    def _merge_infos(self, entries: Entries) -> dict[str, Any]:
+        infos: dict[str, Any] = {}
+        for index, info in entries:
+            infos = self._add_info(infos, info, index)
+        return infos
+

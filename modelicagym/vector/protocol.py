@@ -1,7 +1,7 @@
 """What the parent and a worker say to each other.
 
-The hot path needs no messages: the parent writes a command code into the worker's slot of the
-shared ``command`` array and posts the worker's ``go`` signal; the worker answers by writing its
+The hot path needs no messages: the parent writes a :class:`Command` code into the worker's slot of
+the shared ``command`` array and posts the worker's ``go`` signal; the worker answers by writing its
 results into shared memory, setting its ``reply`` slot and posting ``done``. Only when the reply slot
 says so does a pickled reply follow on the pipe (non-empty infos, an error, results of ``call``).
 Rare commands (reset with seeds or options, call, set_attr, close) travel as a pickled
@@ -10,12 +10,17 @@ Rare commands (reset with seeds or options, call, set_attr, close) travel as a p
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from gymnasium import Space
 from gymnasium.envs.registration import EnvSpec
 from gymnasium.vector import AutoresetMode
+
+if TYPE_CHECKING:
+    from modelicagym.vector.errors import PoolError
+    from modelicagym.vector.handle import WorkerHandle
 
 #: How often (seconds) a blocked party wakes up to check that the other side is still alive.
 LIVENESS_INTERVAL = 0.05
@@ -45,19 +50,41 @@ class Reply:
     MESSAGE = 1
 
 
+class Kind(str, enum.Enum):
+    """What a :class:`Message` is; its ``data`` is given for each kind."""
+
+    # parent -> worker
+    #: ``(seeds of the worker's envs, options)``
+    RESET = "reset"
+    #: ``(name, args, kwargs)``
+    CALL = "call"
+    #: ``(name, values of the worker's envs)``
+    SET_ATTR = "set_attr"
+    #: no data: close the envs and exit
+    CLOSE = "close"
+    #: ``(BufferSpec, needs_reset)``, followed on the pipe by the memory's file descriptor
+    BUFFERS = "buffers"
+    # worker -> parent
+    #: :class:`EnvDescription`: the envs are created
+    READY = "ready"
+    #: no data: the shared memory is mapped
+    OK = "ok"
+    #: list of ``(env_index, info)`` for the non-empty infos of a step or reset
+    INFOS = "infos"
+    #: list of results of ``call``, one per env
+    RESULTS = "results"
+    #: :class:`~modelicagym.vector.errors.RemoteError`: an env (or the worker) failed; the pool
+    #: cannot trust the worker's envs any more
+    ERROR = "error"
+    #: :class:`~modelicagym.vector.errors.RemoteError` of ``call``/``set_attr``: the env is still usable
+    CALL_ERROR = "call_error"
+
+
 @dataclass(frozen=True)
 class Message:
-    """A pickled message on a worker's pipe; ``kind`` names it, ``data`` is its payload.
+    """A pickled message on a worker's pipe: its :class:`Kind` and the payload that kind carries."""
 
-    Parent to worker: ``reset`` (seeds for the worker's envs, options), ``call`` (name, args,
-    kwargs), ``set_attr`` (name, values for the worker's envs), ``close``, ``buffers``
-    (:class:`~modelicagym.vector.buffers.BufferSpec`, followed by the memory's file descriptor).
-    Worker to parent: ``ready`` (:class:`EnvDescription`), ``infos`` (list of ``(env_index, info)``),
-    ``results`` (list, one per env), ``error`` (:class:`~modelicagym.vector.errors.RemoteError`),
-    ``call_error`` (same, but the env is still usable), ``ok``.
-    """
-
-    kind: str
+    kind: Kind
     data: Any = None
 
 
@@ -79,3 +106,27 @@ class WorkerConfig:
     autoreset_mode: AutoresetMode
     #: seconds a waiting party spins (yielding the CPU) before it blocks
     spin_time: float
+
+
+class PendingCommand(NamedTuple):
+    """A command sent to one worker and not yet answered."""
+
+    handle: WorkerHandle
+    code: int
+    message: Message | None = None
+
+
+class Outcome(NamedTuple):
+    """How one worker answered a :class:`PendingCommand`: its reply message and/or its failure."""
+
+    handle: WorkerHandle
+    message: Message | None
+    failure: PoolError | None
+
+
+class WaitStatus(enum.Enum):
+    """How a wait for a worker's ``done`` signal ended."""
+
+    DONE = "done"
+    DIED = "died"
+    TIMED_OUT = "timed out"

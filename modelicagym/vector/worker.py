@@ -31,11 +31,12 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import CloudpickleWrapper
 
 from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.errors import RemoteError
+from modelicagym.vector.errors import RemoteError, SpaceMismatchError
 from modelicagym.vector.protocol import (
     LIVENESS_INTERVAL,
     Command,
     EnvDescription,
+    Kind,
     Message,
     Reply,
     WorkerConfig,
@@ -68,9 +69,9 @@ def run_worker(
             description = _describe(envs, first_env)
         except Exception as exc:
             failed = first_env + len(envs) if len(envs) < len(env_fns.fn) else None
-            conn.send(Message("error", RemoteError.capture(exc, failed)))
+            conn.send(Message(Kind.ERROR, RemoteError.capture(exc, failed)))
             return
-        conn.send(Message("ready", description))
+        conn.send(Message(Kind.READY, description))
         worker = Worker(worker_index, envs, first_env, conn, go, done, config)
         worker.attach()
         worker.serve()
@@ -85,7 +86,7 @@ def _describe(envs: list[gym.Env], first_env: int) -> EnvDescription:
     first = envs[0]
     for offset, env in enumerate(envs[1:], start=1):
         if env.observation_space != first.observation_space or env.action_space != first.action_space:
-            raise RuntimeError(
+            raise SpaceMismatchError(
                 f"env {first_env + offset} has spaces ({env.observation_space}, {env.action_space}), "
                 f"env {first_env} has ({first.observation_space}, {first.action_space}): "
                 "all envs of a pool must have the same observation and action spaces"
@@ -135,10 +136,10 @@ class Worker:
         self._buffers: SharedBuffers | None = None
         self._parent = multiprocessing.parent_process()
         self._parent_pid = os.getppid()
-        self._handlers: dict[str, Callable[[Any], Message | None]] = {
-            "reset": lambda data: self._reset(*data),
-            "call": self._call,
-            "set_attr": self._set_attr,
+        self._handlers: dict[Kind, Callable[[Any], Message | None]] = {
+            Kind.RESET: lambda data: self._reset(*data),
+            Kind.CALL: self._call,
+            Kind.SET_ATTR: self._set_attr,
         }
 
     def attach(self) -> None:
@@ -150,7 +151,7 @@ class Worker:
         finally:
             os.close(fd)
         self._needs_reset = [needs_reset] * len(self._envs)
-        self._conn.send(Message("ok"))
+        self._conn.send(Message(Kind.OK))
 
     def serve(self) -> None:
         """Run commands until told to close (the envs are closed on the way out) or the parent dies."""
@@ -165,7 +166,7 @@ class Worker:
                 reply = self._reset(None, {})
             else:
                 message = self._conn.recv()
-                if message.kind == "close":
+                if message.kind is Kind.CLOSE:
                     self._answer(None)
                     return
                 reply = self._handlers[message.kind](message.data)
@@ -198,7 +199,7 @@ class Worker:
         try:
             data = ForkingPickler.dumps(reply)
         except Exception as exc:
-            kind = "call_error" if reply.kind == "results" else "error"
+            kind = Kind.CALL_ERROR if reply.kind is Kind.RESULTS else Kind.ERROR
             data = ForkingPickler.dumps(Message(kind, RemoteError.capture(exc, None)))
         self._buffers.reply[self._index] = Reply.MESSAGE
         self._done.post()
@@ -223,7 +224,7 @@ class Worker:
             try:
                 observation, reward, terminated, truncated, info = self._step_env(offset, env, action)
             except Exception as exc:
-                return Message("error", RemoteError.capture(exc, index))
+                return Message(Kind.ERROR, RemoteError.capture(exc, index))
             if timed:
                 env_ns += perf_counter_ns() - start
                 if fmu_env is not None:
@@ -236,7 +237,7 @@ class Worker:
                 infos.append((index, info))
         if timed:
             buffers.timing[self._index] = (env_ns, fmu_ns)
-        return Message("infos", infos) if infos else None
+        return Message(Kind.INFOS, infos) if infos else None
 
     def _step_env(self, offset: int, env: gym.Env, action: Any) -> _StepResult:
         """One env's part of a vector step, with the autoreset of the pool's mode."""
@@ -268,12 +269,12 @@ class Worker:
             try:
                 observation, info = env.reset(seed=None if seeds is None else seeds[offset], options=options)
             except Exception as exc:
-                return Message("error", RemoteError.capture(exc, index))
+                return Message(Kind.ERROR, RemoteError.capture(exc, index))
             observations.write(index, observation)
             self._needs_reset[offset] = False
             if info:
                 infos.append((index, info))
-        return Message("infos", infos) if infos else None
+        return Message(Kind.INFOS, infos) if infos else None
 
     def _call(self, data: tuple[str, tuple[Any, ...], dict[str, Any]]) -> Message:
         name, args, kwargs = data
@@ -284,8 +285,8 @@ class Worker:
                 attr = env.get_wrapper_attr(name)
                 results.append(attr(*args, **kwargs) if callable(attr) else attr)
             except Exception as exc:
-                return Message("call_error", RemoteError.capture(exc, self._first + offset))
-        return Message("results", results)
+                return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self._first + offset))
+        return Message(Kind.RESULTS, results)
 
     def _set_attr(self, data: tuple[str, list[Any]]) -> Message | None:
         name, values = data
@@ -294,5 +295,5 @@ class Worker:
             try:
                 env.set_wrapper_attr(name, value)
             except Exception as exc:
-                return Message("call_error", RemoteError.capture(exc, self._first + offset))
+                return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self._first + offset))
         return None

@@ -1,0 +1,201 @@
+"""Sending commands to the workers and gathering their answers over shared memory.
+
+A :class:`Dispatcher` is the parent's side of the protocol (see :mod:`~modelicagym.vector.protocol`):
+it writes command codes into the workers' slots, wakes them, sends the messages that go with rare
+commands, and waits for every worker it woke. It knows which workers it is waiting for, but nothing
+of the Gymnasium API or of what a failure means for the pool: those are the pool's and
+:mod:`~modelicagym.vector.recovery`'s business.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from multiprocessing.reduction import ForkingPickler
+from typing import Any
+
+import numpy as np
+
+from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.errors import PoolError
+from modelicagym.vector.handle import WorkerHandle
+from modelicagym.vector.protocol import (
+    LIVENESS_INTERVAL,
+    Command,
+    Kind,
+    Message,
+    Outcome,
+    PendingCommand,
+    Reply,
+    WaitStatus,
+)
+
+__all__ = ["Dispatcher"]
+
+logger = logging.getLogger(__name__)
+
+
+class Dispatcher:
+    """Wakes workers with commands and collects what they answer.
+
+    Args:
+        handles: the workers, indexed like the shared ``command`` slots.
+        buffers: the pool's shared memory.
+        spin_time: seconds a wait polls before it blocks (see :mod:`~modelicagym.vector.sync`).
+        step_timeout: default timeout of a gather; ``None`` waits as long as the workers live.
+    """
+
+    def __init__(
+        self, handles: list[WorkerHandle], buffers: SharedBuffers, spin_time: float, step_timeout: float | None
+    ) -> None:
+        self.handles = handles
+        self.buffers = buffers
+        self.spin_time = spin_time
+        self.step_timeout = step_timeout
+        self.pending: list[PendingCommand] = []
+        self._step_all = [PendingCommand(handle, Command.STEP) for handle in handles]
+
+    def release(self) -> None:
+        """Forget the pending commands and the shared memory (the pool stopped)."""
+        self.pending = []
+        self.buffers = None
+
+    def step_all(self) -> None:
+        """The hot path of :meth:`dispatch`: every worker steps; no messages, no allocation."""
+        self.buffers.command[:] = Command.STEP
+        for handle in self.handles:
+            handle.go.post()
+        self.pending = self._step_all
+
+    def reset(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray) -> None:
+        """Reset the envs selected by ``mask`` (workers with none selected are not woken).
+
+        Without seeds or options this needs no message: a ``RESET`` command code says it all.
+        """
+        self.buffers.reset_mask[:] = mask
+        plain = all(s is None for s in seeds) and not options
+        code = Command.RESET if options is None else Command.RESET_EMPTY_OPTIONS
+        commands = []
+        for handle in self.handles:
+            indices = handle.env_indices
+            if not mask[indices.start : indices.stop].any():
+                continue
+            if plain:
+                commands.append(PendingCommand(handle, code))
+            else:
+                message = Message(Kind.RESET, (seeds[indices.start : indices.stop], options))
+                commands.append(PendingCommand(handle, Command.MESSAGE, message))
+        self.dispatch(commands)
+
+    def call(self, name: str, args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
+        """Call method ``name`` (or read attribute ``name``) of every env."""
+        self._message_all(lambda handle: Message(Kind.CALL, (name, args, kwargs)))
+
+    def set_attr(self, name: str, values: list[Any]) -> None:
+        """Set attribute ``name`` of every env to its value in ``values``."""
+        self._message_all(
+            lambda h: Message(Kind.SET_ATTR, (name, values[h.env_indices.start : h.env_indices.stop]))
+        )
+
+    def close(self) -> list[WorkerHandle]:
+        """Tell every living worker to close its envs and exit; returns those workers (to join)."""
+        alive = [handle for handle in self.handles if handle.is_alive()]
+        self.dispatch([PendingCommand(handle, Command.MESSAGE, Message(Kind.CLOSE)) for handle in alive])
+        self.pending = []
+        return alive
+
+    def _message_all(self, message_for: Any) -> None:
+        self.dispatch([PendingCommand(h, Command.MESSAGE, message_for(h)) for h in self.handles])
+
+    def dispatch(self, commands: list[PendingCommand]) -> None:
+        """Wake the workers with their commands, then send the messages that go with them.
+
+        Messages are pickled before anything else happens, so an unpicklable argument raises here
+        with no worker woken. Waking before sending means a large message can never fill the pipe
+        while its reader sleeps. A worker that died meanwhile makes the send fail; that is reported
+        by :meth:`gather`.
+        """
+        payloads: dict[int, bytes] = {}
+        for command in commands:
+            if command.message is not None and id(command.message) not in payloads:
+                payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
+        slots = self.buffers.command
+        for handle, code, message in commands:
+            slots[handle.index] = code
+            handle.go.post()
+            if message is not None:
+                try:
+                    handle.conn.send_bytes(payloads[id(message)])
+                except OSError:
+                    logger.debug("worker %d: pipe broken while sending %s", handle.index, message.kind.value)
+        self.pending = commands
+
+    def all_done(self, timeout: float | None) -> bool:
+        """The hot path of :meth:`gather`: ``True`` if every pending worker posted ``done`` within
+        one spin-then-block wait and none has a reply on its pipe; the batch is then complete.
+
+        Otherwise (``False``) nothing is lost: the workers already seen done are left to
+        :meth:`gather`, which sees them done at once and handles replies, deaths and timeouts.
+        """
+        block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
+        spin_time, pending = self.spin_time, self.pending
+        for k, command in enumerate(pending):
+            if not command.handle.done.wait(spin_time, block):
+                self._repost(pending[:k])
+                return False
+        if self.buffers.reply.any():
+            self._repost(pending)
+            return False
+        self.pending = []
+        return True
+
+    @staticmethod
+    def _repost(seen_done: list[PendingCommand]) -> None:
+        """Post ``done`` again for workers whose ``done`` a wait has consumed."""
+        for command in seen_done:
+            command.handle.done.post()
+
+    @staticmethod
+    def call_results(outcomes: list[Outcome], doing: str) -> list[Any]:
+        """The results of ``call`` (or ``set_attr``) in env order, from outcomes without failures;
+        raises the first env's exception (the original one when it could be pickled)."""
+        results: list[Any] = []
+        for outcome in outcomes:
+            message = outcome.message
+            if message is None:
+                continue
+            if message.kind is Kind.CALL_ERROR:
+                remote = message.data
+                original = remote.original()
+                raise original if original is not None else remote.to_env_error(outcome.handle.index, doing)
+            results += message.data
+        return results
+
+    def gather(self, timeout: float | None, doing: str) -> list[Outcome]:
+        """Wait for every pending worker; per worker its reply message and/or its failure.
+
+        ``timeout`` (seconds, for all workers together) defaults to ``step_timeout``; ``doing``
+        names what the workers were asked to do, for error messages. A worker whose env failed
+        (an ``ERROR`` reply) has that failure as an :class:`~modelicagym.vector.errors.EnvError`.
+        """
+        if timeout is None:
+            timeout = self.step_timeout
+        deadline = None if timeout is None else time.monotonic() + timeout
+        pending, self.pending = self.pending, []
+        current_env, reply = self.buffers.current_env, self.buffers.reply
+        outcomes = []
+        for command in pending:
+            handle = command.handle
+            status = handle.wait_done(self.spin_time, deadline)
+            env_index = int(current_env[handle.index])
+            failure = None if status is WaitStatus.DONE else handle.failure(status, env_index, doing)
+            message = None
+            if failure is None and reply[handle.index] == Reply.MESSAGE:
+                try:
+                    message = handle.receive(deadline, env_index, doing)
+                except PoolError as error:
+                    failure = error
+            if message is not None and message.kind is Kind.ERROR:
+                failure = message.data.to_env_error(handle.index, doing)
+            outcomes.append(Outcome(handle, message, failure))
+        return outcomes

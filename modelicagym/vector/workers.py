@@ -1,0 +1,141 @@
+"""The pool's worker processes as a set: start them, learn the envs' spaces, share memory, restart one.
+
+A :class:`WorkerSet` owns everything that must be released when the pool goes away however it
+goes (close, error, garbage collection, interpreter exit): the worker processes with their pipes
+and signals, and the shared memory's file descriptor. A ``weakref.finalize`` releases them, so a
+pool that is never closed leaks nothing either.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+import weakref
+from collections.abc import Callable, Sequence
+from multiprocessing.context import BaseContext
+
+import gymnasium as gym
+
+from modelicagym.vector.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.errors import SpaceMismatchError
+from modelicagym.vector.handle import WorkerHandle
+from modelicagym.vector.protocol import EnvDescription, Kind, Message, WorkerConfig
+
+__all__ = ["WorkerSet"]
+
+logger = logging.getLogger(__name__)
+
+
+class _Resources:
+    """What must be released when the pool goes away; kept apart from the :class:`WorkerSet` so that
+    a ``weakref.finalize`` can release it without keeping anything alive."""
+
+    def __init__(self, handles: list[WorkerHandle]) -> None:
+        self.handles = handles
+        self.fd: int | None = None
+
+    def release(self) -> None:
+        for handle in self.handles:
+            handle.release()
+        if self.fd is not None:
+            os.close(self.fd)
+            self.fd = None
+
+
+class WorkerSet:
+    """The worker processes of one pool, each running a contiguous slice of the envs.
+
+    Spaces, metadata, ``render_mode`` and ``spec`` come from worker 0's first env: no env is ever
+    created in the parent (FMU instances hold ctypes handles that can be neither pickled nor shared).
+    """
+
+    def __init__(
+        self,
+        env_fns: Sequence[Callable[[], gym.Env]],
+        slices: list[range],
+        ctx: BaseContext,
+        config: WorkerConfig,
+        startup_timeout: float | None,
+    ) -> None:
+        self.handles = [
+            WorkerHandle(k, indices, env_fns[indices.start : indices.stop], ctx, config)
+            for k, indices in enumerate(slices)
+        ]
+        self.num_envs = len(env_fns)
+        self.startup_timeout = startup_timeout
+        self.buffers: SharedBuffers | None = None
+        self.description: EnvDescription | None = None
+        self._resources = _Resources(self.handles)
+        self._finalizer = weakref.finalize(self, self._resources.release)
+
+    @property
+    def alive(self) -> bool:
+        """Whether the workers have not been released yet."""
+        return self._finalizer.alive
+
+    def start(self) -> EnvDescription:
+        """Start every worker, check their envs agree on the spaces, create and hand out the shared
+        memory; returns worker 0's description of its envs. Releases everything if anything fails."""
+        try:
+            for handle in self.handles:
+                handle.start()
+            deadline = self._deadline()
+            descriptions = [self._await_ready(handle, deadline) for handle in self.handles]
+            self.description = descriptions[0]
+            for handle, description in zip(self.handles, descriptions, strict=True):
+                self._check_spaces(handle, description)
+            spec = BufferSpec(
+                self.description.observation_space, self.description.action_space, self.num_envs, len(self.handles)
+            )
+            self.buffers, self._resources.fd = SharedBuffers.create(spec)
+            for handle in self.handles:
+                self._hand_out_buffers(handle, deadline, needs_reset=False)
+        except BaseException:
+            self.release()
+            raise
+        return self.description
+
+    def restart(self, handle: WorkerHandle, reason: str, needs_reset: bool) -> None:
+        """Replace a failed worker by a fresh one with fresh envs, mapped onto the same memory.
+
+        ``needs_reset`` tells the new worker that its envs have not been reset yet (their next
+        step is an autoreset, in ``NEXT_STEP`` mode).
+        """
+        logger.warning("restarting worker %d: %s", handle.index, reason)
+        handle.release()
+        handle.start()
+        deadline = self._deadline()
+        self._check_spaces(handle, self._await_ready(handle, deadline))
+        self._hand_out_buffers(handle, deadline, needs_reset)
+
+    def release(self) -> None:
+        """Stop every worker at once and free the pipes, signals and shared memory (idempotent)."""
+        self._finalizer()
+        self.buffers = None
+
+    def _deadline(self) -> float | None:
+        return None if self.startup_timeout is None else time.monotonic() + self.startup_timeout
+
+    def _await_ready(self, handle: WorkerHandle, deadline: float | None) -> EnvDescription:
+        message = handle.receive(deadline, None, "creation")
+        if message.kind is Kind.ERROR:
+            raise message.data.to_env_error(handle.index, "env creation")
+        return message.data
+
+    def _check_spaces(self, handle: WorkerHandle, description: EnvDescription) -> None:
+        first = self.description
+        for what in ("observation_space", "action_space"):
+            theirs, ours = getattr(description, what), getattr(first, what)
+            if theirs != ours:
+                raise SpaceMismatchError(
+                    f"envs {handle.describe_envs()} have {what.replace('_', ' ')} {theirs}, "
+                    f"env 0 has {ours}: all envs must have the same spaces"
+                )
+
+    def _hand_out_buffers(self, handle: WorkerHandle, deadline: float | None, needs_reset: bool) -> None:
+        handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset)))
+        handle.send_fd(self._resources.fd)
+        message = handle.receive(deadline, None, "start-up")
+        if message.kind is Kind.ERROR:
+            raise message.data.to_env_error(handle.index, "start-up")
