@@ -75,6 +75,11 @@ class CountEnv(gym.Env):
         if fmu_share is not None:
             self.fmu_time_ns = 0
 
+    @property
+    def pid(self) -> int:
+        """The id of the process this env lives in."""
+        return os.getpid()
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
         super().reset(seed=seed)
         self.observation_space.seed(int(self.np_random.integers(2**31)))

@@ -2,7 +2,9 @@
 
 A :class:`Dispatcher` is the parent's side of the protocol (see :mod:`~modelicagym.vector.protocol`):
 it writes command codes into the workers' slots, wakes them, sends the messages that go with rare
-commands, and waits for every worker it woke. It knows which workers it is waiting for, but nothing
+commands, and waits for every worker it woke. When the calling process steps a slice of the envs
+itself (``caller_steps``), that slice is one more party to every command: the dispatcher runs it
+in-process after waking the workers and before waiting for them, so the caller works while they do. It knows which workers it is waiting for, but nothing
 of the Gymnasium API or of what a failure means for the pool: those are the pool's and
 :mod:`~modelicagym.vector.recovery`'s business.
 """
@@ -17,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import PoolError
 from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import (
@@ -40,25 +43,40 @@ class Dispatcher:
 
     Args:
         handles: the workers, indexed like the shared ``command`` slots.
+        local: the slice of envs the calling process steps itself, or ``None``.
         buffers: the pool's shared memory.
         spin_time: seconds a wait polls before it blocks (see :mod:`~modelicagym.vector.sync`).
         step_timeout: default timeout of a gather; ``None`` waits as long as the workers live.
     """
 
     def __init__(
-        self, handles: list[WorkerHandle], buffers: SharedBuffers, spin_time: float, step_timeout: float | None
+        self,
+        handles: list[WorkerHandle],
+        local: EnvSlice | None,
+        buffers: SharedBuffers,
+        spin_time: float,
+        step_timeout: float | None,
     ) -> None:
         self.handles = handles
+        self.local = local
         self.buffers = buffers
         self.spin_time = spin_time
         self.step_timeout = step_timeout
         self.pending: list[PendingCommand] = []
-        self._step_all = [PendingCommand(handle, Command.STEP) for handle in handles]
+        #: every party in slot order: the workers, then the local slice
+        self._parties = [*handles, local] if local is not None else list(handles)
+        self._step_all = [PendingCommand(party, Command.STEP) for party in self._parties]
+        self._local_command: PendingCommand | None = None
+        self._local_reply: Message | None = None
 
     def release(self) -> None:
-        """Forget the pending commands and the shared memory (the pool stopped)."""
+        """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""
         self.pending = []
+        self._local_command = self._local_reply = None
         self.buffers = None
+        if self.local is not None:
+            close_envs(self.local.envs)
+            self.local.buffers = None
 
     def step_all(self) -> None:
         """The hot path of :meth:`dispatch`: every worker steps; no messages, no allocation."""
@@ -66,6 +84,8 @@ class Dispatcher:
         for handle in self.handles:
             handle.go.post()
         self.pending = self._step_all
+        if self.local is not None:
+            self._local_command = self._step_all[-1]
 
     def reset(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray) -> None:
         """Reset the envs selected by ``mask`` (workers with none selected are not woken).
@@ -76,7 +96,7 @@ class Dispatcher:
         plain = all(s is None for s in seeds) and not options
         code = Command.RESET if options is None else Command.RESET_EMPTY_OPTIONS
         commands = []
-        for handle in self.handles:
+        for handle in self._parties:
             indices = handle.env_indices
             if not mask[indices.start : indices.stop].any():
                 continue
@@ -105,7 +125,7 @@ class Dispatcher:
         return alive
 
     def _message_all(self, message_for: Any) -> None:
-        self.dispatch([PendingCommand(h, Command.MESSAGE, message_for(h)) for h in self.handles])
+        self.dispatch([PendingCommand(h, Command.MESSAGE, message_for(h)) for h in self._parties])
 
     def dispatch(self, commands: list[PendingCommand]) -> None:
         """Wake the workers with their commands, then send the messages that go with them.
@@ -120,7 +140,11 @@ class Dispatcher:
             if command.message is not None and id(command.message) not in payloads:
                 payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
         slots = self.buffers.command
-        for handle, code, message in commands:
+        for command in commands:
+            handle, code, message = command
+            if handle is self.local:
+                self._local_command = command
+                continue
             slots[handle.index] = code
             handle.go.post()
             if message is not None:
@@ -139,21 +163,30 @@ class Dispatcher:
         """
         block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
         spin_time, pending = self.spin_time, self.pending
+        self._run_local()
         for k, command in enumerate(pending):
+            if command.handle is self.local:
+                continue
             if not command.handle.done.wait(spin_time, block):
                 self._repost(pending[:k])
                 return False
-        if self.buffers.reply.any():
+        if self.buffers.reply.any() or self._local_reply is not None:
             self._repost(pending)
             return False
         self.pending = []
         return True
 
-    @staticmethod
-    def _repost(seen_done: list[PendingCommand]) -> None:
+    def _repost(self, seen_done: list[PendingCommand]) -> None:
         """Post ``done`` again for workers whose ``done`` a wait has consumed."""
         for command in seen_done:
-            command.handle.done.post()
+            if command.handle is not self.local:
+                command.handle.done.post()
+
+    def _run_local(self) -> None:
+        """Run the local slice's pending command, once; its reply waits for :meth:`gather`."""
+        command, self._local_command = self._local_command, None
+        if command is not None:
+            self._local_reply = self.local.run(command.code, command.message)
 
     @staticmethod
     def call_results(outcomes: list[Outcome], doing: str) -> list[Any]:
@@ -181,21 +214,33 @@ class Dispatcher:
         if timeout is None:
             timeout = self.step_timeout
         deadline = None if timeout is None else time.monotonic() + timeout
+        self._run_local()
         pending, self.pending = self.pending, []
-        current_env, reply = self.buffers.current_env, self.buffers.reply
         outcomes = []
         for command in pending:
             handle = command.handle
-            status = handle.wait_done(self.spin_time, deadline)
-            env_index = int(current_env[handle.index])
-            failure = None if status is WaitStatus.DONE else handle.failure(status, env_index, doing)
-            message = None
-            if failure is None and reply[handle.index] == Reply.MESSAGE:
-                try:
-                    message = handle.receive(deadline, env_index, doing)
-                except PoolError as error:
-                    failure = error
+            if handle is self.local:
+                message, self._local_reply = self._local_reply, None
+                failure, process = None, "the calling process"
+            else:
+                message, failure = self._answer_of(handle, deadline, doing)
+                process = None
             if message is not None and message.kind is Kind.ERROR:
-                failure = message.data.to_env_error(handle.index, doing)
+                failure = message.data.to_env_error(handle.index, doing, process)
             outcomes.append(Outcome(handle, message, failure))
         return outcomes
+
+    def _answer_of(
+        self, handle: WorkerHandle, deadline: float | None, doing: str
+    ) -> tuple[Message | None, PoolError | None]:
+        """Wait for one worker's ``done``, then read its reply if it has one; or its failure."""
+        status = handle.wait_done(self.spin_time, deadline)
+        env_index = int(self.buffers.current_env[handle.index])
+        if status is not WaitStatus.DONE:
+            return None, handle.failure(status, env_index, doing)
+        if self.buffers.reply[handle.index] != Reply.MESSAGE:
+            return None, None
+        try:
+            return handle.receive(deadline, env_index, doing), None
+        except PoolError as error:
+            return None, error

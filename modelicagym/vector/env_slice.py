@@ -20,7 +20,7 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.errors import RemoteError, SpaceMismatchError
-from modelicagym.vector.protocol import EnvDescription, Kind, Message
+from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message
 
 __all__ = ["EnvSlice", "close_envs", "describe_envs"]
 
@@ -72,6 +72,9 @@ class EnvSlice:
         self.envs = envs
         self.first = first_env
         self.slot = slot
+        #: as a worker handle's: the slot, and the pool indices of the envs
+        self.index = slot
+        self.env_indices = range(first_env, first_env + len(envs))
         self.buffers: SharedBuffers | None = None
         self._next_step = autoreset_mode is AutoresetMode.NEXT_STEP
         self._same_step = autoreset_mode is AutoresetMode.SAME_STEP
@@ -82,6 +85,21 @@ class EnvSlice:
             Kind.CALL: self.call,
             Kind.SET_ATTR: self.set_attr,
         }
+
+    def describe_envs(self) -> str:
+        """``"4-7"`` or ``"4"``: the env indices of this slice, for messages."""
+        first, last = self.env_indices[0], self.env_indices[-1]
+        return str(first) if first == last else f"{first}-{last}"
+
+    def run(self, code: int, message: Message | None) -> Message | None:
+        """Run one command of the protocol (a ``Command`` code, and the message of ``MESSAGE``)."""
+        if code == Command.STEP:
+            return self.step()
+        if code == Command.RESET:
+            return self.reset(None, None)
+        if code == Command.RESET_EMPTY_OPTIONS:
+            return self.reset(None, {})
+        return self.handlers[message.kind](message.data)
 
     def attach(self, buffers: SharedBuffers, needs_reset: bool) -> None:
         """Work on ``buffers`` from now on; ``needs_reset``: the envs were never reset."""

@@ -168,11 +168,13 @@ class RemoteError:
         original.__cause__ = RemoteTraceback(self.traceback)
         return original
 
-    def to_env_error(self, worker_index: int, context: str) -> EnvError:
-        """The :class:`EnvError` to raise in the parent; ``context`` says what was running."""
+    def to_env_error(self, worker_index: int, context: str, process: str | None = None) -> EnvError:
+        """The :class:`EnvError` to raise in the parent; ``context`` says what was running, and
+        ``process`` where (default ``"worker <worker_index>"``)."""
         where = "an env" if self.env_index is None else f"env {self.env_index}"
+        process = process or f"worker {worker_index}"
         error = EnvError(
-            f"{where} (worker {worker_index}) raised {self.type_name} in {context}: {self.message}",
+            f"{where} ({process}) raised {self.type_name} in {context}: {self.message}",
             self.env_index,
             worker_index,
             self.original(),

@@ -33,9 +33,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_space
 
-from modelicagym.errors import ArgumentError
+from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.dispatch import Dispatcher
+from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError
 from modelicagym.vector.plan import default_start_method, plan_workers
 from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
@@ -132,6 +133,7 @@ class PoolVectorEnv(VectorEnv):
         copy: bool = True,
         spin_time: float = DEFAULT_SPIN_TIME,
         startup_timeout: float | None = None,
+        caller_steps: bool | None = None,
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -139,7 +141,8 @@ class PoolVectorEnv(VectorEnv):
             env_fns: functions creating the envs, sent to the workers with cloudpickle. If one has
                 an attribute ``max_envs_per_process`` (e.g. 1 for an FMU that can be instantiated
                 only once per process), it caps the envs per worker like ``max_envs_per_worker``.
-            num_workers: worker processes; default one per usable core, never more than envs.
+            num_workers: worker processes; default one per usable core (less the caller's, see
+                ``caller_steps``), never more than envs.
             start_method: ``multiprocessing`` start method; default ``forkserver`` (see above).
             autoreset_mode: ``AutoresetMode`` (or its value), default ``NEXT_STEP``.
             step_timeout: seconds any call into the envs (step, reset, call, set_attr) may take
@@ -153,6 +156,12 @@ class PoolVectorEnv(VectorEnv):
                 the next step).
             spin_time: seconds a waiting party polls before it blocks.
             startup_timeout: seconds a worker may take to create its envs (``None``: no limit).
+            caller_steps: the calling process steps the last slice of envs itself while the
+                workers step theirs, so that no more parties wait for each other than there are
+                cores (the caller's share runs without process isolation: a crash there is the
+                caller's). ``None`` (default): when the pool plans its own layout and no fault
+                handling is asked for, i.e. ``num_workers``, ``max_envs_per_worker`` (or an env fn's
+                ``max_envs_per_process``), ``restart_dead_workers`` and ``step_timeout`` are unset.
         """
         self.env_fns = list(env_fns)
         self.num_envs = len(self.env_fns)
@@ -163,7 +172,15 @@ class PoolVectorEnv(VectorEnv):
         self.copy = copy
         caps = [max_envs_per_worker] + [getattr(fn, "max_envs_per_process", None) for fn in self.env_fns]
         caps = [cap for cap in caps if cap is not None]
-        slices = plan_workers(self.num_envs, num_workers, min(caps) if caps else None)
+        if caller_steps is None:
+            caller_steps = num_workers is None and not caps and not restart_dead_workers and step_timeout is None
+        if caller_steps and restart_dead_workers:
+            raise ConfigError("caller_steps=True and restart_dead_workers=True: the calling process cannot be restarted")
+        slices = plan_workers(
+            self.num_envs, num_workers + 1 if caller_steps and num_workers else num_workers, min(caps) if caps else None
+        )
+        local_slice = slices.pop() if caller_steps else None
+        self.caller_steps = bool(caller_steps)
         self.num_workers = len(slices)
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
@@ -177,9 +194,12 @@ class PoolVectorEnv(VectorEnv):
             WorkerConfig(self.autoreset_mode, spin_time),
             startup_timeout,
         )
+        self._workers.launch()
         try:
-            first = self._workers.start()
+            local = None if local_slice is None else self._make_local(local_slice)
+            first = self._workers.connect(local)
         except BaseException:
+            self._workers.release()
             self.closed = True
             raise
         self.metadata = {**first.metadata, "autoreset_mode": self.autoreset_mode}
@@ -190,11 +210,22 @@ class PoolVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._buffers: SharedBuffers = self._workers.buffers
-        self._dispatcher = Dispatcher(self._workers.handles, self._buffers, spin_time, step_timeout)
+        self._dispatcher = Dispatcher(self._workers.handles, local, self._buffers, spin_time, step_timeout)
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
         self.set_timing(measure_timing)
+
+    def _make_local(self, indices: range) -> EnvSlice:
+        """Create the envs of the calling process's slice (while the workers create theirs)."""
+        envs: list[gym.Env] = []
+        try:
+            for fn in self.env_fns[indices.start : indices.stop]:
+                envs.append(fn())
+        except BaseException:
+            close_envs(envs)
+            raise
+        return EnvSlice(envs, indices.start, self.num_workers, self.autoreset_mode)
 
     # ------------------------------------------------------------------ reset
 

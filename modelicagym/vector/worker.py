@@ -99,19 +99,11 @@ class Worker:
         command = self._buffers.command
         while self._wait_for_command():
             code = int(command[self._index])
-            if code == Command.STEP:
-                reply = self._envs.step()
-            elif code == Command.RESET:
-                reply = self._envs.reset(None, None)
-            elif code == Command.RESET_EMPTY_OPTIONS:
-                reply = self._envs.reset(None, {})
-            else:
-                message = self._conn.recv()
-                if message.kind is Kind.CLOSE:
-                    self._answer(None)
-                    return
-                reply = self._envs.handlers[message.kind](message.data)
-            self._answer(reply)
+            message = self._conn.recv() if code == Command.MESSAGE else None
+            if message is not None and message.kind is Kind.CLOSE:
+                self._answer(None)
+                return
+            self._answer(self._envs.run(code, message))
 
     def _wait_for_command(self) -> bool:
         """Wait for ``go``; ``False`` if the parent died meanwhile."""

@@ -18,6 +18,7 @@ from multiprocessing.context import BaseContext
 import gymnasium as gym
 
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.errors import SpaceMismatchError
 from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import EnvDescription, Kind, Message, WorkerConfig
@@ -74,23 +75,35 @@ class WorkerSet:
         """Whether the workers have not been released yet."""
         return self._finalizer.alive
 
-    def start(self) -> EnvDescription:
-        """Start every worker, check their envs agree on the spaces, create and hand out the shared
-        memory; returns worker 0's description of its envs. Releases everything if anything fails."""
+    def launch(self) -> None:
+        """Start every worker process; each begins creating its envs at once."""
         try:
             for handle in self.handles:
                 handle.start()
+        except BaseException:
+            self.release()
+            raise
+
+    def connect(self, local: EnvSlice | None) -> EnvDescription:
+        """Wait for the workers' envs, check all envs agree on the spaces, create the shared memory
+        and hand it out (to ``local`` too, the slice the calling process steps itself); returns
+        the description of the first env (``local``'s when there are no workers). Releases
+        everything if anything fails."""
+        try:
             deadline = self._deadline()
             descriptions = [self._await_ready(handle, deadline) for handle in self.handles]
+            if local is not None:
+                descriptions.append(describe_envs(local.envs, local.first))
             self.description = descriptions[0]
-            for handle, description in zip(self.handles, descriptions, strict=True):
-                self._check_spaces(handle, description)
-            spec = BufferSpec(
-                self.description.observation_space, self.description.action_space, self.num_envs, len(self.handles)
-            )
+            for party, description in zip([*self.handles, local], descriptions):
+                self._check_spaces(party, description)
+            slots = len(self.handles) + (local is not None)
+            spec = BufferSpec(self.description.observation_space, self.description.action_space, self.num_envs, slots)
             self.buffers, self._resources.fd = SharedBuffers.create(spec)
             for handle in self.handles:
                 self._hand_out_buffers(handle, deadline, needs_reset=False)
+            if local is not None:
+                local.attach(self.buffers, needs_reset=False)
         except BaseException:
             self.release()
             raise
@@ -123,7 +136,7 @@ class WorkerSet:
             raise message.data.to_env_error(handle.index, "env creation")
         return message.data
 
-    def _check_spaces(self, handle: WorkerHandle, description: EnvDescription) -> None:
+    def _check_spaces(self, handle: WorkerHandle | EnvSlice, description: EnvDescription) -> None:
         first = self.description
         for what in ("observation_space", "action_space"):
             theirs, ours = getattr(description, what), getattr(first, what)
