@@ -27,19 +27,13 @@ import sys
 import tempfile
 import zipfile
 from collections.abc import Mapping
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator, Union
+from typing import Union
 from xml.etree import ElementTree
 
 import fmpy
 
-from modelicagym.fmu.cache import cache_dir
-
-try:
-    import fcntl
-except ImportError:  # no fcntl (Windows): the atomic rename alone keeps results valid
-    fcntl = None
+from modelicagym.fmu.cache import cache_dir, locked
 
 __all__ = [
     "FMUBuildError",
@@ -91,7 +85,7 @@ def build_source_fmu(
     target = fmus / "fmus" / f"{job.identifier}-fmi{fmi_version}-{job.key}.fmu"
     if target.is_file():
         return target
-    with _locked(fmus / "locks" / f"{job.key}.lock"):
+    with locked(fmus / "locks" / f"{job.key}.lock"):
         if not target.is_file():
             job.build(target)
     return target
@@ -309,17 +303,3 @@ def _zip(unzipdir: Path, path: Path) -> None:
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
         for file in sorted(p for p in unzipdir.rglob("*") if p.is_file()):
             zf.write(file, file.relative_to(unzipdir).as_posix())
-
-
-@contextmanager
-def _locked(lock_path: Path) -> Iterator[None]:
-    """Hold an exclusive inter-process lock on ``lock_path`` (no-op without fcntl)."""
-    lock_path.parent.mkdir(parents=True, exist_ok=True)
-    with open(lock_path, "a+b") as handle:
-        if fcntl is not None:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            if fcntl is not None:
-                fcntl.flock(handle.fileno(), fcntl.LOCK_UN)

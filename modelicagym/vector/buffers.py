@@ -8,7 +8,7 @@ process that maps it exits, however it exits.
 
 Fields: observations and actions (any space Gymnasium's shared-memory helpers support), rewards,
 terminations, truncations, the reset mask, and per worker a command slot, a reply slot, the index
-of the env being run (to name it when the worker dies) and timing counters. Each field starts on a
+of the env being run (to name it when the worker dies), timing counters and its two signals. Each field starts on a
 cache line of its own.
 
 Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nested in
@@ -205,7 +205,15 @@ class SharedBuffers:
         self.current_env = allocator.array(np.int64, (w,))
         self.timing = allocator.array(np.int64, (w, 2))
         self.timing_enabled = allocator.array(np.bool_, (1,))
+        #: per slot, the ``go`` and ``done`` signals (``native/csrc/signal.h``), a cache line each
+        self.signals = allocator.array(np.uint32, (w, 2, _ALIGNMENT // 4))
         self.nbytes = allocator.size
+
+    GO, DONE = 0, 1
+
+    def signal_address(self, slot: int, which: int) -> int:
+        """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""
+        return self.signals.ctypes.data + self.signals[slot, which].nbytes * (2 * slot + which)
 
     @staticmethod
     def size_of(spec: BufferSpec) -> int:

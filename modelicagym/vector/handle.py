@@ -14,7 +14,7 @@ from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
 from modelicagym.vector.protocol import LIVENESS_INTERVAL, Message, WaitStatus, WorkerConfig
-from modelicagym.vector.sync import Signal
+from modelicagym.vector.sync import FutexSignal, SemaphoreSignal
 from modelicagym.vector.worker import run_worker
 
 __all__ = ["WorkerHandle"]
@@ -47,8 +47,8 @@ class WorkerHandle:
         self._config = config
         self.process = None
         self.conn: Connection | None = None
-        self.go: Signal | None = None
-        self.done: Signal | None = None
+        self.go: FutexSignal | SemaphoreSignal | None = None
+        self.done: FutexSignal | SemaphoreSignal | None = None
 
     def __repr__(self) -> str:
         pid = None if self.process is None else self.process.pid
@@ -62,7 +62,8 @@ class WorkerHandle:
     def start(self) -> None:
         """Start the worker process; it begins creating its envs at once."""
         parent_conn, child_conn = self._ctx.Pipe()
-        self.go, self.done = Signal(self._ctx), Signal(self._ctx)
+        if not self._config.shared_signals:
+            self.go, self.done = SemaphoreSignal(self._ctx), SemaphoreSignal(self._ctx)
         self.process = self._ctx.Process(
             target=run_worker,
             name=f"modelicagym-pool-worker-{self.index}",

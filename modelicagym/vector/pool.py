@@ -35,13 +35,14 @@ from gymnasium.vector.utils import batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError
-from modelicagym.vector.plan import default_start_method, plan_workers
-from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.plan import default_start_method, plan_workers, usable_cores
 from modelicagym.vector.protocol import Outcome, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
+from modelicagym.vector.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 from modelicagym.vector.workers import WorkerSet
 
@@ -191,7 +192,12 @@ class PoolVectorEnv(VectorEnv):
             self.env_fns,
             slices,
             multiprocessing.get_context(self.start_method),
-            WorkerConfig(self.autoreset_mode, spin_time),
+            WorkerConfig(
+                self.autoreset_mode,
+                spin_time,
+                spin_yield=self.num_workers + 1 > usable_cores(),
+                shared_signals=futex_library() is not None,
+            ),
             startup_timeout,
         )
         self._workers.launch()

@@ -29,7 +29,7 @@ from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice, close_envs, describe_envs
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
-from modelicagym.vector.sync import Signal
+from modelicagym.vector.sync import FutexSignal, SemaphoreSignal, futex_library
 
 __all__ = ["run_worker"]
 
@@ -41,8 +41,8 @@ def run_worker(
     env_fns: CloudpickleWrapper,
     first_env: int,
     conn: Connection,
-    go: Signal,
-    done: Signal,
+    go: SemaphoreSignal | None,
+    done: SemaphoreSignal | None,
     config: WorkerConfig,
 ) -> None:
     """Entry point of a worker process (the ``target`` of its ``multiprocessing.Process``)."""
@@ -71,13 +71,20 @@ class Worker:
     """Runs the commands of the parent on this process's envs (see the module docstring)."""
 
     def __init__(
-        self, index: int, envs: EnvSlice, conn: Connection, go: Signal, done: Signal, config: WorkerConfig
+        self,
+        index: int,
+        envs: EnvSlice,
+        conn: Connection,
+        go: SemaphoreSignal | None,
+        done: SemaphoreSignal | None,
+        config: WorkerConfig,
     ) -> None:
         self._index = index
         self._envs = envs
         self._conn = conn
         self._go = go
         self._done = done
+        self._config = config
         self._spin_time = config.spin_time
         self._buffers: SharedBuffers | None = None
         self._parent = multiprocessing.parent_process()
@@ -92,6 +99,10 @@ class Worker:
         finally:
             os.close(fd)
         self._envs.attach(self._buffers, needs_reset)
+        if self._config.shared_signals:
+            library, spin_yield = futex_library(), self._config.spin_yield
+            self._go = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.GO), spin_yield)
+            self._done = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.DONE), spin_yield)
         self._conn.send(Message(Kind.OK))
 
     def serve(self) -> None:

@@ -22,6 +22,7 @@ from modelicagym.vector.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.errors import SpaceMismatchError
 from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import EnvDescription, Kind, Message, WorkerConfig
+from modelicagym.vector.sync import FutexSignal, futex_library
 
 __all__ = ["WorkerSet"]
 
@@ -65,6 +66,7 @@ class WorkerSet:
         ]
         self.num_envs = len(env_fns)
         self.startup_timeout = startup_timeout
+        self._config = config
         self.buffers: SharedBuffers | None = None
         self.description: EnvDescription | None = None
         self._resources = _Resources(self.handles)
@@ -147,6 +149,11 @@ class WorkerSet:
                 )
 
     def _hand_out_buffers(self, handle: WorkerHandle, deadline: float | None, needs_reset: bool) -> None:
+        if self._config.shared_signals:
+            buffers, library, spin_yield = self.buffers, futex_library(), self._config.spin_yield
+            buffers.signals[handle.index] = 0  # a restarted worker starts from unposted signals
+            handle.go = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO), spin_yield)
+            handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE), spin_yield)
         handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset)))
         handle.send_fd(self._resources.fd)
         message = handle.receive(deadline, None, "start-up")

@@ -1,0 +1,1 @@
+"""Our own C library: the native step path and the pool's wait loop (see ``csrc/``)."""

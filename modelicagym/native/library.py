@@ -1,0 +1,100 @@
+"""Our C library (``native/csrc/*.c``): compiled on first use, cached like the FMUs, loaded with ctypes.
+
+The library is built with the machine's C compiler (``$CC``, else ``cc`` or ``gcc``: the
+toolchain that builds our FMUs) into the modelicagym cache, under a hash of its sources and
+the compiler, so every process of every run shares one build; concurrent first uses are
+serialized by a lock and publish with an atomic rename. Nothing compiled is ever committed.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import hashlib
+import logging
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from modelicagym.errors import ModelicaGymError
+from modelicagym.fmu.cache import cache_dir, locked
+
+__all__ = ["NativeBuildError", "SOURCES_DIR", "load_library"]
+
+logger = logging.getLogger(__name__)
+
+SOURCES_DIR = Path(__file__).resolve().parent / "csrc"
+_NAME = "libmodelicagym_native.so"
+_FLAGS = ("-O2", "-shared", "-fPIC", "-std=c11", "-Wall")
+
+
+class NativeBuildError(ModelicaGymError, RuntimeError):
+    """The native step library could not be compiled (no compiler, or a compiler error)."""
+
+
+def _compiler() -> str:
+    for candidate in (os.environ.get("CC"), "cc", "gcc"):
+        if candidate and shutil.which(candidate):
+            return shutil.which(candidate)
+    raise NativeBuildError(
+        "no C compiler found to build modelicagym's native step library: install gcc "
+        "(e.g. `apt-get install gcc`) or set $CC"
+    )
+
+
+def _sources() -> list[Path]:
+    return sorted(p for p in SOURCES_DIR.iterdir() if p.suffix in (".c", ".h"))
+
+
+def _digest(compiler: str) -> str:
+    digest = hashlib.sha256(" ".join((compiler, *_FLAGS)).encode())
+    for source in _sources():
+        digest.update(source.name.encode() + b"\0" + source.read_bytes())
+    return digest.hexdigest()[:20]
+
+
+#: ctypes signatures of the library's functions: name -> (restype, argtypes)
+SIGNATURES = {
+    "mg_now_ns": (ctypes.c_int64, ()),
+    "mg_signal_post": (None, (ctypes.c_void_p,)),
+    "mg_signal_try": (ctypes.c_int, (ctypes.c_void_p,)),
+    "mg_signal_wait": (ctypes.c_int, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_int)),
+}
+
+
+@functools.cache
+def load_library() -> ctypes.CDLL:
+    """The native library of this process, built on a cache miss; raises `NativeBuildError`.
+
+    Foreign calls release the GIL (``ctypes.CDLL``), so a wait in C never blocks other threads.
+    """
+    compiler = _compiler()
+    folder = cache_dir() / "native" / _digest(compiler)
+    path = folder / _NAME
+    if not path.is_file():
+        with locked(folder.with_suffix(".lock")):
+            if not path.is_file():
+                _build(compiler, folder, path)
+    library = ctypes.CDLL(str(path))
+    for name, (restype, argtypes) in SIGNATURES.items():
+        function = getattr(library, name)
+        function.restype, function.argtypes = restype, argtypes
+    return library
+
+
+def _build(compiler: str, folder: Path, path: Path) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    c_files = [str(p) for p in _sources() if p.suffix == ".c"]
+    with tempfile.NamedTemporaryFile(dir=folder, suffix=".so.tmp", delete=False) as handle:
+        tmp = handle.name
+    command = [compiler, *_FLAGS, "-o", tmp, *c_files, "-lm"]
+    logger.info("building the native step library: %s", " ".join(command))
+    result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    if result.returncode != 0:
+        os.unlink(tmp)
+        raise NativeBuildError(f"building the native step library failed ({' '.join(command)}):\n{result.stdout}")
+    if result.stdout.strip():
+        logger.warning("compiler output while building the native step library:\n%s", result.stdout)
+    os.replace(tmp, path)
