@@ -7,6 +7,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from modelicagym.console import add_debug_flag, run_command
+
 logger = logging.getLogger("modelicagym")
 
 
@@ -38,6 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser = argparse.ArgumentParser(prog="modelicagym", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    add_debug_flag(parser)
     commands = parser.add_subparsers(dest="command", required=True)
 
     info = commands.add_parser("info", help="describe an FMU and print an FMUEnv config for it")
@@ -57,15 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    from modelicagym.fmu import FMUError
-
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    try:
-        return args.func(args)
-    except (FMUError, FileNotFoundError, ValueError) as error:
-        logger.error("%s", error)
-        return 2
+    return run_command(args.func, args)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,49 @@
-"""Placeholder of the error hierarchy (replaced by the full module when it lands)."""
+"""The root of every error modelicagym raises, and the families below it.
+
+Every exception the package raises is a :class:`ModelicaGymError` *and* the built-in type a caller
+would catch without knowing modelicagym: a config mistake is a ``ValueError`` (a ``TypeError``
+when the type is wrong), a missing file a ``FileNotFoundError``, a failed build a
+``RuntimeError``. So ``except ModelicaGymError`` catches everything of ours, and existing
+``except ValueError`` code keeps working.
+
+::
+
+    ModelicaGymError
+    ├── ConfigError (ValueError)            a config value is wrong: key, range, choice
+    │   └── ConfigTypeError (TypeError)     ... of the wrong type
+    ├── ArgumentError (ValueError)          an argument of a call is wrong (shape, count, value)
+    │   ├── ArgumentTypeError (TypeError)   ... of the wrong type
+    │   └── ActionError                     an action outside the action space
+    │       └── ActionTypeError (TypeError) a scalar where a batch of actions belongs
+    ├── NotFoundError (FileNotFoundError)   a file or results directory that does not exist
+    ├── DataError (ValueError)              a file whose content cannot be used
+    ├── BuildError (RuntimeError)           C sources could not be compiled
+    │   └── NativeBuildError                our native library (modelicagym.native)
+    ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
+    │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, ...)
+    └── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
+        (EnvError, WorkerDiedError, WorkerTimeoutError, ...; misuse errors are also
+        Gymnasium's AlreadyPendingCallError, NoAsyncCallError, ClosedEnvironmentError)
+
+The command line prints any of them as one line and exits with status 1 (``--debug`` shows the
+traceback).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ActionError",
+    "ActionTypeError",
+    "ArgumentError",
+    "ArgumentTypeError",
+    "BuildError",
+    "ConfigError",
+    "ConfigTypeError",
+    "DataError",
+    "ModelicaGymError",
+    "NativeBuildError",
+    "NotFoundError",
+]
 
 
 class ModelicaGymError(Exception):
@@ -6,7 +51,7 @@ class ModelicaGymError(Exception):
 
 
 class ConfigError(ModelicaGymError, ValueError):
-    """A config value is wrong."""
+    """A config value is wrong (an unknown key, a value out of range, an unknown choice)."""
 
 
 class ConfigTypeError(ConfigError, TypeError):
@@ -14,8 +59,32 @@ class ConfigTypeError(ConfigError, TypeError):
 
 
 class ArgumentError(ModelicaGymError, ValueError):
-    """An argument of a call is wrong."""
+    """An argument of a call is wrong (its shape, its count, its value)."""
 
 
 class ArgumentTypeError(ArgumentError, TypeError):
     """An argument of a call has the wrong type."""
+
+
+class ActionError(ArgumentError):
+    """An action is outside the env's action space (wrong shape, out of range, NaN)."""
+
+
+class ActionTypeError(ActionError, TypeError):
+    """Not a batch of actions at all (a scalar for a vector env), as Gymnasium's vector envs say."""
+
+
+class NotFoundError(ModelicaGymError, FileNotFoundError):
+    """A file or directory that was asked for does not exist."""
+
+
+class DataError(ModelicaGymError, ValueError):
+    """A file exists but its content cannot be used (incomplete results, a malformed table)."""
+
+
+class BuildError(ModelicaGymError, RuntimeError):
+    """C sources could not be compiled (no compiler or CMake, or a compiler error)."""
+
+
+class NativeBuildError(BuildError):
+    """Our native library (``modelicagym/native/csrc``) could not be compiled."""

@@ -6,9 +6,9 @@ import zipfile
 
 import numpy as np
 import pytest
+from fmu_family import rewrite
 from lxml import etree
 
-from fmu_family import fmus, rewrite  # noqa: F401
 from modelicagym import FMUEnv
 from modelicagym.fmu import (
     FMUError,
@@ -36,8 +36,8 @@ def test_not_a_zip(tmp_path):
         open_fmu(path)
 
 
-def test_zip_without_model_description(tmp_path, fmus):
-    path = rewrite(fmus["probe2"], tmp_path / "Probe.fmu", rename=lambda n: None if n == "modelDescription.xml" else n)
+def test_zip_without_model_description(tmp_path, family_fmu):
+    path = rewrite(family_fmu("probe", 2), tmp_path / "Probe.fmu", rename=lambda n: None if n == "modelDescription.xml" else n)
     with pytest.raises(InvalidFMUError, match="no modelDescription.xml"):
         open_fmu(path)
     folder = tmp_path / "folder"
@@ -46,14 +46,14 @@ def test_zip_without_model_description(tmp_path, fmus):
         open_fmu(folder)
 
 
-def test_unreadable_model_description(tmp_path, fmus):
-    path = rewrite(fmus["probe2"], tmp_path / "Probe.fmu", edit_description=lambda t: t.replace("</ModelVariables>", ""))
+def test_unreadable_model_description(tmp_path, family_fmu):
+    path = rewrite(family_fmu("probe", 2), tmp_path / "Probe.fmu", edit_description=lambda t: t.replace("</ModelVariables>", ""))
     with pytest.raises(InvalidFMUError, match="cannot read modelDescription.xml"):
         open_fmu(path)
 
 
-def test_schema_validation_can_be_skipped(tmp_path, fmus):
-    path = rewrite(fmus["probe2"], tmp_path / "Probe.fmu",
+def test_schema_validation_can_be_skipped(tmp_path, family_fmu):
+    path = rewrite(family_fmu("probe", 2), tmp_path / "Probe.fmu",
                    edit_description=lambda t: t.replace('modelName="Probe"', 'modelName="Probe" madeUpAttribute="1"'))
     with pytest.raises(InvalidFMUError, match="pass validate=False"):
         open_fmu(path)
@@ -64,11 +64,10 @@ def test_schema_validation_can_be_skipped(tmp_path, fmus):
     env.close()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_no_binary_for_this_platform(tmp_path, fmus, version):
-    source = fmus[f"probe{version}"]
+def test_no_binary_for_this_platform(tmp_path, family_fmu, fmi_version):
+    source = family_fmu("probe", fmi_version)
     here = open_fmu(source).platform_dir
-    others = ("darwin64", "win64") if version == 2 else ("aarch64-darwin", "x86_64-windows")
+    others = ("darwin64", "win64") if fmi_version == 2 else ("aarch64-darwin", "x86_64-windows")
 
     no_binaries = rewrite(source, tmp_path / "none.fmu", rename=lambda n: None if n.startswith("binaries/") else n)
     assert open_fmu(no_binaries).platforms == ()
@@ -93,13 +92,13 @@ def test_no_binary_for_this_platform(tmp_path, fmus, version):
         FMUInstance(moved)
 
 
-def test_interface_type_the_fmu_lacks(tmp_path, fmus):
+def test_interface_type_the_fmu_lacks(tmp_path, family_fmu):
     def drop_model_exchange(text: str) -> str:
         root = etree.fromstring(text.encode())
         root.remove(root.find("ModelExchange"))
         return etree.tostring(root, encoding="unicode")
 
-    path = rewrite(fmus["probe2"], tmp_path / "ProbeCS.fmu", edit_description=drop_model_exchange)
+    path = rewrite(family_fmu("probe", 2), tmp_path / "ProbeCS.fmu", edit_description=drop_model_exchange)
     assert open_fmu(path).modes == ("cs",)
     with pytest.raises(UnsupportedFeatureError, match=r"does not support model exchange \(mode='me'\); it supports: co-simulation \('cs'\)"):
         FMUEnv(fmu=path, inputs=["force"], outputs=["position"], mode="me")
@@ -108,9 +107,9 @@ def test_interface_type_the_fmu_lacks(tmp_path, fmus):
     env.close()
 
 
-def test_an_extracted_folder_is_an_fmu_too(tmp_path, fmus):
+def test_an_extracted_folder_is_an_fmu_too(tmp_path, family_fmu):
     folder = tmp_path / "probe"
-    with zipfile.ZipFile(fmus["probe3"]) as archive:
+    with zipfile.ZipFile(family_fmu("probe", 3)) as archive:
         archive.extractall(folder)
     env = FMUEnv(fmu=folder, inputs=["u"], outputs=["y"])
     env.reset()
@@ -119,17 +118,53 @@ def test_an_extracted_folder_is_an_fmu_too(tmp_path, fmus):
     env.close()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_instantiation_refused_by_the_fmu_shows_its_reason(tmp_path, fmus, version):
+def test_instantiation_refused_by_the_fmu_shows_its_reason(tmp_path, family_fmu, fmi_version):
     """A model description edited without rebuilding the binary: the FMU rejects the guid /
     instantiation token, and the error carries the FMU's own message."""
-    token = "guid" if version == 2 else "instantiationToken"
+    token = "guid" if fmi_version == 2 else "instantiationToken"
 
     def new_token(text: str) -> str:
         root = etree.fromstring(text.encode())
         root.set(token, "{00000000-0000-0000-0000-000000000000}")
         return etree.tostring(root, encoding="unicode")
 
-    path = rewrite(fmus[f"probe{version}"], tmp_path / "Probe.fmu", edit_description=new_token)
+    path = rewrite(family_fmu("probe", fmi_version), tmp_path / "Probe.fmu", edit_description=new_token)
     with pytest.raises(FMUError, match=r"Instantiate failed: \[Error\] instantiation token .*00000000.* does not match"):
         FMUEnv(fmu=path, inputs=["force"], outputs=["position"])
+
+
+def test_fmi_functions_need_declared_signatures() -> None:
+    """The binding reads fmpy's declared C signatures; an undeclared or missing one is an error."""
+    import ctypes
+
+    from modelicagym.fmu.binding import FunctionTable
+
+    table = FunctionTable(ctypes.CDLL(None), "Probe")
+    with pytest.raises(FMUError, match="declared no signature for strlen"):
+        table["strlen"]
+    with pytest.raises(FMUError, match="does not export fmi2NoSuchFunction"):
+        table["fmi2NoSuchFunction"]
+
+
+@pytest.mark.parametrize(
+    "variable, edit",
+    [
+        ("mode_out", lambda text: text.replace(
+            'name="mode_out" valueReference="14" causality="output" variability="discrete"',
+            'name="mode_out" valueReference="14" causality="output" variability="continuous"')),
+        ("moving", lambda text: text.replace(
+            '<ScalarVariable name="moving" valueReference="15"', '<ScalarVariable name="moving" valueReference="15" bogus="1"')),
+    ],
+    ids=["enumeration-declared-continuous", "unknown-attribute"],
+)
+def test_rules_broken_on_unused_variables_load_with_a_warning(tmp_path, family_fmu, caplog, variable, edit):
+    path = rewrite(family_fmu("probe", 2), tmp_path / "Probe.fmu", edit_description=edit)
+    with caplog.at_level("WARNING"):
+        env = FMUEnv(fmu=path, inputs=["force"], outputs=["position"])
+    assert f"only for variables this env does not use ({variable})" in caplog.text
+    env.reset(seed=0)
+    env.step(np.array([1.0]))
+    with pytest.raises(InvalidFMUError, match=f"fails validation \\(variables concerned: {variable}\\)"):
+        FMUEnv(fmu=path, inputs=["force"], outputs=["position", variable])
+    with pytest.raises(InvalidFMUError, match="pass validate=False"):
+        open_fmu(path)  # nothing said about what is used: refused as before

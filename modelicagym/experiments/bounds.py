@@ -17,6 +17,7 @@ from typing import Any
 import gymnasium
 from gymnasium import spaces
 
+from modelicagym.errors import ArgumentTypeError
 from modelicagym.experiments.config import SweepConfig
 
 __all__ = ["DEFAULT_BUDGET", "MakeEnv", "longest_episode", "sweep_bounds"]
@@ -44,7 +45,7 @@ def longest_episode(env: gymnasium.Env, *, budget: int = DEFAULT_BUDGET, seed: i
     """Length of the longest episode over all action sequences, or ``None`` if not found within
     ``budget`` env steps. ``env`` must be deterministic with a ``Discrete`` action space."""
     if not isinstance(env.action_space, spaces.Discrete):
-        raise TypeError(f"exhaustive search needs a Discrete action space, got {env.action_space!r}")
+        raise ArgumentTypeError(f"exhaustive search needs a Discrete action space, got {env.action_space!r}")
     actions = range(int(env.action_space.n))
     alive: list[tuple[int, ...]] = [()]  # action sequences of the current length still running
     length, used = 0, 0

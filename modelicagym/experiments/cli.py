@@ -13,6 +13,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from modelicagym.console import add_debug_flag, run_command
 from modelicagym.experiments.bounds import DEFAULT_BUDGET
 from modelicagym.experiments.config import ConfigError, SweepConfig, load_config
 from modelicagym.experiments.paper import PAPER_SWEEPS
@@ -126,11 +127,8 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Standalone entry point: ``reproduce ...`` or ``report ...``."""
     parser = argparse.ArgumentParser(prog="python -m modelicagym.experiments", description=__doc__.splitlines()[0])
+    add_debug_flag(parser)
     add_parsers(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    try:
-        return args.func(args)
-    except (ConfigError, FileNotFoundError) as error:
-        logger.error("%s", error)
-        return 2
+    return run_command(args.func, args)

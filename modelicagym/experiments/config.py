@@ -31,14 +31,11 @@ from pathlib import Path
 from typing import Any
 
 from modelicagym.agents import QLearningConfig
+from modelicagym.errors import ConfigError
 
 __all__ = ["AgentSpec", "ConfigError", "Setting", "SweepConfig", "load_config"]
 
 _NAME = re.compile(r"^[A-Za-z0-9_-]+$")
-
-
-class ConfigError(ValueError):
-    """A sweep configuration is malformed; the message says where and why."""
 
 
 @dataclass(frozen=True)

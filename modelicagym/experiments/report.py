@@ -18,15 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from modelicagym.errors import NotFoundError
 from modelicagym.experiments.analysis import LEARNING_RATIO, WINDOW, SettingSummary, summarize
 from modelicagym.experiments.config import SweepConfig
-from modelicagym.experiments.paper import (
-    FINDINGS,
-    PAPER_NUMBERS,
-    PAPER_SECONDS_PER_STEP,
-    PAPER_SWEEPS,
-    PaperNumbers,
-)
+from modelicagym.experiments.paper import FINDINGS, PAPER_NUMBERS, PAPER_SECONDS_PER_STEP, PAPER_SWEEPS, PaperNumbers
 from modelicagym.experiments.plots import plot_sweep
 from modelicagym.experiments.results import SweepResult, atomic_write, completed_sweeps, read_sweep
 
@@ -317,7 +312,7 @@ def render_report(
     notes_path = Path(notes_path) if notes_path else docs_dir / "reproduction-notes.md"
     names = completed_sweeps(results_dir)
     if not names:
-        raise FileNotFoundError(f"no completed sweeps in {results_dir}")
+        raise NotFoundError(f"no completed sweeps in {results_dir}")
     ordered = [n for n in PAPER_SWEEPS if n in names] + [n for n in names if n not in PAPER_SWEEPS]
     results = {name: read_sweep(results_dir, name) for name in ordered}
     notes = read_notes(notes_path)

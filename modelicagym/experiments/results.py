@@ -27,6 +27,7 @@ from typing import IO, Any
 import numpy as np
 
 from modelicagym.agents import QLearningAgent
+from modelicagym.errors import ArgumentTypeError, DataError, NotFoundError
 from modelicagym.experiments.config import SweepConfig
 
 __all__ = [
@@ -135,7 +136,7 @@ def _json_default(value: Any) -> Any:
         return value.tolist()
     if isinstance(value, np.generic):
         return value.item()
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")
+    raise ArgumentTypeError(f"not JSON serializable: {type(value).__name__}")
 
 
 def _read_document(json_path: Path) -> dict[str, Any] | None:
@@ -178,7 +179,7 @@ def read_sweep(results_dir: str | Path, name: str) -> SweepResult:
     csv_path, json_path = _paths(Path(results_dir), name)
     document = _read_document(json_path)
     if document is None:
-        raise FileNotFoundError(f"no completed sweep {name!r} in {results_dir} ({json_path} missing or unreadable)")
+        raise NotFoundError(f"no completed sweep {name!r} in {results_dir} ({json_path} missing or unreadable)")
     config = SweepConfig.from_dict(document["config"])
     labels = {setting.label: s for s, setting in enumerate(config.settings)}
     shape = (len(config.settings), config.repeats, config.episodes)
@@ -190,7 +191,7 @@ def read_sweep(results_dir: str | Path, name: str) -> SweepResult:
             lengths[index] = int(row["length"])
             returns[index] = float(row["reward"])
     if (lengths < 0).any():
-        raise ValueError(f"{csv_path} lacks {(lengths < 0).sum()} of the {lengths.size} episodes of {name!r}")
+        raise DataError(f"{csv_path} lacks {(lengths < 0).sum()} of the {lengths.size} episodes of {name!r}")
     return SweepResult(
         config, lengths, returns, document.get("timing", {}), document.get("machine", {}), document.get("bounds", {})
     )

@@ -33,6 +33,7 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
 from modelicagym.agents import Discretizer, QLearningAgent, train
+from modelicagym.errors import ArgumentTypeError
 from modelicagym.experiments.bounds import DEFAULT_BUDGET, MakeEnv, sweep_bounds
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.plots import plot_sweep
@@ -72,7 +73,7 @@ def _seeds(config: SweepConfig) -> tuple[list[np.random.SeedSequence], list[int]
 
 def _make_agent(config: SweepConfig, envs: VectorEnv, seeds: Sequence[np.random.SeedSequence]) -> QLearningAgent:
     if not isinstance(envs.single_action_space, spaces.Discrete):
-        raise TypeError(f"tabular Q-learning needs a Discrete action space, got {envs.single_action_space!r}")
+        raise ArgumentTypeError(f"tabular Q-learning needs a Discrete action space, got {envs.single_action_space!r}")
     spec = config.agent
     discretizer = Discretizer.for_box(envs.single_observation_space, spec.n_bins, spec.intervals)
     return QLearningAgent(

@@ -27,13 +27,16 @@ import sys
 import tempfile
 import zipfile
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Union
 from xml.etree import ElementTree
 
 import fmpy
 
+from modelicagym.errors import ArgumentError, BuildError, NotFoundError
 from modelicagym.fmu.cache import cache_dir, locked
+from modelicagym.fmu.errors import FMUError
 
 __all__ = [
     "FMUBuildError",
@@ -57,7 +60,7 @@ _BUILD_DESCRIPTION = "buildDescription.xml"
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
 
-class FMUBuildError(RuntimeError):
+class FMUBuildError(FMUError, BuildError):
     """A source FMU could not be assembled or compiled (the message holds the compiler output)."""
 
 
@@ -101,27 +104,29 @@ def build_all_models(cache: str | os.PathLike | None = None) -> list[Path]:
     return built
 
 
+@dataclass
 class _BuildJob:
     """Everything one build needs, read once; ``key`` hashes all of it."""
 
-    def __init__(self, description: bytes, sources: dict[str, bytes], defines: dict[str, str | None],
-                 fmi_version: int, identifier: str, token: str) -> None:
-        self.description = description
-        self.sources = sources
-        self.defines = defines
-        self.fmi_version = fmi_version
-        self.identifier = identifier
-        self.token = token
+    description: bytes
+    sources: dict[str, bytes]
+    defines: dict[str, str | None]
+    fmi_version: int
+    identifier: str
+    token: str
+    key: str = field(init=False)
+
+    def __post_init__(self) -> None:
         self.key = self._hash()
 
     @classmethod
     def create(cls, model_dir: Path, fmi_version: int, model_description: str | os.PathLike | None,
                defines: Mapping[str, DefineValue]) -> "_BuildJob":
         if fmi_version not in _ADAPTERS:
-            raise ValueError(f"fmi_version must be one of {sorted(_ADAPTERS)}, not {fmi_version!r}")
+            raise ArgumentError(f"fmi_version must be one of {sorted(_ADAPTERS)}, not {fmi_version!r}")
         md_path = model_dir / (model_description or f"modelDescription_fmi{fmi_version}.xml")
         if not md_path.is_file():
-            raise FileNotFoundError(f"model description not found: {md_path}")
+            raise NotFoundError(f"model description not found: {md_path}")
         description = md_path.read_bytes()
         identifier, token = _read_description(description, fmi_version, md_path)
         sources = _read_sources(model_dir, fmi_version)
@@ -204,12 +209,12 @@ def _normalize_defines(defines: Mapping[str, DefineValue]) -> dict[str, str | No
     normalized: dict[str, str | None] = {}
     for name, value in defines.items():
         if not _IDENTIFIER.match(name):
-            raise ValueError(f"preprocessor definition name {name!r} is not a C identifier")
+            raise ArgumentError(f"preprocessor definition name {name!r} is not a C identifier")
         if isinstance(value, bool):
             value = int(value)
         text = None if value is None else str(value)
         if text is not None and ("\n" in text or "\r" in text):
-            raise ValueError(f"preprocessor definition {name} contains a line break")
+            raise ArgumentError(f"preprocessor definition {name} contains a line break")
         normalized[name] = text
     return normalized
 
@@ -266,6 +271,12 @@ def _cmake() -> str:
     raise FMUBuildError("cmake was not found (pip install cmake, or install it with the system)")
 
 
+def _link_options() -> dict[str, str]:
+    """CMake cache entries that make the binary link what it uses: fmpy's CMake project does not
+    link libm, which leaves ``sin``/``cos`` unresolved for hosts that have not loaded it."""
+    return {} if sys.platform == "win32" else {"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm"}
+
+
 def _compile(unzipdir: Path, build_dir: Path) -> None:
     """Compile ``unzipdir/sources`` into ``unzipdir/binaries/<platform>`` with fmpy's CMake project.
 
@@ -278,7 +289,7 @@ def _compile(unzipdir: Path, build_dir: Path) -> None:
         raise FMUBuildError(f"building source FMUs needs fmpy.build.create_cmake_settings "
                             f"(fmpy 0.3.32 has it), but fmpy is {fmpy.__version__}") from e
     build_dir.mkdir(parents=True)
-    create_cmake_settings(unzipdir, build_dir, all_warnings=True)
+    create_cmake_settings(unzipdir, build_dir, all_warnings=True, cmake_options=_link_options())
     cmake = _cmake()
     project = Path(fmpy.__file__).parent / "c-code"
     output = []

@@ -9,6 +9,10 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
+from modelicagym.errors import ModelicaGymError
+
+#: FMI status codes (``fmi2Status`` and ``fmi3Status`` share their values)
+OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 STATUS_NAMES = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 
 
@@ -17,7 +21,7 @@ def status_name(status: int) -> str:
     return STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"illegal status {status}"
 
 
-class FMUError(Exception):
+class FMUError(ModelicaGymError):
     """Base class of every error the FMI runtime raises."""
 
 

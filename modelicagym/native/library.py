@@ -18,7 +18,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from modelicagym.errors import ModelicaGymError
+from modelicagym.errors import NativeBuildError
 from modelicagym.fmu.cache import cache_dir, locked
 
 __all__ = ["NativeBuildError", "SOURCES_DIR", "load_library"]
@@ -28,10 +28,6 @@ logger = logging.getLogger(__name__)
 SOURCES_DIR = Path(__file__).resolve().parent / "csrc"
 _NAME = "libmodelicagym_native.so"
 _FLAGS = ("-O2", "-shared", "-fPIC", "-std=c11", "-Wall")
-
-
-class NativeBuildError(ModelicaGymError, RuntimeError):
-    """The native step library could not be compiled (no compiler, or a compiler error)."""
 
 
 def _compiler() -> str:
@@ -61,6 +57,17 @@ SIGNATURES = {
     "mg_signal_post": (None, (ctypes.c_void_p,)),
     "mg_signal_try": (ctypes.c_int, (ctypes.c_void_p,)),
     "mg_signal_wait": (ctypes.c_int, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_int)),
+    "mg_env_step": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
+    "mg_env_reset": (ctypes.c_int32, (ctypes.c_void_p,)),
+    "mg_step_batch": (ctypes.c_int64, (ctypes.c_void_p,)),
+    "mg_serve": (ctypes.c_int32, (ctypes.c_void_p,)),
+    "mg_collect": (ctypes.c_int32, (ctypes.c_void_p,)),
+    "mg_first_outside_int64": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64)),
+    "mg_first_outside_float64": (
+        ctypes.c_int64,
+        (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p),
+    ),
+    "mg_loop": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),
 }
 
 

@@ -10,6 +10,7 @@ traceback.
 
 from __future__ import annotations
 
+import functools
 import multiprocessing
 import pickle
 import signal
@@ -78,6 +79,9 @@ class PoolError(ModelicaGymError, RuntimeError):
 class EnvError(PoolError):
     """A sub-environment raised an exception in ``reset``/``step`` (or while being created).
 
+    Where the original exception could be pickled, the error raised is also an instance of its
+    type (``except ValueError`` catches an env's ``ValueError``, as with ``SyncVectorEnv``).
+
     Attributes:
         original: the exception object raised in the worker, if it could be pickled, else ``None``.
         remote_traceback: the worker-side traceback, formatted.
@@ -94,6 +98,23 @@ class EnvError(PoolError):
         super().__init__(message, env_index, worker_index)
         self.original = original
         self.remote_traceback = remote_traceback
+
+
+@functools.cache
+def _env_error_type(original: type[BaseException]) -> type[EnvError]:
+    """`EnvError` that is also an ``original`` (so ``except ValueError`` in user code still catches
+    an env's ``ValueError``); plain `EnvError` where the two cannot be combined."""
+    if not issubclass(original, Exception) or issubclass(original, EnvError):
+        return EnvError
+    try:
+        return type(
+            "EnvError",
+            (EnvError, original),
+            {"__module__": __name__, "__qualname__": f"EnvError[{original.__qualname__}]",
+             "__str__": BaseException.__str__, "__repr__": BaseException.__repr__},
+        )
+    except TypeError:  # e.g. an instance lay-out conflict between built-in exception types
+        return EnvError
 
 
 class WorkerDiedError(PoolError):
@@ -173,11 +194,13 @@ class RemoteError:
         ``process`` where (default ``"worker <worker_index>"``)."""
         where = "an env" if self.env_index is None else f"env {self.env_index}"
         process = process or f"worker {worker_index}"
-        error = EnvError(
+        original = self.original()
+        error_type = EnvError if original is None else _env_error_type(type(original))
+        error = error_type(
             f"{where} ({process}) raised {self.type_name} in {context}: {self.message}",
             self.env_index,
             worker_index,
-            self.original(),
+            original,
             self.traceback,
         )
         error.__cause__ = RemoteTraceback(self.traceback)
