@@ -12,9 +12,16 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+import numpy as np
 from gymnasium import spaces
 
+from modelicagym.config_checks import check_numbers, check_termination
+from modelicagym.errors import ConfigError, ConfigTypeError
+
 Bounds = Mapping[str, Sequence[float]]
+
+#: values of the ``step_path`` config key
+STEP_PATHS = ("auto", "python")
 
 
 @dataclass
@@ -36,6 +43,11 @@ class FMUEnvConfig:
         reward: a callable ``f(env, observation, action, terminated) -> float`` replacing the
             default reward.
         action_space / observation_space: override the spaces derived from the model description.
+        action_table: for a discrete action space: one row of input values per action (action
+            ``k`` sets the inputs to ``action_table[k]``); the action space is then
+            ``Discrete(len(action_table))``.
+        step_path: ``"auto"`` (default): the native step path when the config allows it (see
+            `modelicagym.native.step`), else Python; ``"python"`` forces the Python path.
         mode: ``"cs"`` or ``"me"``; default: co-simulation when the FMU offers it.
         reset_rung, solver, tolerance, solver_step, validate, logging_on: passed to `FMUInstance`.
     """
@@ -53,6 +65,8 @@ class FMUEnvConfig:
     reward: Callable[..., float] | None = None
     action_space: spaces.Space | None = None
     observation_space: spaces.Space | None = None
+    action_table: Sequence[Sequence[float]] | None = None
+    step_path: str = "auto"
     mode: str | None = None
     reset_rung: str = "auto"
     solver: str = "cvode"
@@ -69,15 +83,19 @@ class FMUEnvConfig:
             if key not in known:
                 close = difflib.get_close_matches(key, known, n=2)
                 hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
-                raise TypeError(f"unknown FMUEnv config key {key!r}.{hint} Known keys: {', '.join(known)}")
+                raise ConfigTypeError(f"unknown FMUEnv config key {key!r}.{hint} Known keys: {', '.join(known)}")
         if "fmu" not in mapping:
-            raise TypeError("an FMUEnv config needs 'fmu': the path of the .fmu file")
+            raise ConfigTypeError("an FMUEnv config needs 'fmu': the path of the .fmu file")
         config = cls(**mapping)
         config.inputs = list([config.inputs] if isinstance(config.inputs, str) else config.inputs)
         config.outputs = list([config.outputs] if isinstance(config.outputs, str) else config.outputs)
         config.parameters = dict(config.parameters)
-        if config.time_step is not None and not config.time_step > 0:
-            raise ValueError(f"time_step must be positive, got {config.time_step}")
-        if config.max_episode_steps is not None and config.max_episode_steps < 1:
-            raise ValueError(f"max_episode_steps must be at least 1, got {config.max_episode_steps}")
+        check_numbers(config)
+        check_termination(config.termination)
+        if config.step_path not in STEP_PATHS:
+            raise ConfigError(f"step_path must be one of {STEP_PATHS}, got {config.step_path!r}")
+        if config.action_table is not None:
+            config.action_table = [[float(v) for v in np.atleast_1d(row)] for row in config.action_table]
+            if not config.action_table or len({len(row) for row in config.action_table}) != 1:
+                raise ConfigError("action_table needs at least one row, and every row the same number of input values")
         return config

@@ -12,11 +12,13 @@ import difflib
 import importlib
 import inspect
 from collections.abc import Mapping, Sequence
+from dataclasses import fields
 from functools import partial
 from typing import Any
 
 import gymnasium as gym
 
+from modelicagym.errors import ArgumentError
 from modelicagym.fmu import open_fmu
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
@@ -73,16 +75,19 @@ def make_vec(
     n: int,
     *,
     options_per_env: Sequence[dict[str, Any]] | None = None,
+    env_options: Mapping[str, Any] | None = None,
+    pool_options: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> gym.vector.VectorEnv:
     """Create ``n`` environments stepped in parallel by the multi-process pool.
 
     ``name`` is a short name or Gymnasium id, or an `FMUEnv` config dict (``{"fmu": ..., ...}``):
-    any FMU can be pooled. ``options`` go to every environment; ``options_per_env[i]`` (a list of ``n`` dicts) updates
-    them for environment ``i`` — e.g. one parameter set per env for domain randomisation.
-    Options named like the pool's own (``num_workers``, ``autoreset_mode``, ``step_timeout``,
-    ``start_method``, ``restart_dead_workers``, ``max_envs_per_worker``, ``measure_timing``, ...: see
-    `PoolVectorEnv`) configure the pool instead.
+    any FMU can be pooled. Options go to every environment; ``options_per_env[i]`` (a list of ``n``
+    dicts) updates them for environment ``i`` — e.g. one parameter set per env for domain
+    randomisation. An option named like one of the pool's (`POOL_OPTIONS`: ``num_workers``,
+    ``autoreset_mode``, ``step_timeout``, ``restart_dead_workers``, ``caller_steps``, ... see
+    `PoolVectorEnv`) configures the pool instead. A name both accept is an error: say which you
+    mean with ``env_options={...}`` or ``pool_options={...}``, which go only where they say.
 
     Example::
 
@@ -94,13 +99,13 @@ def make_vec(
         envs.close()
     """
     from modelicagym.vector import PoolVectorEnv
+    from modelicagym.vector.pool import POOL_OPTIONS
 
     if n < 1:
-        raise ValueError(f"n must be at least 1, got {n}")
+        raise ArgumentError(f"n must be at least 1, got {n}")
     if options_per_env is not None and len(options_per_env) != n:
-        raise ValueError(f"options_per_env has {len(options_per_env)} entries for n={n} environments")
-    pool_keys = set(inspect.signature(PoolVectorEnv.__init__).parameters) - {"self", "env_fns"}
-    pool_options = {k: options.pop(k) for k in list(options) if k in pool_keys}
+        raise ArgumentError(f"options_per_env has {len(options_per_env)} entries for n={n} environments")
+    _check_names(pool_options or {}, POOL_OPTIONS, "pool option")
     limit = None
     if isinstance(name, Mapping):
         entry_point, options = "modelicagym.env:FMUEnv", {**name, **options}
@@ -108,11 +113,49 @@ def make_vec(
             limit = 1
     else:
         entry_point = _entry_point(name)
+    env_keys = _env_option_names(_load(entry_point))
+    to_pool = {}
+    for key in [k for k in options if k in POOL_OPTIONS]:
+        if env_keys is not None and key in env_keys:
+            raise ArgumentError(f"{key!r} is an option of both the env and the pool: pass it as "
+                                f"env_options={{{key!r}: ...}} or pool_options={{{key!r}: ...}}")
+        to_pool[key] = options.pop(key)
+    if env_keys is not None:
+        _check_names({k: v for k, v in options.items() if k not in env_keys}, POOL_OPTIONS, "pool option",
+                     only_if_close=True)
     env_fns = [
-        EnvFactory(entry_point, {**options, **(options_per_env[i] if options_per_env else {})}, limit)
+        EnvFactory(entry_point, {**options, **(env_options or {}), **(options_per_env[i] if options_per_env else {})},
+                   limit)
         for i in range(n)
     ]
-    return PoolVectorEnv(env_fns, **pool_options)
+    return PoolVectorEnv(env_fns, **to_pool, **(pool_options or {}))
+
+
+def _env_option_names(env_class: Any) -> set[str] | None:
+    """The keyword options ``env_class`` accepts, or ``None`` when it takes any (``**kwargs``)
+    that are not an `FMUEnv`'s config keys."""
+    from modelicagym.config import FMUEnvConfig
+    from modelicagym.env import FMUEnv
+
+    parameters = inspect.signature(env_class.__init__).parameters.values()
+    names = {p.name for p in parameters if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)} - {"self"}
+    if any(p.kind is p.VAR_KEYWORD for p in parameters):
+        if not (isinstance(env_class, type) and issubclass(env_class, FMUEnv)):
+            return None
+        names |= {f.name for f in fields(FMUEnvConfig)}
+    return names
+
+
+def _check_names(given: Mapping[str, Any], known: Sequence[str], what: str, only_if_close: bool = False) -> None:
+    """Raise for a name in ``given`` that is not ``known``, suggesting close matches (with
+    ``only_if_close``, only for names close to a known one: a misspelt pool option)."""
+    for key in given:
+        if key in known:
+            continue
+        close = difflib.get_close_matches(key, known, n=2)
+        if close or not only_if_close:
+            hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+            raise ArgumentError(f"unknown {what} {key!r}.{hint} Pool options: {', '.join(known)}")
 
 
 def _vector_entry_point(name: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:

@@ -10,20 +10,19 @@ The rule, stated once:
   boolean stays ``Discrete``;
 * anything else (mixed kinds, arrays next to other variables) is a ``Dict`` keyed by variable name.
 
-`Observer` turns an FMU's output buffer into an observation of such a space; `Actuator` checks an
-action against its space and writes it into the input buffer.
+`Observer` turns an FMU's output buffer into an observation of such a space; `write_values` writes
+an action (checked by `modelicagym.actions`) into the input buffer.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from functools import partial
-from math import isfinite
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
+from modelicagym.errors import ConfigError
 from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.fmu.variables import Variable
 
@@ -54,7 +53,7 @@ def _float_dtype(v: Variable) -> Any:
 def space_for(variables: Sequence[Variable]) -> spaces.Space:
     """The space of a list of variables (see the module docstring for the rule)."""
     if not variables:
-        raise ValueError("a space needs at least one variable")
+        raise ConfigError("a space needs at least one variable")
     if len(variables) == 1 and (variables[0].shape or variables[0].kind != "float"):
         return variable_space(variables[0], _float_dtype(variables[0]))
     kinds = {("int" if _bounded_integer(v) else v.kind) for v in variables}
@@ -104,84 +103,6 @@ class Observer:
             flat = self._flat if self._flat is not None else np.concatenate([p.ravel() for p in self._parts])
             return _as_space_value(self.space, flat)
         return {name: _as_space_value(sub, np.asarray(view)) for name, sub, view in self._views}
-
-
-def describe_action(action: Any) -> str:
-    text = repr(action)
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
-def check_action(space: spaces.Space, action: Any) -> None:
-    """Raise a ValueError naming the action and the space unless ``action`` belongs to ``space``."""
-    problem = _action_problem(space, action)
-    if problem:
-        raise ValueError(f"invalid action {describe_action(action)}: {problem}; the action space is {space}")
-
-
-def action_checker(space: spaces.Space) -> Callable[[Any], None]:
-    """A fast `check_action` for one space: common valid actions pass in well under a microsecond."""
-    if type(space) is spaces.Discrete:
-        low, high = int(space.start), int(space.start + space.n)
-
-        def check_discrete(action: Any) -> None:
-            if not (type(action) is int or isinstance(action, np.integer)) or not low <= action < high:
-                check_action(space, action)
-
-        return check_discrete
-    if type(space) is spaces.Box and len(space.shape) == 1 and space.shape[0] <= 16:
-        bounds = list(zip(space.low.tolist(), space.high.tolist()))
-        shape = space.shape
-
-        def check_box(action: Any) -> None:
-            if type(action) is np.ndarray and action.shape == shape and action.dtype.kind in "fiu":
-                for value, (low, high) in zip(action.tolist(), bounds):
-                    if not (low <= value <= high and isfinite(value)):
-                        break
-                else:
-                    return
-            check_action(space, action)
-
-        return check_box
-    return partial(check_action, space)
-
-
-def _action_problem(space: spaces.Space, action: Any) -> str | None:
-    if isinstance(space, spaces.Dict):
-        if not isinstance(action, dict) or set(action) != set(space.keys()):
-            return f"expected a dict with keys {sorted(space.keys())}"
-        for name, sub in space.items():
-            problem = _action_problem(sub, action[name])
-            if problem:
-                return f"{name!r}: {problem}"
-        return None
-    try:
-        array = np.asarray(action)
-    except Exception:
-        return "not array-like"
-    if array.dtype.kind not in "biuf":
-        return f"expected numbers, got dtype {array.dtype}"
-    if isinstance(space, spaces.Discrete):
-        if array.shape != ():
-            return f"expected a single integer, got shape {array.shape}"
-    elif array.shape != space.shape:
-        return f"expected shape {space.shape}, got shape {array.shape}"
-    if array.dtype.kind == "f" and not np.all(np.isfinite(array)):
-        return "it contains NaN or infinity"
-    if not isinstance(space, spaces.Box) and array.dtype.kind == "f" and np.any(array != np.round(array)):
-        return "expected integers"
-    if isinstance(space, spaces.Discrete):
-        if not space.start <= int(array) < space.start + space.n:
-            return f"out of range [{space.start}, {space.start + space.n - 1}]"
-    elif isinstance(space, spaces.MultiDiscrete):
-        if np.any(array < space.start) or np.any(array >= space.start + space.nvec):
-            return "out of range"
-    elif isinstance(space, spaces.MultiBinary):
-        if np.any((array != 0) & (array != 1)):
-            return "expected 0 or 1"
-    elif isinstance(space, spaces.Box):
-        if np.any(array < space.low) or np.any(array > space.high):
-            return f"outside the bounds [{space.low}, {space.high}]"
-    return None
 
 
 def write_values(buffer: ValueBuffer, values: Any) -> None:

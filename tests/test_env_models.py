@@ -6,13 +6,11 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import pytest
 from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env
 
-from fmu_family import fmus  # noqa: F401
 from modelicagym import FMUEnv
-from modelicagym.models.cartpole import INPUT, OUTPUTS, cartpole_fmu
+from modelicagym.models.cartpole import INPUT, OUTPUTS
 
 
 def checked(env: FMUEnv) -> None:
@@ -21,10 +19,8 @@ def checked(env: FMUEnv) -> None:
         check_env(env, skip_render_check=True)
 
 
-@pytest.mark.parametrize("mode", ["cs", "me"])
-@pytest.mark.parametrize("version", [2, 3])
-def test_cartpole_as_a_plain_fmu_env(version, mode):
-    env = FMUEnv(fmu=cartpole_fmu(version), mode=mode, inputs=[INPUT], outputs=list(OUTPUTS),
+def test_cartpole_as_a_plain_fmu_env(cartpole_fmu, fmi_version, fmu_mode):
+    env = FMUEnv(fmu=cartpole_fmu(fmi_version), mode=fmu_mode, inputs=[INPUT], outputs=list(OUTPUTS),
                  termination={"x": (-2.4, 2.4)}, max_episode_steps=50)
     assert env.action_space == spaces.Box(-np.inf, np.inf, (1,), np.float64)
     assert env.observation_space.shape == (4,)
@@ -45,10 +41,8 @@ def test_cartpole_as_a_plain_fmu_env(version, mode):
     env.close()
 
 
-@pytest.mark.parametrize("mode", ["cs", "me"])
-@pytest.mark.parametrize("version", [2, 3])
-def test_bouncing_ball_as_a_plain_fmu_env(fmus, version, mode):
-    env = FMUEnv(fmu=fmus[f"ball{version}"], mode=mode, inputs=["a"], outputs=["h", "v", "bounces"],
+def test_bouncing_ball_as_a_plain_fmu_env(family_fmu, fmi_version, fmu_mode):
+    env = FMUEnv(fmu=family_fmu("ball", fmi_version), mode=fmu_mode, inputs=["a"], outputs=["h", "v", "bounces"],
                  max_episode_steps=40)
     assert env.time_step == 0.05  # the model's default experiment
     assert env.action_space == spaces.Box(-5.0, 5.0, (1,), np.float64)

@@ -13,24 +13,27 @@ import warnings
 
 import numpy as np
 import pytest
+from episodes import observations
+from fmu_family import FAULTS, MODES, probe_variables
 from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env
 
-from fmu_family import FAULTS, MODES, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
 from modelicagym import FMUEnv
 from modelicagym.fmu import FMUCallError, VariableError
 
 
 @pytest.fixture
-def make_env(fmus):
-    """``make_env(name, **config)`` -> FMUEnv on the family member ``name``; closed after the test."""
+def make_env(family_fmu):
+    """``make_env(name, fmi_version, **config)`` -> FMUEnv on a family member (by default every
+    probe variable in and out); closed after the test."""
     made: list[FMUEnv] = []
 
-    def make(name: str, **config) -> FMUEnv:
-        version = 3 if "3" in name else 2
-        config.setdefault("inputs", PROBE3_INPUTS if version == 3 else PROBE_INPUTS)
-        config.setdefault("outputs", PROBE3_OUTPUTS if version == 3 else PROBE_OUTPUTS)
-        env = FMUEnv(fmu=fmus[name], **config)
+    def make(name: str, fmi_version: int, **config) -> FMUEnv:
+        fmu = family_fmu(name, fmi_version)
+        inputs, outputs = probe_variables(fmu)
+        config.setdefault("inputs", inputs)
+        config.setdefault("outputs", outputs)
+        env = FMUEnv(fmu=fmu, **config)
         made.append(env)
         return env
 
@@ -39,24 +42,12 @@ def make_env(fmus):
         env.close()
 
 
-def full_action(version: int, gear=3, mode="cool", enable=True, boost=True, force=0.5, u=(0.5, -1.0, 0.25),
+def full_action(fmi_version: int, gear=3, mode="cool", enable=True, boost=True, force=0.5, u=(0.5, -1.0, 0.25),
                 trim=-7, tag=2**64 - 5):
     action = {"gear": gear, "mode": MODES[mode], "enable": int(enable), "boost": int(boost), "force": np.array(force)}
-    if version == 3:
+    if fmi_version == 3:
         action.update(u=np.array(u), trim=trim, tag=tag)
     return action
-
-
-def run(env: FMUEnv, actions, **reset) -> list:
-    """Observations of an episode driven by ``actions`` (stops when it ends)."""
-    observation, _ = env.reset(**reset)
-    trajectory = [observation]
-    for action in actions:
-        observation, _, terminated, truncated, _ = env.step(action)
-        trajectory.append(observation)
-        if terminated or truncated:
-            break
-    return trajectory
 
 
 # -- spaces and the Gymnasium contract --------------------------------------------------------
@@ -74,15 +65,14 @@ def run(env: FMUEnv, actions, **reset) -> list:
     ],
     ids=["Discrete", "Discrete-enum", "MultiBinary", "MultiDiscrete", "Box", "Dict"],
 )
-@pytest.mark.parametrize("version", [2, 3])
-def test_env_checker_passes_for_every_kind_of_action_space(make_env, version, inputs, expected):
+def test_env_checker_passes_for_every_kind_of_action_space(make_env, fmi_version, inputs, expected):
     config = {"inputs": inputs} if inputs else {}
-    env = make_env(f"probe{version}", max_episode_steps=20, parameters={"enable": True}, **config)
+    env = make_env("probe", fmi_version, max_episode_steps=20, parameters={"enable": True}, **config)
     if expected is not None:
         assert env.action_space == expected
     else:
         assert isinstance(env.action_space, spaces.Dict)
-        assert set(env.action_space.keys()) == set(PROBE3_INPUTS if version == 3 else PROBE_INPUTS)
+        assert set(env.action_space.keys()) == set(probe_variables(env.description)[0])
     assert isinstance(env.observation_space, spaces.Dict)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unbounded observation spaces
@@ -94,13 +84,12 @@ def test_env_checker_passes_for_every_kind_of_action_space(make_env, version, in
             assert env.observation_space.contains(observation)
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_observations_follow_the_model_equations(make_env, version):
-    env = make_env(f"probe{version}")
+def test_observations_follow_the_model_equations(make_env, fmi_version):
+    env = make_env("probe", fmi_version)
     observation, info = env.reset()
     assert info == {}
     assert observation["steps"] == 0 and observation["clock"] == 0.0 and observation["mode_out"] == 1
-    observation, reward, terminated, truncated, info = env.step(full_action(version))
+    observation, reward, terminated, truncated, info = env.step(full_action(fmi_version))
     assert (reward, terminated, truncated, info) == (1.0, False, False, {})
     speed = 3 * -1 * 2  # gear * direction(cool) * boost
     assert observation["speed"] == speed
@@ -109,7 +98,7 @@ def test_observations_follow_the_model_equations(make_env, version):
     assert observation["steps"] == 1
     assert observation["clock"] == pytest.approx(0.1, abs=1e-15)
     assert observation["position"] == pytest.approx((speed + 0.5) * 0.1, abs=1e-12)
-    if version == 3:
+    if fmi_version == 3:
         u = np.array([0.5, -1.0, 0.25])
         np.testing.assert_allclose(observation["y"], [3 * u, u + 0.1], rtol=0, atol=1e-15)
         np.testing.assert_array_equal(observation["positive"], [1, 0, 1])
@@ -117,19 +106,18 @@ def test_observations_follow_the_model_equations(make_env, version):
         assert observation["thrust"] == 0.5 and observation["thrust"].dtype == np.float32
         assert observation["level"] == 1000 - 70
         assert observation["tag_out"] == 2**64 - 5 and observation["tag_out"].dtype == np.uint64
-    observation, *_ = env.step(full_action(version, enable=False, force=-2.0))
+    observation, *_ = env.step(full_action(fmi_version, enable=False, force=-2.0))
     assert observation["speed"] == 0 and observation["moving"] == 1 and observation["steps"] == 2
-    if version == 3:
+    if fmi_version == 3:
         assert observation["ticks"] == 2 * 10**12
     assert observation["position"] == pytest.approx((speed + 0.5) * 0.1 - 0.2, abs=1e-12)
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_flat_discrete_spaces_move_values_of_different_fmi_types(make_env, version):
+def test_flat_discrete_spaces_move_values_of_different_fmi_types(make_env, fmi_version):
     """gear (Integer) and mode (Enumeration) share one MultiDiscrete action, speed (Integer) and
     mode_out (Enumeration) one MultiDiscrete observation, though the FMI moves them with different
     calls in FMI 3.0 and different declared types in FMI 2.0."""
-    env = make_env(f"probe{version}", inputs=["gear", "mode"], outputs=["speed", "mode_out"],
+    env = make_env("probe", fmi_version, inputs=["gear", "mode"], outputs=["speed", "mode_out"],
                    parameters={"enable": True})
     assert isinstance(env.observation_space, spaces.MultiDiscrete)
     observation, _ = env.reset()
@@ -142,11 +130,10 @@ def test_flat_discrete_spaces_move_values_of_different_fmi_types(make_env, versi
     assert env.observation_space.contains(observation)
 
 
-@pytest.mark.parametrize("mode", ["cs", "me"])
-def test_fmi3_value_types_round_trip_through_step(make_env, mode):
+def test_fmi3_value_types_round_trip_through_step(make_env, fmu_mode):
     """Int8 and UInt64 inputs, Float32, UInt16 and UInt64 outputs, exactly: 2**64 - 5 does not survive
     a float64 on the way, and the model rounds gain * force to Float32."""
-    env = make_env("probe3", inputs=["force", "trim", "tag"], outputs=["thrust", "level", "tag_out"], mode=mode)
+    env = make_env("probe", 3, inputs=["force", "trim", "tag"], outputs=["thrust", "level", "tag_out"], mode=fmu_mode)
     assert env.action_space["trim"] == spaces.Discrete(201, start=-100)
     assert env.action_space["tag"] == spaces.Box(0, 2**64 - 1, (), np.uint64)
     assert env.observation_space["thrust"] == spaces.Box(-np.inf, np.inf, (), np.float32)
@@ -177,7 +164,7 @@ def test_fmi3_value_types_round_trip_through_step(make_env, mode):
 def test_fmi3_value_types_in_flat_spaces(make_env, inputs, outputs, action, expected):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # e.g. gymnasium's warning for float64 bounds of a float32 Box
-        env = make_env("probe3", inputs=inputs, outputs=outputs)
+        env = make_env("probe", 3, inputs=inputs, outputs=outputs)
     assert env.observation_space.dtype == expected.dtype and env.observation_space.shape == expected.shape
     env.reset()
     observation, *_ = env.step(action)
@@ -188,7 +175,7 @@ def test_fmi3_value_types_in_flat_spaces(make_env, inputs, outputs, action, expe
 
 
 def test_tunable_parameter_mid_episode_and_fixed_one_refused(make_env):
-    env = make_env("probe2", inputs=["force"], outputs=["position"])
+    env = make_env("probe", 2, inputs=["force"], outputs=["position"])
     env.reset()
     env.fmu.set_values({"gain": 3.0})
     observation, *_ = env.step(np.array([1.0]))
@@ -203,15 +190,14 @@ def test_tunable_parameter_mid_episode_and_fixed_one_refused(make_env):
 # -- episode ends caused by the FMU -----------------------------------------------------------
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_discard_with_terminated_ends_the_episode(make_env, version):
-    env = make_env(f"probe{version}", parameters={"fault": FAULTS["terminate"], "fault_after": 3})
+def test_discard_with_terminated_ends_the_episode(make_env, fmi_version):
+    env = make_env("probe", fmi_version, parameters={"fault": FAULTS["terminate"], "fault_after": 3})
     for episode in range(2):
         env.reset()
         for k in range(3):
-            observation, reward, terminated, truncated, info = env.step(full_action(version))
+            observation, reward, terminated, truncated, info = env.step(full_action(fmi_version))
             assert (terminated, truncated, info) == (False, False, {})
-        observation, reward, terminated, truncated, info = env.step(full_action(version))
+        observation, reward, terminated, truncated, info = env.step(full_action(fmi_version))
         assert terminated and not truncated, f"episode {episode}"
         assert info == {"fmu_terminated": True}
         assert reward == env.negative_reward
@@ -219,10 +205,9 @@ def test_discard_with_terminated_ends_the_episode(make_env, version):
         assert not env.fmu.broken
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, version, monkeypatch, caplog):
-    env = make_env(f"probe{version}", parameters={"fault": FAULTS["error"], "fault_after": 3})
-    actions = [full_action(version, gear=k % 5) for k in range(10)]
+def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, fmi_version, monkeypatch, caplog):
+    env = make_env("probe", fmi_version, parameters={"fault": FAULTS["error"], "fault_after": 3})
+    actions = [full_action(fmi_version, gear=k % 5) for k in range(10)]
     observation, _ = env.reset()
     first = [observation]
     for action in actions[:3]:
@@ -241,13 +226,13 @@ def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, versi
     instantiations = []
     instantiate = env.fmu.binding.instantiate
     monkeypatch.setattr(env.fmu.binding, "instantiate", lambda *a: (instantiations.append(a), instantiate(*a)))
-    replay = run(env, actions)  # same parameters: a new instance, the same 3 good steps, the same error
+    replay = observations(env, actions)  # same parameters: a new instance, the same 3 good steps, the same error
     assert len(instantiations) == 1
     assert len(replay) == 5
     for a, b in zip(first, replay):
         for name in a:
             np.testing.assert_array_equal(a[name], b[name])
-    normal = run(env, actions, options={"parameters": {"fault": FAULTS["none"]}})
+    normal = observations(env, actions, options={"parameters": {"fault": FAULTS["none"]}})
     assert len(instantiations) == 2  # the error broke the instance again
     assert len(normal) == 11 and normal[-1]["steps"] == 10 and not env.fmu.broken
     for a, b in zip(first, normal):
@@ -255,13 +240,13 @@ def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, versi
             np.testing.assert_array_equal(a[name], b[name])
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_segfault_kills_only_the_child_process(fmus, version):
+def test_segfault_kills_only_the_child_process(family_fmu, fmi_version):
+    probe = family_fmu("probe", fmi_version)
     script = textwrap.dedent(
         f"""
         import numpy as np
         from modelicagym import FMUEnv
-        env = FMUEnv(fmu={str(fmus[f"probe{version}"])!r}, inputs=["force"], outputs=["steps"],
+        env = FMUEnv(fmu={str(probe)!r}, inputs=["force"], outputs=["steps"],
                      parameters={{"fault": {FAULTS["crash"]}, "fault_after": 2}})
         env.reset()
         for k in range(5):
@@ -275,7 +260,7 @@ def test_segfault_kills_only_the_child_process(fmus, version):
     assert result.stdout.split("\n")[:2] == ["step 0 1", "step 1 2"]
     assert "survived" not in result.stdout
     # the parent is fine and can run the same FMU
-    env = FMUEnv(fmu=fmus[f"probe{version}"], inputs=["force"], outputs=["steps"])
+    env = FMUEnv(fmu=probe, inputs=["force"], outputs=["steps"])
     env.reset()
     for k in range(5):
         observation, *_ = env.step(np.array([0.0]))
@@ -286,10 +271,8 @@ def test_segfault_kills_only_the_child_process(fmus, version):
 # -- time -------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("mode", ["cs", "me"])
-@pytest.mark.parametrize("version", [2, 3])
-def test_nonzero_start_time_without_drift(make_env, version, mode):
-    env = make_env(f"probe{version}_late", inputs=["force"], outputs=["clock", "position"], mode=mode)
+def test_nonzero_start_time_without_drift(make_env, fmi_version, fmu_mode):
+    env = make_env("probe_late", fmi_version, inputs=["force"], outputs=["clock", "position"], mode=fmu_mode)
     dt = env.time_step
     assert dt == 0.1
     for episode in range(2):
@@ -303,7 +286,7 @@ def test_nonzero_start_time_without_drift(make_env, version, mode):
 
 
 def test_start_time_from_the_config_overrides_the_model(make_env):
-    env = make_env("probe2", inputs=["force"], outputs=["clock"], start_time=-3.0, time_step=0.25)
+    env = make_env("probe", 2, inputs=["force"], outputs=["clock"], start_time=-3.0, time_step=0.25)
     observation, _ = env.reset()
     assert env.time == -3.0 and observation[0] == -3.0
     for k in range(1, 9):
@@ -314,9 +297,8 @@ def test_start_time_from_the_config_overrides_the_model(make_env):
 # -- logging ----------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_fmu_messages_go_to_logging_not_stdout(make_env, version, caplog, capfd):
-    env = make_env(f"probe{version}", inputs=["force"], outputs=["steps"], logging_on=True,
+def test_fmu_messages_go_to_logging_not_stdout(make_env, fmi_version, caplog, capfd):
+    env = make_env("probe", fmi_version, inputs=["force"], outputs=["steps"], logging_on=True,
                    parameters={"fault": FAULTS["terminate"], "fault_after": 1})
     with caplog.at_level(logging.DEBUG, logger="modelicagym.fmu"):
         env.reset()
@@ -334,7 +316,7 @@ def test_fmu_messages_go_to_logging_not_stdout(make_env, version, caplog, capfd)
 
 
 def test_debug_messages_only_when_logging_is_on(make_env, caplog):
-    env = make_env("probe2", inputs=["force"], outputs=["steps"],
+    env = make_env("probe", 2, inputs=["force"], outputs=["steps"],
                    parameters={"fault": FAULTS["terminate"], "fault_after": 0})
     with caplog.at_level(logging.DEBUG, logger="modelicagym.fmu"):
         env.reset()
@@ -367,13 +349,13 @@ def test_debug_messages_only_when_logging_is_on(make_env, caplog):
 def test_configuration_errors_are_clear(make_env, config, error, patterns):
     config = {"inputs": ["force"], "outputs": ["position"], **config}
     with pytest.raises(error) as raised:
-        make_env("probe2", **config)
+        make_env("probe", 2, **config)
     for pattern in patterns:
         assert pattern in str(raised.value)
 
 
 def test_parameter_values_the_fmu_rejects_surface_its_message(make_env):
-    env = make_env("probe2", inputs=["force"], outputs=["position"], parameters={"fault_after": -1})
+    env = make_env("probe", 2, inputs=["force"], outputs=["position"], parameters={"fault_after": -1})
     with pytest.raises(FMUCallError, match=r"invalid values: .*fault_after=-1"):
         env.reset()
     observation, _ = env.reset(options={"parameters": {"fault_after": 0}})  # recovers
@@ -402,7 +384,7 @@ def test_parameter_values_the_fmu_rejects_surface_its_message(make_env):
     ids=lambda x: None,
 )
 def test_invalid_actions_name_the_action_and_the_space(make_env, inputs, action, problem):
-    env = make_env("probe2", inputs=inputs, outputs=["position"])
+    env = make_env("probe", 2, inputs=inputs, outputs=["position"])
     env.reset()
     with pytest.raises(ValueError) as raised:
         env.step(action)
@@ -411,3 +393,19 @@ def test_invalid_actions_name_the_action_and_the_space(make_env, inputs, action,
     assert message.startswith(f"invalid action {action!r}"[:40])
     assert str(env.action_space) in message
     assert env.time == 0.0  # nothing reached the FMU
+
+
+def test_tunable_parameters_can_be_actions(make_env, fmi_version, fmu_mode):
+    """FMI lets a master change a tunable parameter between steps: it may be driven by an action
+    (``gain``: position' = speed + gain * force; ``limit`` = 10 * gain)."""
+    env = make_env("probe", fmi_version, inputs=["force", "gain"], outputs=["position", "limit"],
+                   parameters={"gear": 0, "enable": True}, time_step=1.0, mode=fmu_mode)
+    assert env.reset(seed=0)[0].tolist() == [0.0, 10.0]
+    assert env.step(np.array([1.0, 0.5]))[0].tolist() == [0.5, 5.0]
+    assert env.step(np.array([1.0, 2.0]))[0].tolist() == [2.5, 20.0]
+    assert env.reset()[0].tolist() == [0.0, 10.0], "a reset brings the parameter back to its start value"
+
+
+def test_a_fixed_parameter_cannot_be_an_action(make_env, fmi_version):
+    with pytest.raises(VariableError, match="'position_0' cannot be an action.*tunable parameters: gain"):
+        make_env("probe", fmi_version, inputs=["position_0"], outputs=["position"])

@@ -3,7 +3,7 @@
 `open_fmu` is the entry point. It accepts a ``.fmu`` file or an already extracted folder, fails
 with a clear message on anything that is not a usable FMU, and extracts each FMU file once into
 a cache folder keyed by the file's path, size and modification time, so every instance in every
-process reuses the same extraction (DESIGN.md: never re-extract).
+process reuses the same extraction (docs/design.md: never re-extract).
 """
 
 from __future__ import annotations
@@ -11,17 +11,21 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import re
 import shutil
 import tempfile
 import zipfile
+from collections.abc import Collection
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import fmpy
-from fmpy.model_description import read_model_description
+from fmpy.model_description import ModelDescription, ValidationError, read_model_description
+from lxml import etree
 
+from modelicagym.errors import ConfigError
 from modelicagym.fmu.cache import cache_dir
 from modelicagym.fmu.errors import (
     FMUNotFoundError,
@@ -88,7 +92,7 @@ class FMUDescription:
     def interface(self, mode: str) -> Any:
         """fmpy's interface-type record for ``mode``; a clear error if the FMU does not support it."""
         if mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+            raise ConfigError(f"mode must be one of {MODES}, got {mode!r}")
         interface = self._interface_or_none(mode)
         if interface is None:
             raise UnsupportedFeatureError(
@@ -196,12 +200,16 @@ class FMUDescription:
         return [v for v in self._with_causality("parameter", "structuralParameter") if v.settable]
 
     def input_variable(self, name: str) -> Variable:
-        """``name`` checked to be an input, so it can be driven by an action."""
-        variable = self.variable(name, self.inputs, "input")
-        if not variable.is_input:
+        """``name`` checked to be driveable by an action: an input, or a tunable parameter (which
+        FMI lets a master change between steps)."""
+        tunable = [v for v in self.parameters if v.is_tunable_parameter]
+        variable = self.variable(name, self.inputs + tunable, "input")
+        if not (variable.is_input or variable.is_tunable_parameter):
             raise VariableError(
-                f"{self.name}: {name!r} cannot be an action: it has causality {variable.causality!r}, "
-                f"not 'input'. Inputs are: {', '.join(v.name for v in self.inputs) or 'none'}"
+                f"{self.name}: {name!r} cannot be an action: it has causality {variable.causality!r} and "
+                f"variability {variable.variability!r}; actions drive inputs and tunable parameters. Inputs: "
+                f"{', '.join(v.name for v in self.inputs) or 'none'}; tunable parameters: "
+                f"{', '.join(v.name for v in tunable) or 'none'}"
             )
         return variable
 
@@ -224,10 +232,16 @@ class FMUDescription:
         return variable
 
 
-def open_fmu(path: str | os.PathLike[str] | FMUDescription, validate: bool = True) -> FMUDescription:
+def open_fmu(
+    path: str | os.PathLike[str] | FMUDescription, validate: bool = True, used: Collection[str] | None = None
+) -> FMUDescription:
     """Check and open an FMU (a ``.fmu`` file or an extracted folder), extracting it once.
 
     ``validate=False`` skips fmpy's schema validation: some FMUs in the wild fail it and run fine.
+    With ``used`` (the names of the variables the caller will use), an FMU whose validation
+    problems all concern other variables is loaded with a warning that names the rules broken
+    (exporters often break a rule on a variable nobody drives); a problem on a used variable, or
+    one that cannot be tied to a variable, still refuses it.
     """
     if isinstance(path, FMUDescription):
         return path
@@ -239,12 +253,50 @@ def open_fmu(path: str | os.PathLike[str] | FMUDescription, validate: bool = Tru
         raise InvalidFMUError(f"{path} is not an FMU: it has no modelDescription.xml at its top level")
     try:
         model_description = read_model_description(str(unzip_dir), validate=validate)
+    except ValidationError as error:
+        model_description = _tolerate(path, unzip_dir, error, used)
     except Exception as error:
         hint = " (pass validate=False to skip schema validation)" if validate else ""
         raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: {error}{hint}") from error
     if model_description.fmiVersion.startswith("1."):
         raise InvalidFMUError(f"{path} is an FMI 1.0 FMU; modelicagym supports FMI 2.0 and 3.0")
     return FMUDescription(path, unzip_dir, model_description)
+
+
+def _tolerate(path: Path, unzip_dir: Path, error: ValidationError, used: Collection[str] | None) -> ModelDescription:
+    """The model description despite validation ``error``, if every problem concerns a variable
+    outside ``used``; else the `InvalidFMUError`."""
+    concerned = _variables_of(unzip_dir / "modelDescription.xml", error.problems)
+    if used is None or None in concerned or concerned & set(used):
+        problems = "\n".join(f"- {problem}" for problem in error.problems)
+        names = sorted(name for name in concerned if name is not None)
+        about = f" (variables concerned: {', '.join(names)})" if names else ""
+        raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: it fails validation{about}:\n{problems}\n"
+                              "(pass validate=False to skip schema validation)") from error
+    logger.warning("%s breaks rules of the FMI standard only for variables this env does not use (%s); loading "
+                   "it anyway: %s", path.name, ", ".join(sorted(concerned)), " | ".join(error.problems))
+    return read_model_description(str(unzip_dir), validate=False)
+
+
+def _variables_of(description: Path, problems: list[str]) -> set[str | None]:
+    """The variable each validation problem concerns (``None`` for one that concerns none)."""
+    tree = etree.parse(str(description))
+    spans = []
+    for element in tree.getroot().iterfind("ModelVariables/*"):
+        last = max((e.sourceline for e in element.iter() if e.sourceline), default=element.sourceline)
+        spans.append((element.sourceline, last, element.get("name")))
+    concerned: set[str | None] = set()
+    for problem in problems:
+        named = re.search(r'[Vv]ariable "([^"]+)"', problem)
+        line = re.search(r"line (\d+)", problem)
+        if named:
+            concerned.add(named.group(1))
+        elif line:
+            number = int(line.group(1))
+            concerned.add(next((name for first, last, name in spans if first <= number <= last), None))
+        else:
+            concerned.add(None)
+    return concerned
 
 
 def _extract(path: Path) -> Path:

@@ -61,6 +61,11 @@ class Variable:
         return self.causality == "input"
 
     @property
+    def is_tunable_parameter(self) -> bool:
+        """A parameter a master may change between steps (FMI ``variability="tunable"``)."""
+        return self.causality == "parameter" and self.variability == "tunable"
+
+    @property
     def is_output(self) -> bool:
         return self.causality == "output"
 

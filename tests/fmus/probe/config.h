@@ -27,7 +27,7 @@
  * Fault injection (co-simulation): the doStep after `fault_after` completed
  * ones ends the episode (fault = terminate: Discard + terminated), fails with a
  * logged message (fault = error) or crashes the process with SIGSEGV
- * (fault = crash).
+ * (fault = crash), or never returns (fault = hang).
  *
  * Build-time variants (preprocessor definitions; lifecycle hooks in model.c):
  *   ONCE_PER_PROCESS  refuse a second live instance in the process
@@ -74,7 +74,7 @@ enum {
 };
 
 enum { MODE_OFF = 1, MODE_HEAT = 2, MODE_COOL = 3 };
-enum { FAULT_NONE = 0, FAULT_TERMINATE = 1, FAULT_ERROR = 2, FAULT_CRASH = 3 };
+enum { FAULT_NONE = 0, FAULT_TERMINATE = 1, FAULT_ERROR = 2, FAULT_CRASH = 3, FAULT_HANG = 4 };
 
 typedef struct {
     /* inputs */

@@ -3,6 +3,7 @@
  * build-time variants).
  */
 #include <signal.h>
+#include <unistd.h>
 
 #include "model.h"
 
@@ -33,7 +34,7 @@ static int32_t direction(int32_t mode) {
 static Status initialize(ModelInstance *comp) {
     ModelData *m = M(comp);
     if (m->gear < 0 || m->gear > 4 || m->mode < MODE_OFF || m->mode > MODE_COOL ||
-        m->fault < FAULT_NONE || m->fault > FAULT_CRASH || m->fault_after < 0) {
+        m->fault < FAULT_NONE || m->fault > FAULT_HANG || m->fault_after < 0) {
         fmu_log(comp, StatusError, LogStatusError,
                 "invalid values: need gear in 0..4, mode in 1..3, fault in 0..3 and "
                 "fault_after >= 0 (got gear=%d mode=%d fault=%d fault_after=%d)",
@@ -94,6 +95,9 @@ static Status before_step(ModelInstance *comp, double t, double h) {
             raise(SIGSEGV);       /* in case the write above did not fault */
             return StatusFatal;
         }
+        case FAULT_HANG:
+            for (;;)
+                pause(); /* doStep never returns (until the process is killed) */
         default:
             break;
         }

@@ -1,0 +1,103 @@
+"""Checks of an `FMUEnvConfig`'s values, each failure a `ConfigError` that names the key.
+
+Every number is finite, in range and of the right type (``time_step="0.05"`` gets a message about
+its type, not a failed comparison); termination bounds are ``(low, high)`` pairs with
+``low <= high``; once the FMU is known, every parameter value fits its variable (a list for a
+scalar, a string for a number, are errors at construction, not at the first reset).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from numbers import Integral, Real
+from typing import Any
+
+import numpy as np
+
+from modelicagym.errors import ConfigError, ConfigTypeError
+
+__all__ = ["check_numbers", "check_parameter", "check_termination"]
+
+
+def _real(key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise ConfigTypeError(f"{key} must be a number, got {value!r} ({type(value).__name__})")
+    if not math.isfinite(value):
+        raise ConfigError(f"{key} must be finite, got {value!r}")
+    return float(value)
+
+
+def check_numbers(config: Any) -> None:
+    """The numeric keys of ``config`` (an `FMUEnvConfig`), in place where a value is normalised."""
+    for key in ("time_step", "tolerance", "solver_step"):
+        value = getattr(config, key)
+        if value is not None and not _real(key, value) > 0:
+            raise ConfigError(f"{key} must be positive, got {value!r}")
+    if config.start_time is not None:
+        _real("start_time", config.start_time)
+    for key in ("positive_reward", "negative_reward"):
+        _real(key, getattr(config, key))
+    steps = config.max_episode_steps
+    if steps is not None:
+        if isinstance(steps, bool) or not isinstance(steps, Integral):
+            raise ConfigTypeError(f"max_episode_steps must be an integer, got {steps!r} ({type(steps).__name__})")
+        if steps < 1:
+            raise ConfigError(f"max_episode_steps must be at least 1, got {steps}")
+
+
+def check_termination(termination: Any) -> None:
+    """``None``, a callable, or ``{output: (low, high)}`` with finite-or-infinite numbers, low <= high."""
+    if termination is None or callable(termination):
+        return
+    if not isinstance(termination, Mapping):
+        raise ConfigTypeError(f"termination must be {{output: (low, high)}} or a callable, got {termination!r}")
+    for name, bounds in termination.items():
+        where = f"termination bound on {name!r}"
+        if isinstance(bounds, (str, bytes)) or not hasattr(bounds, "__len__") or len(bounds) != 2:
+            raise ConfigError(f"{where} must be a (low, high) pair, got {bounds!r}")
+        low, high = bounds
+        for value in (low, high):
+            if isinstance(value, bool) or not isinstance(value, Real):
+                raise ConfigTypeError(f"{where} must be numbers, got {bounds!r}")
+            if math.isnan(value):
+                raise ConfigError(f"{where} contains NaN: {bounds!r}")
+        if low > high:
+            raise ConfigError(f"{where} has low > high: {bounds!r}")
+
+
+#: the Python types a parameter value of each variable kind may have
+_KINDS: dict[str, tuple[type, ...]] = {
+    "float": (Real,),
+    "integer": (Integral,),
+    "enumeration": (Integral,),
+    "boolean": (bool, np.bool_, Integral),
+    "string": (str,),
+}
+
+
+def check_parameter(fmu: str, variable: Any, value: Any) -> None:
+    """A fixed (non-callable) parameter value fits ``variable`` (an `fmu.variables.Variable`)."""
+    if callable(value):
+        return
+    where = f"{fmu}: parameter {variable.name!r} ({variable.fmi_type}{list(variable.shape) if variable.shape else ''})"
+    allowed = _KINDS.get(variable.kind)
+    kind = f"{'an' if variable.kind[0] in 'aeiou' else 'a'} {variable.kind}"
+    if variable.shape:
+        array = np.asarray(value)
+        if array.size != variable.size:
+            raise ConfigError(f"{where} needs {variable.size} values, got {value!r}")
+        items = array.ravel().tolist()
+    elif isinstance(value, (list, tuple, np.ndarray)) and not (isinstance(value, np.ndarray) and value.shape == ()):
+        raise ConfigError(f"{where} is a scalar, got {value!r}")
+    else:
+        items = [value.item() if isinstance(value, np.generic) or isinstance(value, np.ndarray) else value]
+    for item in items:
+        if allowed is None:
+            return
+        if variable.kind != "boolean" and isinstance(item, bool):
+            raise ConfigTypeError(f"{where} needs {kind} value, got {value!r}")
+        if not isinstance(item, allowed):
+            raise ConfigTypeError(f"{where} needs {kind} value, got {value!r} ({type(item).__name__})")
+        if variable.kind == "float" and not math.isfinite(item):
+            raise ConfigError(f"{where} must be finite, got {value!r}")
