@@ -14,6 +14,10 @@ The step contract, stated once:
   re-instantiates the FMU. Infos are empty on ordinary steps.
 * time is ``start_time + k * time_step``, read as ``env.time``.
 
+Steps take the native path (one call into our C library, `modelicagym.native.step`) when the
+config defines them completely, else the Python path; both give the same results.
+``env.step_path`` says which, ``env.step_path_reason`` why.
+
 Subclasses override what the paper's users override: `compute_reward`, `is_terminal`,
 `action_to_inputs`, `make_action_space` / `make_observation_space` (with `observation`), and
 `render`.
@@ -22,14 +26,18 @@ Subclasses override what the paper's users override: `compute_reward`, `is_termi
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import gymnasium as gym
 
+from modelicagym.actions import action_checker
 from modelicagym.config import FMUEnvConfig
+from modelicagym.config_checks import check_parameter
+from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
-from modelicagym.spaces import Observer, action_checker, space_for, write_values
+from modelicagym.native.step import Flags, NativeStep, python_path_reason
+from modelicagym.spaces import Observer, space_for, write_values
 
 logger = logging.getLogger(__name__)
 
@@ -63,17 +71,18 @@ class FMUEnv(gym.Env):
     def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
         self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
+            raise ConfigError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
         self.render_mode = render_mode
-        self.description = description = open_fmu(cfg.fmu, validate=cfg.validate)
+        used = [*cfg.inputs, *cfg.outputs, *cfg.parameters]  # bounds are on outputs
+        self.description = description = open_fmu(cfg.fmu, validate=cfg.validate, used=used)
         if not cfg.outputs:
-            raise ValueError(f"{description.name}: 'outputs' is empty; outputs of this FMU: "
+            raise ConfigError(f"{description.name}: 'outputs' is empty; outputs of this FMU: "
                              f"{', '.join(v.name for v in description.outputs) or 'none'}")
-        for name in cfg.parameters:
-            description.settable_variable(name)
+        for name, value in cfg.parameters.items():
+            check_parameter(description.name, description.settable_variable(name), value)
         self.time_step = float(cfg.time_step or description.default_experiment.step_size or 0.0)
         if not self.time_step > 0:
-            raise ValueError(f"{description.name} declares no default step size: give 'time_step'")
+            raise ConfigError(f"{description.name} declares no default step size: give 'time_step'")
         self.fmu = FMUInstance(
             description,
             mode=cfg.mode,
@@ -91,12 +100,19 @@ class FMUEnv(gym.Env):
         self.observation_space = cfg.observation_space or self.make_observation_space()
         self._observer = Observer(space_for(self.fmu.output_variables), self.fmu.outputs)
         self._check_action = action_checker(self.action_space)
-        self._bounds = self._termination_bounds(cfg.termination)
+        self._bounds_source, self._bounds = self._termination_bounds(cfg.termination)
         self.max_episode_steps = cfg.max_episode_steps
         self.positive_reward = float(cfg.positive_reward)
         self.negative_reward = float(cfg.negative_reward)
-        self.elapsed_steps = 0
+        self._elapsed_steps = 0
         self.episode_parameters: dict[str, Any] = {}
+        self._native: NativeStep | None = None
+        reason = python_path_reason(self)
+        if reason is None:
+            self._native = NativeStep(self)
+            self.step_path, self.step_path_reason = "native", "the config defines the whole step"
+        else:
+            self.step_path, self.step_path_reason = "python", reason
 
     # -- the Gymnasium API -----------------------------------------------------------------------
 
@@ -110,18 +126,31 @@ class FMUEnv(gym.Env):
         }
         self.fmu.reset(self.episode_parameters)
         self.elapsed_steps = 0
+        if self._native is not None:
+            self._native.bind()
         return self.observation(), {}
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         self._check_action(action)
+        native = self._native
+        if native is not None:
+            flags = native.step(action)
+            if flags & Flags.FMU_ERROR:
+                return self.fmu_failure(native.error())
+            info = {"fmu_terminated": True} if flags & Flags.MODEL_ENDED else {}
+            return (
+                self.observation(),
+                native.reward,
+                bool(flags & Flags.TERMINATED),
+                bool(flags & Flags.TRUNCATED),
+                info,
+            )
         write_values(self.fmu.inputs, self.action_to_inputs(action))
         info: dict[str, Any] = {}
         try:
             model_terminated = self.fmu.step(self.time_step)
         except (FMUCallError, FMUError) as error:
-            logger.warning("%s: episode truncated at t=%g: %s", self.description.name, self.fmu.time, error)
-            self.elapsed_steps += 1
-            return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
+            return self.fmu_failure(error)
         observation = self.observation()
         terminated = self.is_terminal(observation)
         if model_terminated:
@@ -131,6 +160,34 @@ class FMUEnv(gym.Env):
         truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
         return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
 
+    def fmu_failure(self, error: FMUError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """The step result when the FMU failed: the episode is truncated with the FMU's message
+        in ``info["fmu_error"]`` (the next reset re-instantiates the FMU)."""
+        logger.warning("%s: episode truncated at t=%g: %s", self.description.name, self.fmu.time, error)
+        self.elapsed_steps += 1
+        return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
+
+    @property
+    def native_step(self) -> NativeStep | None:
+        """This env's native step (its C struct and single-env step), ``None`` on the Python path."""
+        return self._native
+
+    def native_step_failure(self) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """The step result after the native step reported an FMU error (see `fmu_failure`)."""
+        return self.fmu_failure(self._native.error())
+
+    @property
+    def elapsed_steps(self) -> int:
+        """Steps taken in this episode (on the native path the C struct keeps the count)."""
+        return self._native.state.elapsed_steps if self._native is not None else self._elapsed_steps
+
+    @elapsed_steps.setter
+    def elapsed_steps(self, value: int) -> None:
+        if self._native is not None:
+            self._native.state.elapsed_steps = value
+        else:
+            self._elapsed_steps = value
+
     def close(self) -> None:
         fmu = getattr(self, "fmu", None)
         if fmu is not None:
@@ -139,9 +196,12 @@ class FMUEnv(gym.Env):
     # -- what subclasses override ----------------------------------------------------------------
 
     def make_action_space(self) -> gym.Space:
-        """The action space; default: derived from the input variables (see `modelicagym.spaces`)."""
+        """The action space; default: ``Discrete`` over the config's ``action_table``, else derived
+        from the input variables (see `modelicagym.spaces`)."""
+        if self.config.action_table is not None:
+            return gym.spaces.Discrete(len(self.config.action_table))
         if not self.fmu.input_variables:
-            raise ValueError(f"{self.description.name}: 'inputs' is empty; inputs of this FMU: "
+            raise ConfigError(f"{self.description.name}: 'inputs' is empty; inputs of this FMU: "
                              f"{', '.join(v.name for v in self.description.inputs) or 'none'}")
         return space_for(self.fmu.input_variables)
 
@@ -154,7 +214,10 @@ class FMUEnv(gym.Env):
         return self._observer.observe()
 
     def action_to_inputs(self, action: Any) -> Any:
-        """Input values for a (checked) action: an array-like in input order, or ``{name: value}``."""
+        """Input values for a (checked) action: an array-like in input order, or ``{name: value}``;
+        default: the action itself, or its row of the config's ``action_table``."""
+        if self.config.action_table is not None:
+            return self.config.action_table[int(action)]
         return action
 
     def is_terminal(self, observation: Any) -> bool:
@@ -189,14 +252,15 @@ class FMUEnv(gym.Env):
 
     # -- helpers ---------------------------------------------------------------------------------
 
-    def _termination_bounds(self, termination: Any) -> list[tuple[Any, float, float]]:
-        """``(index, low, high)`` per bounded output; indices into `_bounds_source`'s values.
+    def _termination_bounds(self, termination: Any) -> tuple[Callable[[], Any] | None, list[tuple[Any, float, float]]]:
+        """How to read the bounded outputs, and ``(index, low, high)`` per bound (indices into
+        what the reader returns).
 
         When all outputs share one FMI type the values are read as one list (fast); otherwise
         by variable name.
         """
         if termination is None or callable(termination):
-            return []
+            return None, []
         outputs = self.fmu.outputs
         positions, offset = {}, 0
         for v in self.fmu.output_variables:
@@ -207,13 +271,12 @@ class FMUEnv(gym.Env):
         def scalar_outputs() -> dict[str, float]:
             return {name: float(view) for name, view in outputs.views.items() if view.size == 1}
 
-        self._bounds_source = outputs.flat.tolist if flat else scalar_outputs
         bounds = []
         for name, (low, high) in dict(termination).items():
             if name not in positions:
                 self.description.variable(name)
-                raise ValueError(f"{self.description.name}: termination bound on {name!r}, which is not in 'outputs'")
+                raise ConfigError(f"{self.description.name}: termination bound on {name!r}, which is not in 'outputs'")
             if positions[name] is None:
-                raise ValueError(f"{self.description.name}: termination bound on {name!r}, an array; use a callable")
+                raise ConfigError(f"{self.description.name}: termination bound on {name!r}, an array; use a callable")
             bounds.append((positions[name] if flat else name, float(low), float(high)))
-        return bounds
+        return (outputs.flat.tolist if flat else scalar_outputs), bounds

@@ -8,28 +8,26 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from episodes import observations
 from gymnasium.utils.env_checker import check_env
 
 import modelicagym
 from modelicagym.envs.cartpole import CartPoleEnv
 from modelicagym.fmu import FMUInstance
-from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
+from modelicagym.fmu.instance import RUNGS
+from modelicagym.models.cartpole import OUTPUTS
 
 PUSHES = np.random.default_rng(7).integers(0, 2, size=100)
 
 
-def rollout(env: gym.Env, actions, seed: int | None = 0, options=None) -> np.ndarray:
-    """Observations of one episode driven by ``actions`` (stops early if the episode ends)."""
-    observation, _ = env.reset(seed=seed, options=options)
-    trajectory = [observation]
-    as_force = isinstance(env.action_space, gym.spaces.Box)
-    for action in actions:
-        action = np.array([30.0 * action - 15.0]) if as_force else int(action)
-        observation, _, terminated, truncated, _ = env.step(action)
-        trajectory.append(observation)
-        if terminated or truncated:
-            break
-    return np.array(trajectory)
+def rollout(env: gym.Env, pushes, seed: int | None = 0, options=None) -> np.ndarray:
+    """Observations of one episode driven by ``pushes`` (0 left, 1 right; as forces of 15 N for an
+    env whose actions are forces), stopping early if the episode ends."""
+    if isinstance(env.action_space, gym.spaces.Box):
+        actions = [np.array([30.0 * push - 15.0]) for push in pushes]
+    else:
+        actions = [int(push) for push in pushes]
+    return np.array(observations(env, actions, seed=seed, options=options))
 
 
 def free_env(**options) -> CartPoleEnv:
@@ -37,7 +35,6 @@ def free_env(**options) -> CartPoleEnv:
     return CartPoleEnv(x_threshold=1e9, theta_threshold=1e9, **options)
 
 
-@pytest.mark.parametrize("fmi_version", [2, 3])
 def test_passes_gymnasium_env_checker(fmi_version):
     env = CartPoleEnv(fmi_version=fmi_version)
     with warnings.catch_warnings():
@@ -46,7 +43,6 @@ def test_passes_gymnasium_env_checker(fmi_version):
     env.close()
 
 
-@pytest.mark.parametrize("fmi_version", [2, 3])
 def test_model_exchange_agrees_with_co_simulation(fmi_version):
     cs, me = free_env(fmi_version=fmi_version, mode="cs"), free_env(fmi_version=fmi_version, mode="me")
     a, b = rollout(cs, PUSHES), rollout(me, PUSHES)
@@ -62,12 +58,10 @@ def test_fmi2_and_fmi3_give_the_same_trajectory():
     np.testing.assert_array_equal(a, b)
 
 
-@pytest.mark.parametrize("fmi_version", [2, 3])
-@pytest.mark.parametrize("mode", ["cs", "me"])
-@pytest.mark.parametrize("rung", ["snapshot", "reset", "reinstantiate"])
-def test_every_reset_rung_replays_a_fresh_episode(fmi_version, mode, rung):
-    fresh = rollout(free_env(fmi_version=fmi_version, mode=mode), PUSHES[:40])
-    env = free_env(fmi_version=fmi_version, mode=mode, reset_rung=rung)
+@pytest.mark.parametrize("rung", RUNGS)
+def test_every_reset_rung_replays_a_fresh_episode(fmi_version, fmu_mode, rung):
+    fresh = rollout(free_env(fmi_version=fmi_version, mode=fmu_mode), PUSHES[:40])
+    env = free_env(fmi_version=fmi_version, mode=fmu_mode, reset_rung=rung)
     rollout(env, PUSHES[:40][::-1])
     for _ in range(2):
         np.testing.assert_array_equal(rollout(env, PUSHES[:40]), fresh)
@@ -84,9 +78,16 @@ def test_auto_rung_is_snapshot_and_parameters_change_per_episode():
     np.testing.assert_array_equal(rollout(free_env(m_cart=1.0), PUSHES[:20]), light)
 
 
-def test_seeded_domain_randomisation_is_reproducible():
-    def make():
-        return FMUEnvForRandomMass()
+def test_seeded_domain_randomisation_is_reproducible(cartpole_fmu):
+    def make() -> modelicagym.FMUEnv:
+        """The cart-pole with a cart mass drawn from the env's generator every episode."""
+        return modelicagym.FMUEnv(
+            fmu=cartpole_fmu(2),
+            inputs=["f"],
+            outputs=list(OUTPUTS),
+            parameters={"m_cart": lambda rng: rng.uniform(5.0, 15.0)},
+            time_step=0.05,
+        )
 
     a, b = make(), make()
     np.testing.assert_array_equal(rollout(a, PUSHES[:20], seed=3), rollout(b, PUSHES[:20], seed=3))
@@ -94,16 +95,6 @@ def test_seeded_domain_randomisation_is_reproducible():
     first = a.episode_parameters["m_cart"]
     rollout(a, PUSHES[:20], seed=4)
     assert a.episode_parameters["m_cart"] != first
-
-
-def FMUEnvForRandomMass() -> modelicagym.FMUEnv:
-    return modelicagym.FMUEnv(
-        fmu=cartpole_fmu(),
-        inputs=["f"],
-        outputs=list(OUTPUTS),
-        parameters={"m_cart": lambda rng: rng.uniform(5.0, 15.0)},
-        time_step=0.05,
-    )
 
 
 def test_rewards_termination_and_truncation():
@@ -162,8 +153,8 @@ def test_front_doors():
         modelicagym.make("cartpol")
 
 
-def test_instance_rejects_unknown_or_unsettable_parameters():
-    instance = FMUInstance(cartpole_fmu(), inputs=["f"], outputs=list(OUTPUTS))
+def test_instance_rejects_unknown_or_unsettable_parameters(cartpole_fmu):
+    instance = FMUInstance(cartpole_fmu(2), inputs=["f"], outputs=list(OUTPUTS))
     with pytest.raises(KeyError, match="Did you mean 'm_cart'"):
         instance.reset({"mcart": 1.0})
     with pytest.raises(KeyError, match="cannot be set"):

@@ -7,11 +7,11 @@ import math
 
 import numpy as np
 import pytest
+from fmu_family import BALL_OUTPUTS
 
-from fmu_family import fmus  # noqa: F401
 from modelicagym.fmu import FMUInstance
+from modelicagym.fmu.instance import RUNGS
 
-OUTPUTS = ["h", "v", "bounces", "t_bounce", "t_switched", "e_now"]
 DT = 0.05
 N_STEPS = 40  # 2 s: three bounces (the third after the time event at 1.5 s), no Zeno yet
 PARAMETERS = {"g": 9.81, "e": 0.8, "e_late": 0.5, "t_switch": 1.5, "h_0": 1.0}
@@ -49,7 +49,7 @@ def analytic(g: float, e: float, e_late: float, t_switch: float, h_0: float, t_e
 def simulate(path, mode: str, parameters=None, rung: str = "auto", episodes: int = 1):
     """Per episode: outputs at every communication point and the bounce times seen."""
     results = []
-    with FMUInstance(path, mode=mode, outputs=OUTPUTS, reset_rung=rung) as fmu:
+    with FMUInstance(path, mode=mode, outputs=BALL_OUTPUTS, reset_rung=rung) as fmu:
         for _ in range(episodes):
             fmu.reset(parameters or {})
             rows, bounces = [], []
@@ -64,11 +64,10 @@ def simulate(path, mode: str, parameters=None, rung: str = "auto", episodes: int
     return results
 
 
-@pytest.mark.parametrize("version", [2, 3])
 @pytest.mark.parametrize("parameters", [{}, {"e": 0.9, "e_late": 0.6, "t_switch": 0.8, "h_0": 1.3}], ids=["default", "other"])
-def test_model_exchange_locates_state_and_time_events(fmus, version, parameters):
+def test_model_exchange_locates_state_and_time_events(family_fmu, fmi_version, parameters):
     exact_bounces, exact = analytic(**{**PARAMETERS, **parameters})
-    [(rows, bounces, time)] = simulate(fmus[f"ball{version}"], "me", parameters)
+    [(rows, bounces, time)] = simulate(family_fmu("ball", fmi_version), "me", parameters)
     assert time == pytest.approx(2.0)
     assert len(bounces) == len(exact_bounces) >= 2
     np.testing.assert_allclose(bounces, exact_bounces, rtol=0, atol=1e-6)
@@ -82,27 +81,25 @@ def test_model_exchange_locates_state_and_time_events(fmus, version, parameters)
         assert (row["t_switched"] == t_switch) == (k * DT >= t_switch)
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_co_simulation_agrees_with_model_exchange_and_the_analytic_solution(fmus, version):
+def test_co_simulation_agrees_with_model_exchange_and_the_analytic_solution(family_fmu, fmi_version):
     exact_bounces, exact = analytic(**PARAMETERS)
-    [(me, me_bounces, _)] = simulate(fmus[f"ball{version}"], "me")
-    [(cs, cs_bounces, _)] = simulate(fmus[f"ball{version}"], "cs")
+    [(me, me_bounces, _)] = simulate(family_fmu("ball", fmi_version), "me")
+    [(cs, cs_bounces, _)] = simulate(family_fmu("ball", fmi_version), "cs")
     np.testing.assert_allclose(cs_bounces, exact_bounces, rtol=0, atol=1e-6)
     np.testing.assert_allclose(cs_bounces, me_bounces, rtol=0, atol=1e-6)
-    for name in OUTPUTS:
+    for name in BALL_OUTPUTS:
         np.testing.assert_allclose([r[name] for r in cs], [r[name] for r in me], rtol=0, atol=1e-6, err_msg=name)
     h, v = exact(2.0)
     assert cs[-1]["h"] == pytest.approx(h, abs=1e-6) and cs[-1]["v"] == pytest.approx(v, abs=1e-6)
 
 
-@pytest.mark.parametrize("version", [2, 3])
-@pytest.mark.parametrize("rung", ["snapshot", "reset", "reinstantiate"])
+@pytest.mark.parametrize("rung", RUNGS)
 @pytest.mark.parametrize("t_switch", [0.2, 1.5])
-def test_every_episode_sees_the_time_event(fmus, version, rung, t_switch):
+def test_every_episode_sees_the_time_event(family_fmu, fmi_version, rung, t_switch):
     """The time event of each episode is armed again on reset (model exchange keeps the next event
     time outside the FMU, so a restored snapshot must bring it back too). With t_switch = 0.2 the
     time event comes before any state event could re-arm it."""
-    episodes = simulate(fmus[f"ball{version}"], "me", {"t_switch": t_switch}, rung=rung, episodes=3)
+    episodes = simulate(family_fmu("ball", fmi_version), "me", {"t_switch": t_switch}, rung=rung, episodes=3)
     first = episodes[0][0]
     assert first[-1]["t_switched"] == t_switch
     for rows, _, _ in episodes[1:]:

@@ -11,31 +11,34 @@ import fmpy
 import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
+from fmu_family import PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, VARIANTS, Variant
 from gymnasium import spaces
 
-from fmu_family import FAMILY, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus  # noqa: F401
 from modelicagym.fmu import open_fmu
 from modelicagym.fmu.build import FRAMEWORK_DIR
+from modelicagym.models.cartpole import MODEL_DIR as CARTPOLE_DIR
 from modelicagym.spaces import space_for
 
 
-@pytest.mark.parametrize("name", sorted(FAMILY))
-def test_every_member_is_a_valid_fmu_with_a_binary(fmus, name):
-    assert validate_fmu(str(fmus[name])) == []
-    description = open_fmu(fmus[name])
-    assert description.fmi_version == FAMILY[name].fmi_version
+@pytest.mark.parametrize("name", sorted(VARIANTS))
+def test_every_member_is_a_valid_fmu_with_a_binary(family_fmu, name, fmi_version):
+    path = family_fmu(name, fmi_version)
+    assert validate_fmu(str(path)) == []
+    description = open_fmu(path)
+    assert description.fmi_version == fmi_version
     assert description.modes == ("cs", "me")
     assert description.library_path("cs").is_file()
     assert description.has_sources
 
 
-@pytest.mark.parametrize("name", sorted(n for n, v in FAMILY.items() if v.fmi_version == 2))
+@pytest.mark.parametrize("name", ["cartpole", *sorted(VARIANTS)])
 def test_sources_compile_without_warnings(name: str, tmp_path: Path) -> None:
-    """The framework (both adapters) and the model, with the variant's definitions (hooks included)."""
+    """The framework (both adapters) and the model, with the variant's definitions (hooks included):
+    the library's cart-pole and every member of the test family."""
     gcc = shutil.which("gcc")
     if gcc is None:
         pytest.skip("gcc not available")
-    variant = FAMILY[name]
+    variant = Variant(CARTPOLE_DIR) if name == "cartpole" else VARIANTS[name]
     defines = "".join(f"#define {k} {'' if v is None else v}\n" for k, v in variant.defines.items())
     (tmp_path / "build_config.h").write_text(f'#define FMU_INSTANTIATION_TOKEN "x"\n{defines}')
     sources = [FRAMEWORK_DIR / f for f in ("fmu_instance.c", "fmu_solver.c", "fmi2Functions.c", "fmi3Functions.c")]
@@ -47,30 +50,29 @@ def test_sources_compile_without_warnings(name: str, tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr
 
 
-@pytest.mark.parametrize("name", sorted(FAMILY))
-def test_declared_capabilities(fmus, name):
-    variant, description = FAMILY[name], open_fmu(fmus[name])
+@pytest.mark.parametrize("name", sorted(VARIANTS))
+def test_declared_capabilities(family_fmu, name, fmi_version):
+    variant, description = VARIANTS[name], open_fmu(family_fmu(name, fmi_version))
     for mode in ("cs", "me"):
         assert description.once_per_process(mode) is variant.once_per_process
         assert description.can_snapshot(mode) is variant.snapshots
     assert description.default_experiment.start_time == (variant.start_time or 0.0)
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_probe_variables(fmus, version):
-    d = open_fmu(fmus[f"probe{version}"])
-    assert [v.name for v in d.inputs] == list(PROBE_INPUTS if version == 2 else PROBE3_INPUTS)
-    assert [v.name for v in d.outputs] == list(PROBE_OUTPUTS if version == 2 else PROBE3_OUTPUTS)
+def test_probe_variables(family_fmu, fmi_version):
+    d = open_fmu(family_fmu("probe", fmi_version))
+    assert [v.name for v in d.inputs] == list(PROBE_INPUTS if fmi_version == 2 else PROBE3_INPUTS)
+    assert [v.name for v in d.outputs] == list(PROBE_OUTPUTS if fmi_version == 2 else PROBE3_OUTPUTS)
     gear, mode, enable, fault = d.variable("gear"), d.variable("mode"), d.variable("enable"), d.variable("fault")
     assert (gear.kind, gear.bounds()) == ("integer", (0, 4))
-    assert gear.fmi_type == ("Integer" if version == 2 else "Int32")
+    assert gear.fmi_type == ("Integer" if fmi_version == 2 else "Int32")
     assert (mode.kind, mode.bounds(), mode.start) == ("enumeration", (1, 3), 1)
     assert mode.enumeration_items == (("off", 1), ("heat", 2), ("cool", 3))
     assert (enable.kind, enable.start) == ("boolean", False)
     assert fault.kind == "enumeration" and fault.settable_before_initialization
     assert d.variable("gain").settable and not d.variable("limit").settable
     assert d.variable("steps").bounds() == (-(2**31), 2**31 - 1)
-    if version == 3:
+    if fmi_version == 3:
         assert d.variable("u").shape == (3,) and d.variable("u").start == [0.0, 0.0, 0.0]
         assert d.variable("y").shape == (2, 3) and d.variable("y").size == 6
         assert d.variable("positive").shape == (3,)
@@ -81,9 +83,8 @@ def test_probe_variables(fmus, version):
         assert (level.fmi_type, level.bounds()) == ("UInt16", (0, 2**16 - 1))  # the type's limits
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_spaces_of_each_kind(fmus, version):
-    d = open_fmu(fmus[f"probe{version}"])
+def test_spaces_of_each_kind(family_fmu, fmi_version):
+    d = open_fmu(family_fmu("probe", fmi_version))
 
     def space(*names):
         return space_for([d.variable(n) for n in names])
@@ -104,7 +105,7 @@ def test_spaces_of_each_kind(fmus, version):
     assert isinstance(steps, spaces.Box) and steps.dtype == np.int64 and steps.shape == ()
     mixed = space("gear", "enable", "force")
     assert isinstance(mixed, spaces.Dict) and set(mixed.keys()) == {"gear", "enable", "force"}
-    if version == 3:
+    if fmi_version == 3:
         u, y, positive = space("u"), space("y"), space("positive")
         assert isinstance(u, spaces.Box) and u.shape == (3,) and u.low.tolist() == [-1.0] * 3
         assert isinstance(y, spaces.Box) and y.shape == (2, 3) and np.all(np.isinf(y.high))

@@ -6,30 +6,28 @@ twice."""
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 import numpy as np
 import pytest
+from episodes import observations
 from fmpy import extract
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
+from fmu_family import BALL_OUTPUTS, FAULTS, probe_variables, rewrite
 
-from fmu_family import FAULTS, PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, fmus, rewrite  # noqa: F401
 from modelicagym import FMUEnv
 from modelicagym.fmu import FMUError, FMUInstance, UnsupportedFeatureError, open_fmu
-
-RUNGS = ("snapshot", "reset", "reinstantiate")
-BALL_OUTPUTS = ["h", "v", "bounces", "t_bounce", "t_switched", "e_now"]
+from modelicagym.fmu.instance import RUNGS
 
 
-def config(name: str) -> dict:
-    """Inputs, outputs and per-episode parameters for a family member."""
-    if name.startswith("ball"):
+def config(model: str, fmu: Path) -> dict:
+    """Inputs, outputs and per-episode parameters for a model of the family."""
+    if model == "ball":
         return dict(inputs=["a"], outputs=BALL_OUTPUTS, n_steps=40,
                     other={"e": 0.6, "h_0": 1.4, "t_switch": 0.7})
-    version = 3 if "3" in name else 2
-    return dict(inputs=PROBE3_INPUTS if version == 3 else PROBE_INPUTS,
-                outputs=PROBE3_OUTPUTS if version == 3 else PROBE_OUTPUTS, n_steps=20,
-                other={"position_0": 2.0, "gain": 0.5})
+    inputs, outputs = probe_variables(fmu)
+    return dict(inputs=inputs, outputs=outputs, n_steps=20, other={"position_0": 2.0, "gain": 0.5})
 
 
 def flat(observation) -> np.ndarray:
@@ -39,14 +37,10 @@ def flat(observation) -> np.ndarray:
 
 
 def episode(env: FMUEnv, actions, parameters=None) -> np.ndarray:
-    observation, _ = env.reset(options={"parameters": parameters} if parameters else None)
-    rows = [flat(observation)]
-    for action in actions:
-        observation, _, terminated, truncated, _ = env.step(action)
-        rows.append(flat(observation))
-        assert not (terminated or truncated)
-    rows.append([env.time])
-    return np.concatenate(rows)
+    """One episode, none of whose steps ends it, as one flat array of its observations and end time."""
+    rows = observations(env, actions, options={"parameters": parameters} if parameters else None)
+    assert len(rows) == len(actions) + 1, "the episode ended early"
+    return np.concatenate([*map(flat, rows), [env.time]])
 
 
 def fixed_actions(env: FMUEnv, n: int, seed: int) -> list:
@@ -59,14 +53,11 @@ def identical(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 @pytest.mark.parametrize("rung", RUNGS)
-@pytest.mark.parametrize(
-    "name, mode",
-    [("probe2", "cs"), ("probe3", "cs"), ("probe2", "me"), ("probe3", "me"),
-     ("ball2", "cs"), ("ball3", "cs"), ("ball2", "me"), ("ball3", "me")],
-)
-def test_every_rung_replays_a_fresh_episode_bit_for_bit(fmus, name, mode, rung, caplog):
-    c = config(name)
-    make = lambda **kw: FMUEnv(fmu=fmus[name], inputs=c["inputs"], outputs=c["outputs"], mode=mode, **kw)  # noqa: E731
+@pytest.mark.parametrize("model", ["probe", "ball"])
+def test_every_rung_replays_a_fresh_episode_bit_for_bit(family_fmu, model, fmi_version, fmu_mode, rung, caplog):
+    fmu = family_fmu(model, fmi_version)
+    c = config(model, fmu)
+    make = lambda **kw: FMUEnv(fmu=fmu, inputs=c["inputs"], outputs=c["outputs"], mode=fmu_mode, **kw)  # noqa: E731
     fresh = make()
     actions = fixed_actions(fresh, c["n_steps"], seed=3)
     other_actions = fixed_actions(fresh, c["n_steps"], seed=4)
@@ -88,9 +79,8 @@ def test_every_rung_replays_a_fresh_episode_bit_for_bit(fmus, name, mode, rung, 
     env.close()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_without_snapshots_auto_picks_reset_and_snapshot_is_refused(fmus, version, caplog):
-    path = fmus[f"probe{version}_late"]
+def test_without_snapshots_auto_picks_reset_and_snapshot_is_refused(family_fmu, fmi_version, caplog):
+    path = family_fmu("probe_late", fmi_version)
     env = FMUEnv(fmu=path, inputs=["force", "gear"], outputs=["position", "steps", "clock"])
     assert env.fmu.reset_rung == "reset"
     actions = fixed_actions(env, 10, seed=5)
@@ -109,13 +99,14 @@ def test_without_snapshots_auto_picks_reset_and_snapshot_is_refused(fmus, versio
         FMUInstance(path, reset_rung="snapshot")
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_the_buggy_reset_is_really_buggy(fmus, version, tmp_path):
+def test_the_buggy_reset_is_really_buggy(family_fmu, fmi_version, tmp_path):
     """Straight through fmpy: after fmiReset the step counter of probe*_buggy keeps its value."""
-    for name, expected in ((f"probe{version}_buggy", 3), (f"probe{version}", 0)):
-        description = open_fmu(fmus[name])
+    for name, expected in (("probe_buggy", 3), ("probe", 0)):
+        path = family_fmu(name, fmi_version)
+        description = open_fmu(path)
+        version = description.fmi_version
         cls = FMU2Slave if version == 2 else FMU3Slave
-        fmu = cls(guid=description.guid, modelIdentifier="Probe", unzipDirectory=extract(fmus[name], tmp_path / name),
+        fmu = cls(guid=description.guid, modelIdentifier="Probe", unzipDirectory=extract(path, tmp_path / name),
                   instanceName="raw")
         fmu.instantiate()
         steps_vr = [description.variable("steps").value_reference]
@@ -136,16 +127,15 @@ def test_the_buggy_reset_is_really_buggy(fmus, version, tmp_path):
         fmu.freeInstance()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_a_buggy_reset_is_demoted_with_a_warning_and_episodes_stay_right(fmus, version, caplog):
-    name = f"probe{version}_buggy"
-    fresh = FMUEnv(fmu=fmus[name], inputs=["force", "gear"], outputs=["position", "steps"],
+def test_a_buggy_reset_is_demoted_with_a_warning_and_episodes_stay_right(family_fmu, fmi_version, caplog):
+    path = family_fmu("probe_buggy", fmi_version)
+    fresh = FMUEnv(fmu=path, inputs=["force", "gear"], outputs=["position", "steps"],
                    parameters={"enable": True, "mode": 2})
     actions = fixed_actions(fresh, 10, seed=6)
     expected = episode(fresh, actions)
     fresh.close()
 
-    env = FMUEnv(fmu=fmus[name], inputs=["force", "gear"], outputs=["position", "steps"],
+    env = FMUEnv(fmu=path, inputs=["force", "gear"], outputs=["position", "steps"],
                  parameters={"enable": True, "mode": 2})
     assert env.fmu.reset_rung == "reset"
     with caplog.at_level(logging.WARNING):
@@ -167,43 +157,38 @@ def test_a_buggy_reset_is_demoted_with_a_warning_and_episodes_stay_right(fmus, v
     env.close()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_an_inexact_snapshot_is_demoted_to_reset(fmus, version, caplog):
-    env = FMUEnv(fmu=fmus[f"probe{version}_inexact"], inputs=["force"], outputs=["position", "steps"])
+def snapshot_that_fails(family_fmu, fmi_version: int, how: str, folder: Path) -> Path:
+    """A probe whose snapshots ``how`` fail: "inexact" (restored with a small error) or "refused"
+    (probe_late refuses getFMUstate, and this copy claims canGetAndSetFMUstate="true" anyway)."""
+    if how == "inexact":
+        return family_fmu("probe_inexact", fmi_version)
+    attribute = "canGetAndSetFMUstate" if fmi_version == 2 else "canGetAndSetFMUState"
+    return rewrite(family_fmu("probe_late", fmi_version), folder / "Probe.fmu",
+                   edit_description=lambda t: t.replace(f'{attribute}="false"', f'{attribute}="true"'))
+
+
+@pytest.mark.parametrize("how, phrases", [
+    ("inexact", ["reset rung 'snapshot' gave different initial outputs"]),
+    ("refused", ["reset rung 'snapshot' failed", "getFMUstate is not supported"]),
+])
+def test_a_failing_snapshot_is_demoted_to_reset(family_fmu, fmi_version, how, phrases, tmp_path, caplog):
+    env = FMUEnv(fmu=snapshot_that_fails(family_fmu, fmi_version, how, tmp_path), inputs=["force"],
+                 outputs=["position", "steps"])
     assert env.fmu.reset_rung == "snapshot"
     actions = fixed_actions(env, 10, seed=8)
     with caplog.at_level(logging.WARNING):
         runs = [episode(env, actions) for _ in range(4)]
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    assert len(warnings) == 1 and "reset rung 'snapshot' gave different initial outputs" in warnings[0]
+    assert len(warnings) == 1, warnings
+    assert all(phrase in warnings[0] for phrase in phrases), warnings[0]
     assert env.fmu.reset_rung == "reset"
     for run in runs[1:]:
         assert identical(run, runs[0])
     env.close()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_snapshots_declared_but_refused_fall_back_to_reset(fmus, version, tmp_path, caplog):
-    """probe*_late refuses getFMUstate; this copy claims canGetAndSetFMUstate="true" anyway."""
-    attribute = "canGetAndSetFMUstate" if version == 2 else "canGetAndSetFMUState"
-    path = rewrite(fmus[f"probe{version}_late"], tmp_path / "Probe.fmu",
-                   edit_description=lambda t: t.replace(f'{attribute}="false"', f'{attribute}="true"'))
-    env = FMUEnv(fmu=path, inputs=["force"], outputs=["position", "steps"])
-    assert env.fmu.reset_rung == "snapshot"
-    actions = fixed_actions(env, 10, seed=9)
-    with caplog.at_level(logging.WARNING):
-        runs = [episode(env, actions) for _ in range(3)]
-    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    assert len(warnings) == 1, warnings
-    assert "reset rung 'snapshot' failed" in warnings[0] and "getFMUstate is not supported" in warnings[0]
-    assert env.fmu.reset_rung == "reset"
-    assert identical(runs[1], runs[0]) and identical(runs[2], runs[0])
-    env.close()
-
-
-@pytest.mark.parametrize("version", [2, 3])
-def test_a_buggy_reset_can_be_skipped_by_config(fmus, version, caplog):
-    env = FMUEnv(fmu=fmus[f"probe{version}_buggy"], inputs=["force"], outputs=["steps"], reset_rung="reinstantiate")
+def test_a_buggy_reset_can_be_skipped_by_config(family_fmu, fmi_version, caplog):
+    env = FMUEnv(fmu=family_fmu("probe_buggy", fmi_version), inputs=["force"], outputs=["steps"], reset_rung="reinstantiate")
     with caplog.at_level(logging.WARNING):
         for _ in range(3):
             env.reset()
@@ -214,9 +199,8 @@ def test_a_buggy_reset_can_be_skipped_by_config(fmus, version, caplog):
     env.close()
 
 
-@pytest.mark.parametrize("version", [2, 3])
-def test_once_per_process_fmu_is_never_instantiated_twice(fmus, version):
-    path = fmus[f"probe{version}_once"]
+def test_once_per_process_fmu_is_never_instantiated_twice(family_fmu, fmi_version):
+    path = family_fmu("probe_once", fmi_version)
     assert open_fmu(path).once_per_process()
     make = lambda **kw: FMUEnv(fmu=path, inputs=["force"], outputs=["steps"], **kw)  # noqa: E731
     env = make()
@@ -247,8 +231,8 @@ def test_once_per_process_fmu_is_never_instantiated_twice(fmus, version):
     make().close()  # closed envs freed their instance
 
 
-def test_several_instances_of_an_ordinary_fmu_live_side_by_side(fmus):
-    envs = [FMUEnv(fmu=fmus["probe2"], inputs=["force"], outputs=["position"]) for _ in range(3)]
+def test_several_instances_of_an_ordinary_fmu_live_side_by_side(family_fmu):
+    envs = [FMUEnv(fmu=family_fmu("probe", 2), inputs=["force"], outputs=["position"]) for _ in range(3)]
     for k, env in enumerate(envs):
         env.reset()
         env.step(np.array([float(k)]))
@@ -257,8 +241,8 @@ def test_several_instances_of_an_ordinary_fmu_live_side_by_side(fmus):
         env.close()
 
 
-def test_a_buggy_reset_is_caught_when_parameters_change_every_episode(fmus):
-    env = FMUEnv(fmu=fmus["probe2_buggy"], inputs=["force"], outputs=["steps"],
+def test_a_buggy_reset_is_caught_when_parameters_change_every_episode(family_fmu):
+    env = FMUEnv(fmu=family_fmu("probe_buggy", 2), inputs=["force"], outputs=["steps"],
                  parameters={"gain": lambda rng: rng.uniform(0.5, 2.0)})
     env.reset(seed=0)
     for _ in range(5):

@@ -9,13 +9,21 @@ from __future__ import annotations
 
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 from modelicagym.env import FMUEnv
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 
 UPRIGHT = np.pi / 2
+
+#: The paper's intervals for the cart-pole observation ``[x, x_dot, theta, theta_dot]``
+#: (m, m/s, rad, rad/s); theta is measured from the +x axis, so upright is pi/2.
+CARTPOLE_INTERVALS: tuple[tuple[float, float], ...] = (
+    (-2.4, 2.4),
+    (-1.0, 1.0),
+    (float(np.deg2rad(78.0)), float(np.deg2rad(102.0))),
+    (-2.0, 2.0),
+)
 
 
 class CartPoleEnv(FMUEnv):
@@ -93,17 +101,11 @@ class CartPoleEnv(FMUEnv):
             negative_reward=negative_reward,
             termination={"x": (-self.x_threshold, self.x_threshold),
                          "theta": (UPRIGHT - self.theta_threshold, UPRIGHT + self.theta_threshold)},
+            action_table=[[-self.force], [self.force]],
             mode=mode,
             render_mode=render_mode,
             **fmu_options,
         )
-        self._forces = (-self.force, self.force)
-
-    def make_action_space(self) -> gym.Space:
-        return gym.spaces.Discrete(2)
-
-    def action_to_inputs(self, action: Any) -> float:
-        return self._forces[int(action)]
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":

@@ -1,7 +1,8 @@
 """A version-neutral, thin layer over one FMU's C API.
 
 `FMIBinding` loads the FMU's shared library through fmpy (which declares every FMI function's
-ctypes signature) and then calls the raw C functions itself: fmpy's convenience methods build
+ctypes signature on its public ``dll``, a ``ctypes.CDLL``) and then calls the raw C functions
+itself (`FunctionTable`, which checks that each signature is really declared): fmpy's convenience methods build
 ctypes arrays on every call and raise on warnings, while the runtime needs preallocated arrays on
 the hot path and its own status handling. `fmi2.py` and `fmi3.py` fill in what differs between
 the two standards; everything above them (`instance.py`, `model_exchange.py`) is version-neutral.
@@ -19,17 +20,44 @@ from collections.abc import Callable
 from functools import partial
 from typing import Any
 
+import fmpy
 import numpy as np
 
 from modelicagym.fmu.description import FMUDescription
-from modelicagym.fmu.errors import FMUCallError, FMUError
+from modelicagym.fmu.errors import DISCARD, ERROR, FATAL, OK, WARNING, FMUCallError, FMUError
 from modelicagym.fmu.logs import FMULog
+
+__all__ = ["DISCARD", "ERROR", "FATAL", "OK", "TERMINATED", "WARNING", "FMIBinding", "FunctionTable"]
 
 logger = logging.getLogger(__name__)
 
-OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 TERMINATED = 10
 """Returned by ``do_step`` when the model asked to end the simulation (discard + terminated)."""
+
+
+class FunctionTable(dict):
+    """The FMU's C functions by full name (``raw["fmi2DoStep"]``), with the signatures fmpy declared.
+
+    Read from fmpy's public ``dll`` (the loaded ``ctypes.CDLL``) on first use. A function without
+    declared argument types would silently mangle its arguments, so that is an error here (an
+    fmpy release that stops declaring them fails loudly, at load time of the function).
+    """
+
+    def __init__(self, library: ctypes.CDLL, fmu_name: str) -> None:
+        super().__init__()
+        self._library = library
+        self._fmu_name = fmu_name
+
+    def __missing__(self, name: str) -> Any:
+        try:
+            function = getattr(self._library, name)
+        except AttributeError as error:
+            raise FMUError(f"{self._fmu_name}: the FMU's library does not export {name}") from error
+        if function.argtypes is None:
+            raise FMUError(f"{self._fmu_name}: fmpy {fmpy.__version__} declared no signature for {name}; "
+                           "modelicagym needs fmpy's declarations (fmpy 0.3.x)")
+        self[name] = function
+        return function
 
 
 class FMIBinding:
@@ -54,7 +82,7 @@ class FMIBinding:
             self._fmu = self._load_library(str(library))
         except Exception as error:
             raise FMUError(f"{self.fmu_name}: cannot load {library}: {error}") from error
-        self.raw: dict[str, Any] = self._fmu._functions
+        self.raw = FunctionTable(self._fmu.dll, self.fmu_name)
         self.component: Any = None
         self.log = FMULog(description.model_name, self.instance_name)
 
@@ -66,6 +94,10 @@ class FMIBinding:
             instanceName=self.instance_name,
             libraryPath=library,
         )
+
+    def function_address(self, name: str) -> int:
+        """The address of the FMU's C function ``name`` (e.g. ``"fmi2DoStep"``), for native callers."""
+        return ctypes.cast(self.raw[name], ctypes.c_void_p).value
 
     # -- status handling -------------------------------------------------------------------------
 

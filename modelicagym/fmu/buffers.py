@@ -13,7 +13,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from modelicagym.fmu.binding import WARNING, FMIBinding
+from modelicagym.errors import ArgumentError
+from modelicagym.fmu.binding import OK, WARNING, FMIBinding
 from modelicagym.fmu.variables import Variable
 
 
@@ -68,6 +69,13 @@ class ValueBuffer:
             self.read = lambda: max(g() for g in getters)
             self.write = lambda: max(s() for s in setters)
 
+    def addresses(self) -> tuple[int, int]:
+        """Where the value references and the values of a single-type buffer live (for native callers)."""
+        if len(self._groups) != 1:
+            raise ArgumentError("only a buffer of one FMI type has one array of values")
+        _, refs, values, _ = self._groups[0]
+        return ctypes.addressof(refs), ctypes.addressof(values)
+
     def check(self, status: int, what: str) -> None:
         if status > WARNING:
             names = ", ".join(v.name for v in self.variables)
@@ -75,4 +83,4 @@ class ValueBuffer:
 
 
 def _no_call() -> int:
-    return 0
+    return OK

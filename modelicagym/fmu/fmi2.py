@@ -7,6 +7,7 @@ import pathlib
 from collections.abc import Callable
 from functools import partial
 
+from fmpy import calloc, free
 from fmpy.fmi2 import (
     FMU2Model,
     FMU2Slave,
@@ -16,10 +17,9 @@ from fmpy.fmi2 import (
     fmi2EventInfo,
     fmi2Terminated,
 )
-from fmpy import calloc, free
 from fmpy.logging import addLoggerProxy
 
-from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
+from modelicagym.fmu.binding import DISCARD, OK, TERMINATED, WARNING, FMIBinding
 from modelicagym.fmu.errors import FMUError
 from modelicagym.fmu.logs import FMI2_LOGGER
 
@@ -82,7 +82,7 @@ class FMI2Binding(FMIBinding):
         def step(t: float, h: float) -> int:
             status = do_step(t, h, 1)
             if status <= WARNING:
-                return 0
+                return OK
             if status == DISCARD and get_boolean_status(component, fmi2Terminated, terminated_ref) <= WARNING:
                 return TERMINATED if terminated.value else DISCARD
             return status

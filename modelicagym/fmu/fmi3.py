@@ -8,7 +8,7 @@ from functools import partial
 
 from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3IntermediateUpdateCallback
 
-from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
+from modelicagym.fmu.binding import DISCARD, OK, TERMINATED, WARNING, FMIBinding
 from modelicagym.fmu.errors import FMUError
 from modelicagym.fmu.logs import FMI3_LOGGER
 
@@ -66,9 +66,9 @@ class FMI3Binding(FMIBinding):
         def step(t: float, h: float) -> int:
             terminate.value = False
             status = do_step(t, h, True, *refs)
-            if terminate.value and status in (0, 1, DISCARD):
+            if terminate.value and status <= DISCARD:
                 return TERMINATED
-            return 0 if status <= WARNING else status
+            return OK if status <= WARNING else status
 
         return step
 

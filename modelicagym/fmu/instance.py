@@ -5,7 +5,7 @@
 co-simulation, a solver in model exchange) and reads the outputs. Simulation time is
 ``origin + k * dt`` from an integer step count, so it does not drift.
 
-Resets climb down the ladder of DESIGN.md and remember the rung that worked:
+Resets climb down the ladder of docs/design.md and remember the rung that worked:
 
 ``"snapshot"``
     restore the state saved right after initialization (``canGetAndSetFMUstate``), when the
@@ -31,8 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.fmu.binding import DISCARD, TERMINATED, FMIBinding
+from modelicagym.errors import ConfigError
+from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
 from modelicagym.fmu.buffers import ValueBuffer
+from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.description import FMUDescription, open_fmu
 from modelicagym.fmu.errors import FMUCallError, FMUError, UnsupportedFeatureError
 from modelicagym.fmu.fmi2 import FMI2Binding
@@ -53,6 +55,9 @@ def _freeze(values: Mapping[str, Any]) -> tuple:
 
 class FMUInstance:
     """A live instance of an FMU, with inputs and outputs bound for fast stepping.
+
+    Its time bookkeeping (``time``, ``steps``, ``fmu_time_ns``, ``terminated``, ``broken``, ...)
+    lives in ``self.clock``, a C struct the native step path writes too (`modelicagym.fmu.clock`).
 
     Example::
 
@@ -76,6 +81,17 @@ class FMUInstance:
         logging_on: ask the FMU for debug logging (routed to Python ``logging``).
     """
 
+    time = OnClock()
+    """Simulation time, ``origin + steps * dt``."""
+    start_time = OnClock()
+    steps = OnClock()
+    fmu_time_ns = OnClock()
+    """Nanoseconds spent in ``step`` inside FMU calls (and the solver, in model exchange), cumulative."""
+    terminated = OnClock()
+    broken = OnClock()
+    _origin = OnClock()
+    _dt = OnClock()
+
     def __init__(
         self,
         fmu: str | os.PathLike[str] | FMUDescription,
@@ -94,6 +110,7 @@ class FMUInstance:
         logging_on: bool = False,
     ):
         self.description = description = open_fmu(fmu, validate=validate)
+        self.clock = StepClock()
         self.mode = mode or description.default_mode()
         interface = description.interface(self.mode)
         self.input_variables = [description.input_variable(n) for n in inputs]
@@ -129,8 +146,6 @@ class FMUInstance:
         self.terminated = False
         self.broken = False
         self.initialized = False
-        self.fmu_time_ns = 0
-        """Nanoseconds spent in ``step`` inside FMU calls (and the solver, in model exchange), cumulative."""
         self._origin = self.start_time
         self._dt = 0.0
         self._snapshot: Any = None
@@ -176,35 +191,36 @@ class FMUInstance:
         Raises `FMUCallError` when the FMU returns Error/Fatal (the instance is then ``broken``
         and the next `reset` re-instantiates it).
         """
-        if dt != self._dt:
-            self._origin, self._dt, self.steps = self.time, dt, 0
-        now = self.time
-        target = self._origin + (self.steps + 1) * dt
+        clock = self.clock
+        if dt != clock.dt:
+            clock.origin, clock.dt, clock.steps = clock.time, dt, 0
+        now = clock.time
+        target = clock.origin + (clock.steps + 1) * dt
         started = _time.perf_counter_ns()
         ended = self._in_event_mode(now, self._write_inputs) if self._event_mode_inputs else self._write_inputs()
         if ended:
-            self.terminated = True
+            clock.terminated = True
         elif self._integrator is None:
             status = self._do_step(now, target - now)
             if status:
                 self._step_status(status)
         else:
             try:
-                self.terminated = self._integrator.advance(now, target)
+                clock.terminated = self._integrator.advance(now, target)
             except Exception:
-                self.broken = True
+                clock.broken = True
                 raise
-        self.steps += 1
-        self.time = target
+        clock.steps += 1
+        clock.time = target
         status = self.outputs.read()
-        self.fmu_time_ns += _time.perf_counter_ns() - started
-        if status > 1:
+        clock.fmu_time_ns += _time.perf_counter_ns() - started
+        if status > WARNING:
             self._broken_by("get outputs", status)
-        return self.terminated
+        return bool(clock.terminated)
 
     def _write_inputs(self) -> bool:
         status = self.inputs.write()
-        if status > 1:
+        if status > WARNING:
             self._broken_by("set inputs", status)
         return False
 
@@ -217,6 +233,25 @@ class FMUInstance:
         except FMUError:
             self.broken = True
             raise
+
+    def restorable_snapshot(self, values: Mapping[str, Any]) -> int | None:
+        """The address of the FMU state that `reset(values)` would simply restore, or ``None``.
+
+        That is the case on the ``"snapshot"`` rung once it is verified, for the values the
+        snapshot was taken with, on a healthy co-simulation instance: the native step path then
+        resets by restoring it itself.
+        """
+        if (
+            self.reset_rung != "snapshot"
+            or "snapshot" not in self._verified
+            or self.broken
+            or not self.initialized
+            or self._integrator is not None
+            or self._snapshot is None
+            or _freeze(dict(values)) != self._snapshot_key
+        ):
+            return None
+        return self._snapshot.value
 
     def read_outputs(self) -> None:
         """Refresh ``self.outputs`` (after a reset, for the first observation)."""
@@ -268,7 +303,7 @@ class FMUInstance:
         if requested == "auto":
             return "snapshot" if can_snapshot else "reset"
         if requested not in RUNGS:
-            raise ValueError(f"reset_rung must be 'auto' or one of {RUNGS}, got {requested!r}")
+            raise ConfigError(f"reset_rung must be 'auto' or one of {RUNGS}, got {requested!r}")
         if requested == "snapshot" and not can_snapshot:
             raise UnsupportedFeatureError(
                 f"{self.fmu_name} cannot save and restore its state (canGetAndSetFMUstate is false); "

@@ -17,7 +17,7 @@ from ctypes import c_void_p
 from fmpy.fmi2 import fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import fmi3LogMessageCallback
 
-from modelicagym.fmu.errors import status_name
+from modelicagym.fmu.errors import WARNING, status_name
 
 _LEVELS = (logging.DEBUG, logging.WARNING, logging.WARNING, logging.ERROR, logging.CRITICAL, logging.INFO)
 
@@ -42,7 +42,7 @@ class FMULog:
 
     def emit(self, status: int, category: str, message: str) -> None:
         level = _LEVELS[status] if 0 <= status < len(_LEVELS) else logging.ERROR
-        if status >= 1:
+        if status >= WARNING:
             self.recent.append(f"[{status_name(status)}] {message}")
         self.logger.log(level, "%s [%s] %s", self.instance_name, category, message)
 

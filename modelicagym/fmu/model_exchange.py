@@ -18,6 +18,7 @@ from typing import Any
 
 from fmpy.simulation import ForwardEuler
 
+from modelicagym.errors import ConfigError
 from modelicagym.fmu.binding import FMIBinding
 from modelicagym.fmu.errors import FMUError
 
@@ -53,9 +54,9 @@ class ModelExchangeIntegrator:
         step_size: float | None = None,
     ):
         if solver not in SOLVERS:
-            raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+            raise ConfigError(f"solver must be one of {SOLVERS}, got {solver!r}")
         if solver == "euler" and not step_size:
-            raise ValueError("solver='euler' needs a step_size (the fixed integration step)")
+            raise ConfigError("solver='euler' needs a step_size (the fixed integration step)")
         self.binding = binding
         self.n_states = n_states
         self.n_indicators = n_indicators

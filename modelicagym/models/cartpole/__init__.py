@@ -35,7 +35,7 @@ PARAMETERS = ("m_cart", "m_pole", "length", "diameter", "density",
 DEFAULT_PARAMETERS = {
     "m_cart": 10.0, "m_pole": 1.0, "length": 2.0, "diameter": 0.05, "density": 900.0,
     "theta_0": 1.4835298641951802, "theta_dot_0": 0.0, "x_0": 0.0, "x_dot_0": 0.0,
-    "cs_step_size": 1e-3,
+    "cs_step_size": 5e-3,
 }
 #: Value references (config.h); in FMI 3.0 value reference 0 is ``time``.
 VALUE_REFERENCES = {

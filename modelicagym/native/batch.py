@@ -1,0 +1,248 @@
+"""A slice of a pool's envs stepped in one C call, and a worker's command loop in C.
+
+`NativeBatch` points ``mg_batch`` (``csrc/step.h``) at the envs' own ``mg_env`` structs (see
+`modelicagym.native.step`) and at the pool's shared arrays, so one ``mg_step_batch`` call steps
+every env of the slice with the pool's autoreset and writes observations, rewards, terminations,
+truncations and timing where the parent reads them. What C leaves to Python (an FMU error, a reset
+the reset ladder must do, an info to report, an action outside the space) is in the per-env
+``flags``; the caller finishes those envs on the Python path.
+
+`NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
+steps without returning to Python at all. `NativeCollector` is ``mg_collect``, the parent's side:
+it steps the calling process's own native slice and waits for every worker in one call.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+
+from modelicagym.errors import ArgumentError
+from modelicagym.native.library import load_library
+from modelicagym.native.step import Flags, MgEnv
+
+__all__ = ["MgBatch", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
+
+#: flags of an env that Python must finish after ``mg_step_batch``
+NEEDS_PYTHON = Flags.FMU_ERROR | Flags.PYTHON_RESET | Flags.MODEL_ENDED | Flags.BAD_ACTION
+
+_AUTORESET_CODES = {AutoresetMode.NEXT_STEP: 0, AutoresetMode.SAME_STEP: 1, AutoresetMode.DISABLED: 2}
+
+#: ``mg_serve`` return values that are not command codes
+SERVE_TIMEOUT, SERVE_PYTHON_STEP = -1, -2
+#: ``mg_collect`` return values
+COLLECT_DONE, COLLECT_LOCAL_PYTHON, COLLECT_SLOW = 0, 1, 2
+
+
+class MgBatch(ctypes.Structure):
+    """``mg_batch`` of ``csrc/step.h``."""
+
+    _fields_ = [
+        ("envs", ctypes.c_void_p),
+        ("n", ctypes.c_int64),
+        ("autoreset_mode", ctypes.c_int32),
+        ("actions", ctypes.c_void_p),
+        ("action_stride", ctypes.c_int64),
+        ("observations", ctypes.c_void_p),
+        ("obs_stride", ctypes.c_int64),
+        ("final_obs", ctypes.c_void_p),
+        ("rewards", ctypes.c_void_p),
+        ("terminations", ctypes.c_void_p),
+        ("truncations", ctypes.c_void_p),
+        ("needs_reset", ctypes.c_void_p),
+        ("flags", ctypes.c_void_p),
+        ("current_env", ctypes.c_void_p),
+        ("first_env", ctypes.c_int64),
+        ("timing_enabled", ctypes.c_void_p),
+        ("timing", ctypes.c_void_p),
+    ]
+
+
+class MgServer(ctypes.Structure):
+    """``mg_server`` of ``csrc/step.h``."""
+
+    _fields_ = [
+        ("batch", ctypes.c_void_p),
+        ("go", ctypes.c_void_p),
+        ("done", ctypes.c_void_p),
+        ("command", ctypes.c_void_p),
+        ("reply", ctypes.c_void_p),
+        ("step_code", ctypes.c_int32),
+        ("yield_cpu", ctypes.c_int32),
+        ("spin_ns", ctypes.c_int64),
+        ("timeout_ns", ctypes.c_int64),
+    ]
+
+
+class MgCollector(ctypes.Structure):
+    """``mg_collector`` of ``csrc/step.h``."""
+
+    _fields_ = [
+        ("local", ctypes.c_void_p),
+        ("n_workers", ctypes.c_int64),
+        ("done", ctypes.c_void_p),
+        ("replies", ctypes.c_void_p),
+        ("spin_ns", ctypes.c_int64),
+        ("timeout_ns", ctypes.c_int64),
+        ("yield_cpu", ctypes.c_int32),
+    ]
+
+
+def batch_path_reason(envs: list[gym.Env]) -> str | None:
+    """Why a slice of ``envs`` must step on the Python path, or ``None`` when it can be a
+    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces)."""
+    for offset, env in enumerate(envs):
+        if env is not env.unwrapped:
+            return f"env {offset} of the slice is wrapped in {type(env).__name__} (the native path steps bare FMUEnvs)"
+        if getattr(env, "step_path", None) != "native":
+            reason = getattr(env, "step_path_reason", "it is not an FMUEnv")
+            return f"env {offset} of the slice steps on the Python path: {reason}"
+    return None
+
+
+def _row_address(array: np.ndarray, row: int) -> int:
+    return array.ctypes.data + row * array.strides[0]
+
+
+class NativeBatch:
+    """Envs ``first_env, ...`` of a pool (bare `FMUEnv` instances on the native path) stepped by one C call.
+
+    Args:
+        envs: the envs of the slice.
+        first_env: the pool index of ``envs[0]``: the row of the shared arrays it uses.
+        autoreset_mode: the pool's autoreset mode.
+        arrays: the pool's shared arrays by name: ``actions``, ``observations``, ``rewards``,
+            ``terminations``, ``truncations`` (all envs), ``current_env`` and ``timing`` (this
+            slice's slot), ``timing_enabled``.
+        needs_reset: per env of the slice, uint8: it ended and is reset by its next step.
+    """
+
+    def __init__(
+        self,
+        envs: list[gym.Env],
+        first_env: int,
+        autoreset_mode: AutoresetMode,
+        arrays: dict[str, np.ndarray],
+        needs_reset: np.ndarray,
+    ) -> None:
+        self.library = load_library()
+        n = len(envs)
+        self.natives = [env.native_step for env in envs]
+        observations = arrays["observations"]
+        self.final_obs = np.zeros((n, *observations.shape[1:]), dtype=observations.dtype)
+        self.flags = np.zeros(n, dtype=np.int32)
+        self._env_pointers = (ctypes.POINTER(MgEnv) * n)(*(ctypes.pointer(native.state) for native in self.natives))
+        self._needs_reset = needs_reset
+        self.state = batch = MgBatch()
+        batch.envs = ctypes.addressof(self._env_pointers)
+        batch.n = n
+        batch.autoreset_mode = _AUTORESET_CODES[autoreset_mode]
+        actions = arrays["actions"]
+        batch.actions, batch.action_stride = _row_address(actions, first_env), actions.strides[0]
+        batch.observations, batch.obs_stride = _row_address(observations, first_env), observations.strides[0]
+        if self.final_obs.strides[0] != observations.strides[0]:
+            raise ArgumentError("final observations must have the stride of the shared observations")
+        batch.final_obs = self.final_obs.ctypes.data
+        batch.rewards = _row_address(arrays["rewards"], first_env)
+        batch.terminations = _row_address(arrays["terminations"], first_env)
+        batch.truncations = _row_address(arrays["truncations"], first_env)
+        batch.needs_reset = needs_reset.ctypes.data
+        batch.flags = self.flags.ctypes.data
+        batch.current_env = arrays["current_env"].ctypes.data
+        batch.first_env = first_env
+        batch.timing_enabled = arrays["timing_enabled"].ctypes.data
+        batch.timing = arrays["timing"].ctypes.data
+        self._step = self.library.mg_step_batch
+        self.ref = ctypes.byref(batch)
+
+    def step(self) -> int:
+        """Step every env; returns how many need Python to finish (see ``flags``)."""
+        return self._step(self.ref)
+
+    def to_finish(self, same_step: bool) -> np.ndarray:
+        """Offsets of the envs Python must finish after the last :meth:`step`."""
+        mask = (self.flags & NEEDS_PYTHON) != 0
+        if same_step:
+            mask |= (self.flags & Flags.RESET_DONE) != 0
+        return np.flatnonzero(mask)
+
+
+class NativeServer:
+    """``mg_serve``: a worker's wait for its next command, and its plain native steps, in C.
+
+    Args:
+        batch: the worker's native slice.
+        go, done: addresses of the worker's signals in shared memory.
+        command, reply: the worker's command and reply slots (one-element views).
+        step_code: the command code of a step.
+        spin_time, timeout: seconds to poll before sleeping, and to wait before returning
+            `SERVE_TIMEOUT`; ``yield_cpu``: yield the core while polling.
+    """
+
+    def __init__(
+        self,
+        batch: NativeBatch,
+        go: int,
+        done: int,
+        command: np.ndarray,
+        reply: np.ndarray,
+        step_code: int,
+        spin_time: float,
+        timeout: float,
+        yield_cpu: bool,
+    ) -> None:
+        self.batch = batch
+        self.state = server = MgServer()
+        server.batch = ctypes.addressof(batch.state)
+        server.go, server.done = go, done
+        server.command, server.reply = command.ctypes.data, reply.ctypes.data
+        server.step_code = step_code
+        server.yield_cpu = int(yield_cpu)
+        server.spin_ns, server.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
+        self._serve = batch.library.mg_serve
+        self._ref = ctypes.byref(server)
+
+    def next_command(self) -> Any:
+        """Serve steps until a command needs Python: its code, `SERVE_PYTHON_STEP` or `SERVE_TIMEOUT`."""
+        return self._serve(self._ref)
+
+
+class NativeCollector:
+    """``mg_collect``: the calling process steps its native slice, then waits for the workers.
+
+    Args:
+        local: the calling process's native slice, or ``None``.
+        done: addresses of the workers' ``done`` signals, in worker order.
+        replies: the workers' reply slots (worker ``k`` at index ``k``).
+        spin_time, timeout, yield_cpu: as for :class:`NativeServer`.
+    """
+
+    def __init__(
+        self,
+        local: NativeBatch | None,
+        done: list[int],
+        replies: np.ndarray,
+        spin_time: float,
+        timeout: float,
+        yield_cpu: bool,
+    ) -> None:
+        self.library = load_library()
+        self._done = (ctypes.c_void_p * max(len(done), 1))(*done)
+        self._replies = replies
+        self.state = collector = MgCollector()
+        collector.local = None if local is None else ctypes.addressof(local.state)
+        collector.n_workers = len(done)
+        collector.done = ctypes.addressof(self._done)
+        collector.replies = replies.ctypes.data
+        collector.spin_ns, collector.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
+        collector.yield_cpu = int(yield_cpu)
+        self._collect = self.library.mg_collect
+        self._ref = ctypes.byref(collector)
+
+    def collect(self) -> int:
+        """`COLLECT_DONE`, `COLLECT_LOCAL_PYTHON` or `COLLECT_SLOW` (see ``mg_collect``)."""
+        return self._collect(self._ref)

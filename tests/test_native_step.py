@@ -1,0 +1,152 @@
+"""The native step path of a single FMUEnv: taken when the config defines the whole step, said why
+not otherwise, and step for step the same results as the Python path."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import modelicagym
+from modelicagym import FMUEnv
+from modelicagym.envs.cartpole import CartPoleEnv
+from modelicagym.errors import ConfigError
+from modelicagym.fmu.instance import RUNGS
+
+
+def probe_env(path: Any, **config: Any) -> FMUEnv:
+    """The probe FMU as a Box-action env of Float64 inputs and outputs (native-capable)."""
+    parameters = {"gear": 1, "enable": True, **config.pop("parameters", {})}
+    config.setdefault("termination", {"position": (-3.0, 3.0)})
+    return FMUEnv(fmu=path, inputs=["force"], outputs=["position", "clock"], parameters=parameters, time_step=0.1, **config)
+
+
+def assert_same_steps(native: Any, python: Any, actions: list[Any], seed: int = 0) -> int:
+    """Step both envs with ``actions`` (resetting both after an episode ends); returns the episodes."""
+    assert np.array_equal(native.reset(seed=seed)[0], python.reset(seed=seed)[0])
+    episodes = 0
+    for step, action in enumerate(actions):
+        a, b = native.step(action), python.step(action)
+        assert np.array_equal(a[0], b[0]), f"observation differs at step {step}"
+        assert a[1:] == b[1:], f"reward/terminated/truncated/info differ at step {step}: {a[1:]} vs {b[1:]}"
+        assert native.unwrapped.elapsed_steps == python.unwrapped.elapsed_steps
+        assert native.unwrapped.fmu.time == python.unwrapped.fmu.time
+        if a[2] or a[3]:
+            episodes += 1
+            assert np.array_equal(native.reset()[0], python.reset()[0])
+    return episodes
+
+
+@pytest.mark.parametrize("reset_rung", RUNGS)
+def test_cartpole_native_steps_equal_python_steps(fmi_version: int, reset_rung: str) -> None:
+    options = dict(fmi_version=fmi_version, reset_rung=reset_rung, max_episode_steps=12)
+    native = modelicagym.make("cartpole", **options)
+    python = modelicagym.make("cartpole", step_path="python", **options)
+    assert native.unwrapped.step_path == "native" and python.unwrapped.step_path == "python"
+    actions = np.random.default_rng(1).integers(2, size=400).tolist()
+    assert assert_same_steps(native, python, actions) > 20
+
+
+def test_box_actions_native_equal_python(family_fmu: Callable[[str, int], Path], fmi_version: int) -> None:
+    path = family_fmu("probe", fmi_version)
+    native, python = probe_env(path, max_episode_steps=30), probe_env(path, step_path="python")
+    python.max_episode_steps = 30
+    assert native.step_path == "native"
+    actions = list(np.random.default_rng(2).uniform(-10, 10, size=(200, 1)))
+    assert assert_same_steps(native, python, actions) > 2
+
+
+def test_fmu_error_on_the_native_path_truncates_like_the_python_path(
+    family_fmu: Callable[[str, int], Path], fmi_version: int
+) -> None:
+    parameters = {"fault": 2, "fault_after": 3}
+    native = probe_env(family_fmu("probe", fmi_version), parameters=parameters)
+    python = probe_env(family_fmu("probe", fmi_version), parameters=parameters, step_path="python")
+    native.reset(seed=0)
+    python.reset(seed=0)
+    results = [(native.step(np.array([1.0])), python.step(np.array([1.0]))) for _ in range(4)]
+    for a, b in results:
+        assert np.array_equal(a[0], b[0]) and a[1:] == b[1:]
+    observation, reward, terminated, truncated, info = results[-1][0]
+    assert truncated and not terminated and reward == 0.0 and "injected fault" in info["fmu_error"]
+    assert native.reset()[0][1] == 0.0, "the next reset recovers (re-instantiates the FMU)"
+    assert native.step(np.array([1.0]))[3] is False
+
+
+def test_model_ending_the_simulation_terminates_on_both_paths(family_fmu: Callable[[str, int], Path]) -> None:
+    parameters = {"fault": 1, "fault_after": 2}
+    native = probe_env(family_fmu("probe", 2), parameters=parameters)
+    python = probe_env(family_fmu("probe", 2), parameters=parameters, step_path="python")
+    native.reset(seed=0)
+    python.reset(seed=0)
+    for _ in range(3):
+        a, b = native.step(np.array([0.5])), python.step(np.array([0.5]))
+        assert np.array_equal(a[0], b[0]) and a[1:] == b[1:]
+    assert a[2] and a[4] == {"fmu_terminated": True}
+
+
+def test_actions_outside_the_space_are_refused_on_the_native_path(family_fmu: Callable[[str, int], Path]) -> None:
+    env = probe_env(family_fmu("probe", 2))
+    env.reset(seed=0)
+    for action in (np.array([11.0]), np.array([np.nan])):
+        with pytest.raises(ValueError):
+            env.step(action)
+    cartpole = modelicagym.make("cartpole")
+    cartpole.reset(seed=0)
+    with pytest.raises(ValueError):
+        cartpole.step(2)
+
+
+class ShapedReward(CartPoleEnv):
+    def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
+        return 0.0 if terminated else 1.0 - abs(float(observation[0]))
+
+
+@pytest.mark.parametrize(
+    "make, reason",
+    [
+        (lambda: modelicagym.make("cartpole", step_path="python"), "step_path='python'"),
+        (lambda: modelicagym.make("cartpole", mode="me"), "model exchange"),
+        (lambda: ShapedReward(), "compute_reward is overridden by ShapedReward"),
+        (lambda: modelicagym.make("cartpole", reward=lambda env, obs, action, terminated: 1.0), "'reward' is a callable"),
+    ],
+)
+def test_envs_the_config_does_not_define_take_the_python_path_and_say_why(make: Any, reason: str) -> None:
+    env = make().unwrapped
+    assert env.step_path == "python"
+    assert reason in env.step_path_reason
+
+
+def test_non_float_variables_and_termination_callables_keep_the_python_path(family_fmu: Callable[[str, int], Path]) -> None:
+    env = FMUEnv(fmu=family_fmu("probe", 2), inputs=["force"], outputs=["position", "speed"])
+    assert env.step_path == "python" and "'speed' is of type Integer" in env.step_path_reason
+    env = probe_env(family_fmu("probe", 2), termination=lambda env, observation: False)
+    assert env.step_path == "python" and "'termination' is a callable" in env.step_path_reason
+
+
+def test_the_native_env_passes_gymnasiums_checker() -> None:
+    env = modelicagym.make("cartpole")
+    assert env.unwrapped.step_path == "native"
+    check_env(env.unwrapped, skip_render_check=True)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{"step_path": "fast"}, {"action_table": []}, {"action_table": [[1.0], [1.0, 2.0]]}],
+)
+def test_bad_native_options_are_config_errors(family_fmu: Callable[[str, int], Path], options: dict) -> None:
+    with pytest.raises(ConfigError):
+        probe_env(family_fmu("probe", 2), **options)
+
+
+def test_action_table_sets_a_discrete_action_space(family_fmu: Callable[[str, int], Path]) -> None:
+    env = FMUEnv(fmu=family_fmu("probe", 2), inputs=["force"], outputs=["position"], action_table=[[-2.0], [0.0], [2.0]],
+                 parameters={"gear": 0, "enable": True}, time_step=1.0)
+    assert env.action_space.n == 3 and env.step_path == "native"
+    env.reset(seed=0)
+    env.step(2)
+    assert env.fmu.inputs.views["force"] == 2.0
