@@ -1,42 +1,66 @@
-"""Shared fixtures: FMUs built once per session (from the content-hashed build cache)."""
+"""The fixtures every test module shares: FMI versions and interface types to run over, the FMUs
+(built once per session, from the content-hashed build cache) and the pool's leak check.
+
+Helper code that tests import lives in modules named for what they hold: ``fmu_family`` (the test
+FMUs), ``episodes`` (driving an env through an episode), ``vector_envs`` and ``vector_rollouts``
+(envs and comparisons for the pool), ``vector_leaks`` (processes, /dev/shm entries and fds),
+``toy_envs`` (tiny envs for the agent and the experiments), ``reference_cartpole`` (independent
+cart-pole physics).
+"""
 
 from __future__ import annotations
 
+import functools
+import gc
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Callable, Iterator
 
 import pytest
+from fmu_family import FMI_VERSIONS, build
+from vector_envs import CountEnv
+from vector_leaks import Snapshot
 
-from modelicagym.fmu.build import DefineValue, build_source_fmu
-from modelicagym.models.cartpole import cartpole_fmu
+from modelicagym.models.cartpole import cartpole_fmu as build_cartpole_fmu
+from modelicagym.vector import PoolVectorEnv
 
-TEST_FMUS_DIR = Path(__file__).resolve().parent / "fmus"
+
+@pytest.fixture(params=FMI_VERSIONS, ids=[f"fmi{v}" for v in FMI_VERSIONS])
+def fmi_version(request: pytest.FixtureRequest) -> int:
+    """Runs the test once per FMI version (2 and 3)."""
+    return request.param
+
+
+@pytest.fixture(params=["cs", "me"])
+def fmu_mode(request: pytest.FixtureRequest) -> str:
+    """Runs the test once per FMI interface type: co-simulation and model exchange."""
+    return request.param
 
 
 @pytest.fixture(scope="session")
-def cartpole_fmu2() -> Path:
-    """The Cart-Pole FMU, FMI 2.0 (co-simulation + model exchange)."""
-    return cartpole_fmu(2)
+def cartpole_fmu() -> Callable[[int], Path]:
+    """``cartpole_fmu(fmi_version)``: path of the library's Cart-Pole FMU for that FMI version."""
+    return functools.cache(build_cartpole_fmu)
 
 
 @pytest.fixture(scope="session")
-def cartpole_fmu3() -> Path:
-    """The Cart-Pole FMU, FMI 3.0 (co-simulation + model exchange)."""
-    return cartpole_fmu(3)
+def family_fmu() -> Callable[[str, int], Path]:
+    """``family_fmu(name, fmi_version)``: path of a test FMU (a name of `fmu_family.VARIANTS`)."""
+    return functools.cache(build)
 
 
 @pytest.fixture(scope="session")
-def build_test_fmu() -> Callable[..., Path]:
-    """Build a test FMU from ``tests/fmus/<name>/``: ``build_test_fmu(name, fmi_version=2, defines=None)``.
+def pool_services() -> None:
+    """Start the fork server and the resource tracker once, so they are not counted as leaks.
 
-    Results are memoized for the session (and cached on disk by content hash).
+    ``num_workers=1``: a single env alone would be stepped by the calling process, starting nothing.
     """
-    built: dict[tuple, Path] = {}
+    PoolVectorEnv([CountEnv], num_workers=1).close()
 
-    def build(name: str, fmi_version: int = 2, defines: Mapping[str, DefineValue] | None = None) -> Path:
-        key = (name, fmi_version, tuple(sorted((defines or {}).items())))
-        if key not in built:
-            built[key] = build_source_fmu(TEST_FMUS_DIR / name, fmi_version, defines=defines)
-        return built[key]
 
-    return build
+@pytest.fixture
+def no_leaks(pool_services: None) -> Iterator[None]:
+    """Fail the test if it leaves processes, /dev/shm entries or file descriptors behind."""
+    before = Snapshot.take()
+    yield
+    gc.collect()
+    before.assert_restored()

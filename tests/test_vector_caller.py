@@ -9,9 +9,9 @@ from functools import partial
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from test_vector_pool import assert_same, count_fns, rollout
-from vector_envs import CountEnv, FaultyEnv
+from vector_envs import CountEnv, FaultyEnv, count_fns
 from vector_leaks import Snapshot
+from vector_rollouts import assert_same, rollout
 
 from modelicagym.errors import ConfigError
 from modelicagym.vector import EnvError, PoolVectorEnv

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import gc
 import multiprocessing
 import os
 import signal
@@ -19,29 +18,15 @@ import numpy as np
 import pytest
 from gymnasium.error import ClosedEnvironmentError
 from gymnasium.vector import AutoresetMode
-from vector_envs import CountEnv, FaultyEnv
-from vector_leaks import Snapshot, descendants
+from vector_envs import CountEnv, FaultyEnv, MalformedEnv
+from vector_leaks import Snapshot, descendants, process_state
 
+from modelicagym.errors import ConfigError, ConfigTypeError
 from modelicagym.vector import RESTART_INFO_KEY, EnvError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 
-pytestmark = pytest.mark.timeout(60)
+pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("pool_services")]
 
 TESTS_DIR = Path(__file__).resolve().parent
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _warm_up() -> None:
-    """Start the fork server and the resource tracker once, so they are not counted as leaks."""
-    PoolVectorEnv([CountEnv]).close()
-
-
-@pytest.fixture
-def no_leaks() -> Any:
-    """Fail the test if it leaves processes, /dev/shm entries or file descriptors behind."""
-    before = Snapshot.take()
-    yield
-    gc.collect()
-    before.assert_restored()
 
 
 def fns_with_fault(fault: str, **kwargs: Any) -> list:
@@ -79,22 +64,20 @@ def test_exit_code_is_reported() -> None:
 
 @pytest.mark.usefixtures("no_leaks")
 def test_dead_worker_is_noticed_without_a_timeout() -> None:
+    """With no step timeout, only noticing the death can end the wait (or the test times out)."""
     pool = PoolVectorEnv(fns_with_fault("sigkill"), num_workers=2, step_timeout=None)
-    start = time.monotonic()
     with pytest.raises(WorkerDiedError, match="SIGKILL"):
         step_until_failure(pool)
-    assert time.monotonic() - start < 5.0
 
 
 @pytest.mark.usefixtures("no_leaks")
 def test_hang_past_step_timeout() -> None:
+    """The env hangs for an hour: only the step timeout can end the wait (or the test times out)."""
     pool = PoolVectorEnv(fns_with_fault("hang"), num_workers=2, step_timeout=0.5)
-    start = time.monotonic()
     with pytest.raises(WorkerTimeoutError, match="env 2") as info:
         step_until_failure(pool)
     assert isinstance(info.value, multiprocessing.TimeoutError)
     assert info.value.env_index == 2
-    assert time.monotonic() - start < 5.0
 
 
 @pytest.mark.usefixtures("no_leaks")
@@ -188,13 +171,13 @@ def test_call_raising_keeps_the_pool_usable_and_a_crash_in_call_restarts(tmp_pat
 @pytest.mark.usefixtures("no_leaks")
 @pytest.mark.parametrize("terminate", [False, True])
 def test_close_with_a_hung_call_pending_gives_up(terminate: bool) -> None:
+    """The env hangs for an hour: a close that waited for it would time the test out."""
     pool = PoolVectorEnv(fns_with_fault("hang"), num_workers=2, step_timeout=0.5)
     pool.reset(seed=0)
     pool.step(np.zeros(4, dtype=np.int64))
     pool.step_async(np.zeros(4, dtype=np.int64))
-    start = time.monotonic()
     pool.close(terminate=terminate)
-    assert pool.closed and time.monotonic() - start < 3.0
+    assert pool.closed
 
 
 def test_close_releases_everything() -> None:
@@ -214,17 +197,33 @@ def test_garbage_collected_pool_releases_everything() -> None:
 
 
 @pytest.mark.usefixtures("no_leaks")
-def test_keyboard_interrupt_while_waiting_stops_the_pool() -> None:
-    pool = PoolVectorEnv([partial(CountEnv, cost=3.0)] * 2, num_workers=2)
+def test_keyboard_interrupt_while_waiting_stops_the_pool(tmp_path: Path) -> None:
+    """Ctrl-C comes once a worker is inside a step that would last an hour: the step cannot have
+    finished, so the interrupt was taken while waiting."""
+    marker = tmp_path / "struck"
+    pool = PoolVectorEnv([partial(FaultyEnv, "hang", at_step=1, marker=str(marker))] * 2, num_workers=2)
     pool.reset(seed=0)
-    timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
-    timer.start()
-    start = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        pool.step(np.zeros(2, dtype=np.int64))
-    timer.join()
-    assert time.monotonic() - start < 2.5, "interrupted at once, not after the step"
+    stop = threading.Event()
+    interrupter = threading.Thread(target=interrupt_when_created, args=(marker, stop), daemon=True)
+    interrupter.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            pool.step(np.zeros(2, dtype=np.int64))
+    finally:
+        stop.set()
+        interrupter.join()
     assert pool.closed
+
+
+def interrupt_when_created(path: Path, stop: threading.Event) -> None:
+    """Send this process a SIGINT (a Ctrl-C) as soon as ``path`` exists, and again every second
+    until ``stop`` is set, as a user would: CPython drops a KeyboardInterrupt that happens to be
+    raised inside a finalizer run by the garbage collector."""
+    while not path.exists():
+        time.sleep(0.01)
+    while not stop.is_set():
+        os.kill(os.getpid(), signal.SIGINT)
+        stop.wait(1.0)
 
 
 def test_workers_ignore_sigint() -> None:
@@ -262,14 +261,119 @@ def test_workers_exit_when_the_parent_is_killed(start_method: str) -> None:
     deadline = time.monotonic() + 10.0
     while orphans & descendants(1) and time.monotonic() < deadline:
         time.sleep(0.05)
-    alive = {pid for pid in orphans if os.path.exists(f"/proc/{pid}") and _state(pid) != "Z"}
+    alive = {pid for pid in orphans if process_state(pid) not in (None, "Z")}
     assert not alive, f"orphaned workers still running: {alive}"
 
 
-def _state(pid: int) -> str:
+@pytest.mark.parametrize("caller_steps", [True, False])
+def test_a_ctrl_c_at_any_moment_leaves_the_pool_consistent(caller_steps: bool) -> None:
+    """Interrupts land at random points of step/step_async/step_wait: afterwards the pool is
+    either stopped or ready for the next call, never stuck in a pending state."""
+    rng = np.random.default_rng(0)
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGALRM, interrupt)
+    outcomes = {"stopped": 0, "usable": 0}
     try:
-        with open(f"/proc/{pid}/stat") as f:
-            stat = f.read()
-    except OSError:
-        return "Z"
-    return stat[stat.rindex(")") + 2]
+        pool = None
+        for _ in range(20):
+            if pool is None or pool.closed:
+                pool = PoolVectorEnv([CountEnv] * 3, caller_steps=caller_steps, num_workers=None if caller_steps else 2)
+                pool.reset(seed=0)
+            try:
+                signal.setitimer(signal.ITIMER_REAL, float(rng.uniform(1e-5, 2e-3)))
+                while True:
+                    pool.step(np.zeros(3, dtype=np.int64))
+            except KeyboardInterrupt:
+                pass
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            if pool.closed:
+                outcomes["stopped"] += 1
+            else:
+                pool.step(np.zeros(3, dtype=np.int64))  # no PendingCallError: nothing half-done
+                outcomes["usable"] += 1
+        pool.close()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert sum(outcomes.values()) == 20
+
+
+@pytest.mark.usefixtures("no_leaks")
+@pytest.mark.parametrize("bad, cause", [("observation", "broadcast"), ("reward", "a lot")])
+@pytest.mark.parametrize("caller_steps", [True, False])
+def test_a_malformed_step_result_is_reported_with_its_env_and_cause(bad: str, cause: str, caller_steps: bool) -> None:
+    fns = [CountEnv, CountEnv, partial(MalformedEnv, bad)]
+    pool = PoolVectorEnv(fns, caller_steps=caller_steps, num_workers=None if caller_steps else 2)
+    pool.reset(seed=0)
+    with pytest.raises(EnvError, match=r"env 2\b") as info:
+        pool.step(np.zeros(3, dtype=np.int64))
+    assert cause in str(info.value.__cause__)
+    pool.close()
+
+
+@pytest.mark.parametrize(
+    "options, error, match",
+    [
+        ({"step_timeout": float("nan")}, ConfigError, "step_timeout must be a finite number of seconds > 0"),
+        ({"step_timeout": -1.0}, ConfigError, "step_timeout must be a finite number of seconds > 0"),
+        ({"step_timeout": "1"}, ConfigTypeError, "step_timeout must be a number of seconds or None, got '1'"),
+        ({"num_workers": 0}, ConfigError, "num_workers must be >= 1"),
+        ({"num_workers": 1.5}, ConfigTypeError, "num_workers must be an integer"),
+        ({"spin_time": float("inf")}, ConfigError, "spin_time must be a finite number"),
+        ({"start_method": "threads"}, ConfigError, "start_method must be one of"),
+        ({"autoreset_mode": "later"}, ConfigError, "autoreset_mode must be one of"),
+        ({"restart_dead_workers": "yes"}, ConfigTypeError, "restart_dead_workers must be True or False"),
+    ],
+)
+@pytest.mark.usefixtures("no_leaks")
+def test_the_pools_own_options_are_checked_before_anything_starts(options: dict, error: type, match: str) -> None:
+    with pytest.raises(error, match=match):
+        PoolVectorEnv([CountEnv] * 2, **options)
+
+
+@pytest.mark.usefixtures("no_leaks")
+def test_an_env_fn_that_cannot_be_pickled_is_named_with_the_reason() -> None:
+    lock = threading.Lock()
+    with pytest.raises(ConfigError, match=r"env fn 1 .* cannot be sent to a worker process: cloudpickle says TypeError"):
+        PoolVectorEnv([CountEnv, lambda: (lock, CountEnv())[1]], num_workers=2)
+
+
+@pytest.mark.usefixtures("no_leaks")
+def test_a_bad_seed_is_refused_and_the_pool_stays_usable() -> None:
+    with PoolVectorEnv([CountEnv] * 2, num_workers=2) as pool:
+        for seed in (1.5, "seed", [1, 2, 3], [1.0, 2.0]):
+            with pytest.raises((TypeError, ValueError), match="seed"):
+                pool.reset(seed=seed)
+        pool.reset(seed=[1, None])
+        pool.step(np.zeros(2, dtype=np.int64))
+
+
+def test_a_step_timeout_names_the_limit_and_the_option() -> None:
+    pool = PoolVectorEnv(fns_with_fault("hang"), num_workers=2, step_timeout=0.5)
+    pool.reset(seed=0)
+    with pytest.raises(WorkerTimeoutError, match=r"within step_timeout=0.5 s; it was killed \(a larger step_timeout"):
+        step_until_failure(pool)
+
+
+@pytest.mark.usefixtures("no_leaks")
+def test_an_env_fn_that_exits_is_reported_with_its_reason() -> None:
+    def leaves() -> CountEnv:
+        sys.exit("no licence for this model")
+
+    with pytest.raises(EnvError, match=r"env 1\b") as info:
+        PoolVectorEnv([CountEnv, leaves], num_workers=2)
+    assert "no licence for this model" in str(info.value.__cause__)
+
+
+def test_a_failure_releases_the_shared_memory_at_once(pool_services: None) -> None:
+    """No garbage collection needed: the error's traceback may hold views of the memory, but not
+    its file descriptor."""
+    before = Snapshot.take()
+    pool = PoolVectorEnv(fns_with_fault("segfault"), num_workers=2)
+    with pytest.raises(WorkerDiedError) as info:
+        step_until_failure(pool)
+    assert info.value.__traceback__ is not None
+    before.assert_restored()

@@ -10,7 +10,8 @@ import time
 
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from test_vector_pool import assert_same, count_fns, rollout
+from vector_envs import count_fns
+from vector_rollouts import assert_same, rollout
 
 import modelicagym.vector.pool
 from modelicagym.vector import PoolVectorEnv

@@ -11,7 +11,8 @@ import ctypes
 import os
 import signal
 import time
-from typing import Any
+from functools import partial
+from typing import Any, Callable
 
 import gymnasium as gym
 import numpy as np
@@ -126,6 +127,11 @@ class CountEnv(gym.Env):
         return (x for x in range(3))
 
 
+def count_fns(n: int, **kwargs: Any) -> list[Callable[[], CountEnv]]:
+    """Env fns whose episodes end at different times (``max_len`` differs per env)."""
+    return [partial(CountEnv, max_len=4 + 3 * i, **kwargs) for i in range(n)]
+
+
 class FaultyEnv(CountEnv):
     """A :class:`CountEnv` that fails on purpose.
 
@@ -194,3 +200,42 @@ class TrivialEnv(gym.Env):
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
         return self._obs, 1.0, False, False, {}
+
+
+class MalformedEnv(CountEnv):
+    """A :class:`CountEnv` whose step returns a result that does not fit: ``bad`` is
+    ``"observation"`` (wrong shape) or ``"reward"`` (not a number)."""
+
+    def __init__(self, bad: str) -> None:
+        super().__init__()
+        self.bad = bad
+
+    def step(self, action):
+        observation, reward, terminated, truncated, info = super().step(action)
+        if self.bad == "observation":
+            return np.zeros(7), reward, terminated, truncated, info
+        return observation, "a lot", terminated, truncated, info
+
+
+class ActionRecorder(gym.Env):
+    """Remembers the last action it was given, as given (a ``Box(shape=())`` action space)."""
+
+    observation_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+    action_space = spaces.Box(0.0, 1.0, shape=(), dtype=np.float32)
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.last_action = None
+        return np.zeros(1, dtype=np.float32), {}
+
+    def step(self, action):
+        self.last_action = action
+        return np.zeros(1, dtype=np.float32), 0.0, False, False, {}
+
+
+class BoundedEnv(CountEnv):
+    """A :class:`CountEnv` whose observation bounds depend on ``high`` (same shape and dtype)."""
+
+    def __init__(self, high: float) -> None:
+        super().__init__()
+        self.observation_space = spaces.Box(-high, high, shape=(3,), dtype=np.float32)

@@ -14,18 +14,31 @@ from dataclasses import dataclass
 _SHM_PREFIXES = ("sem.mp-", "psm_", "modelicagym", "pym-")
 
 
+def _stat_fields(pid: int) -> list[str] | None:
+    """The fields of ``/proc/<pid>/stat`` after the command name (state first, then the parent), or
+    None when there is no such process."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            stat = f.read()
+    except OSError:
+        return None
+    return stat[stat.rindex(")") + 2 :].split()
+
+
+def process_state(pid: int) -> str | None:
+    """The state letter of process ``pid`` ("R", "S", "Z", ...), or None when it is gone."""
+    fields = _stat_fields(pid)
+    return None if fields is None else fields[0]
+
+
 def _parents() -> dict[int, int]:
+    """The parent of every live (non-zombie) process."""
     parents = {}
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
             continue
-        try:
-            with open(f"/proc/{entry}/stat") as f:
-                stat = f.read()
-        except OSError:
-            continue
-        fields = stat[stat.rindex(")") + 2 :].split()
-        if fields[0] != "Z":
+        fields = _stat_fields(int(entry))
+        if fields is not None and fields[0] != "Z":
             parents[int(entry)] = int(fields[1])
     return parents
 
@@ -52,6 +65,7 @@ def shm_entries() -> set[str]:
 
 
 def open_fds() -> int:
+    """How many file descriptors this process has open."""
     return len(os.listdir("/proc/self/fd"))
 
 

@@ -10,6 +10,9 @@ offer it, by these names:
   Envs without it count entirely as Python time.
 - ``max_envs_per_process`` on the env fn (an attribute of the callable): at most that many envs in
   one worker process; 1 for FMUs with ``canBeInstantiatedOnlyOncePerProcess``.
+- ``env.step_path == "native"`` with ``env.native_step``, ``env.native_step_failure()`` and
+  ``env.observation()`` (an `FMUEnv` on the native step path, unwrapped): a slice of such envs steps
+  in one C call of :mod:`modelicagym.native.batch`, with the same results.
 - The env fn itself is pickled with cloudpickle and called in the worker: it must not capture
   live FMU instances (ctypes handles), only what is needed to create one.
 """

@@ -159,7 +159,10 @@ class SharedBatch:
 
     def write_batch(self, values: Any) -> None:
         """Store a whole batch (an element of the batched space)."""
-        if self._views is not None:
+        array = self._array
+        if array is not None and type(values) is np.ndarray and values.shape == array.shape:
+            array[...] = values
+        elif self._views is not None:
             _assign(self._views, values)
         else:
             for index, value in enumerate(iterate(self._batch_space, values)):
@@ -215,6 +218,19 @@ class SharedBuffers:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""
         return self.signals.ctypes.data + self.signals[slot, which].nbytes * (2 * slot + which)
 
+    def arrays(self, slot: int) -> dict[str, np.ndarray]:
+        """The arrays a native slice in ``slot`` writes to (array spaces only), by name."""
+        return {
+            "actions": self.actions.read_batch(copy_out=False),
+            "observations": self.observations.read_batch(copy_out=False),
+            "rewards": self.rewards,
+            "terminations": self.terminations,
+            "truncations": self.truncations,
+            "current_env": self.current_env[slot : slot + 1],
+            "timing": self.timing[slot],
+            "timing_enabled": self.timing_enabled,
+        }
+
     @staticmethod
     def size_of(spec: BufferSpec) -> int:
         """Bytes needed for ``spec``."""
@@ -236,8 +252,39 @@ class SharedBuffers:
     @classmethod
     def attach(cls, spec: BufferSpec, fd: int) -> SharedBuffers:
         """Map the shared memory behind ``fd`` (the descriptor stays open; the caller owns it)."""
-        mapping = mmap.mmap(fd, cls.size_of(spec))
-        return cls(spec, memoryview(mapping))
+        return cls(spec, _map_shared(fd, cls.size_of(spec)))
+
+
+class _Mapping:
+    """A ``MAP_SHARED`` mapping made with libc's ``mmap``, unmapped when the last view of it goes.
+
+    Python's ``mmap.mmap`` keeps a duplicate of the file descriptor until the object is garbage
+    collected (which a traceback holding a view can delay indefinitely); a mapping needs no
+    descriptor once made, so the pool's descriptor is the only one and closes when the pool does.
+    """
+
+    _libc = ctypes.CDLL(None, use_errno=True)
+    _libc.mmap.restype = ctypes.c_void_p
+    _libc.mmap.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_long)
+    _libc.munmap.argtypes = (ctypes.c_void_p, ctypes.c_size_t)
+
+    def __init__(self, fd: int, size: int) -> None:
+        address = self._libc.mmap(None, size, mmap.PROT_READ | mmap.PROT_WRITE, mmap.MAP_SHARED, fd, 0)
+        if address in (None, ctypes.c_void_p(-1).value):
+            error = ctypes.get_errno()
+            raise OSError(error, f"mmap of the pool's shared memory failed: {os.strerror(error)}")
+        self.address, self.size = address, size
+
+    def __del__(self) -> None:
+        self._libc.munmap(self.address, self.size)
+
+
+def _map_shared(fd: int, size: int) -> memoryview:
+    """A writable view of ``size`` bytes of ``fd``, mapped shared; the view keeps the mapping alive."""
+    mapping = _Mapping(fd, size)
+    data = (ctypes.c_char * size).from_address(mapping.address)
+    data.mapping = mapping  # the view holds ``data``, ``data`` holds the mapping
+    return memoryview(data).cast("B")
 
 
 def _anonymous_fd() -> int:

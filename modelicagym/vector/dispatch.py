@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from modelicagym.native.batch import COLLECT_DONE, COLLECT_LOCAL_PYTHON, NativeCollector
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import PoolError
@@ -32,6 +33,7 @@ from modelicagym.vector.protocol import (
     Reply,
     WaitStatus,
 )
+from modelicagym.vector.sync import FutexSignal
 
 __all__ = ["Dispatcher"]
 
@@ -66,21 +68,46 @@ class Dispatcher:
         #: every party in slot order: the workers, then the local slice
         self._parties = [*handles, local] if local is not None else list(handles)
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._parties]
+        #: the command slots hold STEP for every worker (so a step need not write them again)
+        self._slots_say_step = False
+        self._replies = memoryview(buffers.reply)
         self._local_command: PendingCommand | None = None
         self._local_reply: Message | None = None
+        self._collector = self._native_collector()
+
+    def _native_collector(self) -> NativeCollector | None:
+        """The native step's collection (``mg_collect``) when the signals live in shared memory
+        and the caller's slice, if any, steps natively; else ``None`` (the Python path)."""
+        if not all(isinstance(handle.done, FutexSignal) for handle in self.handles):
+            return None
+        if self.local is not None and self.local.native is None:
+            return None
+        if not self.handles and self.local is None:
+            return None
+        timeout = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
+        return NativeCollector(
+            None if self.local is None else self.local.native,
+            [handle.done.address for handle in self.handles],
+            self.buffers.reply[: len(self.handles)],
+            self.spin_time,
+            timeout,
+            any(handle.done.yield_cpu for handle in self.handles),
+        )
 
     def release(self) -> None:
         """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""
         self.pending = []
         self._local_command = self._local_reply = None
-        self.buffers = None
+        self.buffers = self._replies = self._collector = None
         if self.local is not None:
             close_envs(self.local.envs)
-            self.local.buffers = None
+            self.local.detach()
 
     def step_all(self) -> None:
         """The hot path of :meth:`dispatch`: every worker steps; no messages, no allocation."""
-        self.buffers.command[:] = Command.STEP
+        if not self._slots_say_step:
+            self.buffers.command[:] = Command.STEP
+            self._slots_say_step = True
         for handle in self.handles:
             handle.go.post()
         self.pending = self._step_all
@@ -140,6 +167,7 @@ class Dispatcher:
             if command.message is not None and id(command.message) not in payloads:
                 payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
         slots = self.buffers.command
+        self._slots_say_step = False
         for command in commands:
             handle, code, message = command
             if handle is self.local:
@@ -161,8 +189,11 @@ class Dispatcher:
         Otherwise (``False``) nothing is lost: the workers already seen done are left to
         :meth:`gather`, which sees them done at once and handles replies, deaths and timeouts.
         """
+        pending = self.pending
+        if self._collector is not None and pending is self._step_all and timeout == self.step_timeout:
+            return self._collect()
         block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
-        spin_time, pending = self.spin_time, self.pending
+        spin_time = self.spin_time
         self._run_local()
         for k, command in enumerate(pending):
             if command.handle is self.local:
@@ -170,11 +201,22 @@ class Dispatcher:
             if not command.handle.done.wait(spin_time, block):
                 self._repost(pending[:k])
                 return False
-        if self.buffers.reply.any() or self._local_reply is not None:
+        if any(self._replies) or self._local_reply is not None:
             self._repost(pending)
             return False
         self.pending = []
         return True
+
+    def _collect(self) -> bool:
+        """:meth:`all_done` for a plain step, in one native call (see ``mg_collect``)."""
+        self._local_command = None
+        status = self._collector.collect()
+        if status == COLLECT_DONE:
+            self.pending = []
+            return True
+        if status == COLLECT_LOCAL_PYTHON:
+            self._local_reply = self.local.finish_native_step()
+        return False
 
     def _repost(self, seen_done: list[PendingCommand]) -> None:
         """Post ``done`` again for workers whose ``done`` a wait has consumed."""
@@ -185,7 +227,11 @@ class Dispatcher:
     def _run_local(self) -> None:
         """Run the local slice's pending command, once; its reply waits for :meth:`gather`."""
         command, self._local_command = self._local_command, None
-        if command is not None:
+        if command is None:
+            return
+        if command.code == Command.STEP:
+            self._local_reply = self.local.step()
+        else:
             self._local_reply = self.local.run(command.code, command.message)
 
     @staticmethod

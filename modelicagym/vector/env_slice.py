@@ -5,22 +5,32 @@ the calling process runs itself when it steps a slice of the envs (``caller_step
 the autoreset of the pool's mode, and where the results go in shared memory. It knows nothing of
 processes, pipes or signals; each command returns the reply message the parent gets (``None`` when
 there is nothing to say).
+
+A slice of bare `FMUEnv` instances on the native step path steps in one C call
+(:class:`~modelicagym.native.batch.NativeBatch`); whatever C leaves to Python (an FMU error, a
+reset the reset ladder must do, an info to report) is finished here, on the Python path. The
+results are the same either way. ``step_path`` and ``step_path_reason`` say which path a slice takes.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Callable
 from multiprocessing.reduction import ForkingPickler
 from time import perf_counter_ns
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 from gymnasium.vector import AutoresetMode
 
+from modelicagym.native.batch import NativeBatch, batch_path_reason
+from modelicagym.native.step import Flags
 from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.errors import RemoteError, SpaceMismatchError
-from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message
+from modelicagym.vector.errors import RemoteError
+from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
+from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 
 __all__ = ["EnvSlice", "close_envs", "describe_envs"]
 
@@ -29,18 +39,19 @@ logger = logging.getLogger(__name__)
 _StepResult = tuple[Any, float, bool, bool, dict[str, Any]]
 
 
-def describe_envs(envs: list[gym.Env], first_env: int) -> EnvDescription:
-    """What the parent needs to know about the envs; raises if they disagree on their spaces."""
+def describe_envs(envs: list[gym.Env], first_env: int, observation_mode: str = "same") -> EnvDescription:
+    """What the parent needs to know about the envs; raises if they disagree on their spaces
+    (under ``observation_mode``, see `modelicagym.vector.space_checks`)."""
     first = envs[0]
-    for offset, env in enumerate(envs[1:], start=1):
-        if env.observation_space != first.observation_space or env.action_space != first.action_space:
-            raise SpaceMismatchError(
-                f"env {first_env + offset} has spaces ({env.observation_space}, {env.action_space}), "
-                f"env {first_env} has ({first.observation_space}, {first.action_space}): "
-                "all envs of a pool must have the same observation and action spaces"
-            )
+    observation_spaces = [env.observation_space for env in envs]
+    indices = range(first_env, first_env + len(envs))
+    check_observation_spaces(observation_mode, observation_spaces, indices)
+    check_action_spaces([env.action_space for env in envs], indices)
+    reason = batch_path_reason(envs)
+    step_path = StepPath("python", reason) if reason else StepPath("native", "the config defines the whole step")
     description = EnvDescription(
-        first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec
+        first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec, step_path,
+        tuple(observation_spaces),
     )
     try:
         ForkingPickler.dumps(description.spec)
@@ -76,15 +87,34 @@ class EnvSlice:
         self.index = slot
         self.env_indices = range(first_env, first_env + len(envs))
         self.buffers: SharedBuffers | None = None
+        self.autoreset_mode = autoreset_mode
         self._next_step = autoreset_mode is AutoresetMode.NEXT_STEP
         self._same_step = autoreset_mode is AutoresetMode.SAME_STEP
-        self.needs_reset = [False] * len(envs)
+        self.needs_reset = np.zeros(len(envs), dtype=np.uint8)
+        reason = batch_path_reason(envs)
+        self.step_path = "python" if reason else "native"
+        self.step_path_reason = reason or "the config defines the whole step"
+        self.native: NativeBatch | None = None
         self._fmu_envs = [env.unwrapped if hasattr(env.unwrapped, "fmu_time_ns") else None for env in envs]
         self.handlers = {
             Kind.RESET: lambda data: self.reset(*data),
             Kind.CALL: self.call,
             Kind.SET_ATTR: self.set_attr,
         }
+
+    @classmethod
+    def create(
+        cls, env_fns: list[Callable[[], gym.Env]], indices: range, slot: int, autoreset_mode: AutoresetMode
+    ) -> EnvSlice:
+        """Create the envs ``indices`` here (the calling process's slice); closes them on failure."""
+        envs: list[gym.Env] = []
+        try:
+            for fn in env_fns[indices.start : indices.stop]:
+                envs.append(fn())
+        except BaseException:
+            close_envs(envs)
+            raise
+        return cls(envs, indices.start, slot, autoreset_mode)
 
     def describe_envs(self) -> str:
         """``"4-7"`` or ``"4"``: the env indices of this slice, for messages."""
@@ -104,37 +134,52 @@ class EnvSlice:
     def attach(self, buffers: SharedBuffers, needs_reset: bool) -> None:
         """Work on ``buffers`` from now on; ``needs_reset``: the envs were never reset."""
         self.buffers = buffers
-        self.needs_reset = [needs_reset] * len(self.envs)
+        self.needs_reset[:] = needs_reset
+        if self.step_path == "native":
+            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot), self.needs_reset)
+
+    def detach(self) -> None:
+        """Stop using the shared buffers (the pool released them)."""
+        self.buffers = self.native = None
 
     def step(self) -> Message | None:
         """Step every env with its action from shared memory, with the pool's autoreset."""
+        native = self.native
+        if native is None:
+            return self._step_python(0, [])
+        if not native.step():
+            return None
+        return self.finish_native_step()
+
+    def _step_python(self, start: int, infos: list[tuple[int, dict[str, Any]]]) -> Message | None:
+        """Step the envs from offset ``start`` on, on the Python path."""
         buffers = self.buffers
         actions, observations = buffers.actions, buffers.observations
         rewards, terminations, truncations = buffers.rewards, buffers.terminations, buffers.truncations
         current_env = buffers.current_env
         timed = bool(buffers.timing_enabled[0])
         env_ns = fmu_ns = 0
-        infos = []
-        for offset, env in enumerate(self.envs):
+        for offset in range(start, len(self.envs)):
+            env = self.envs[offset]
             index = self.first + offset
             current_env[self.slot] = index
             action = actions.read(index)
             if timed:
                 fmu_env = self._fmu_envs[offset]
                 fmu_start = 0 if fmu_env is None else fmu_env.fmu_time_ns
-                start = perf_counter_ns()
+                start_ns = perf_counter_ns()
             try:
                 observation, reward, terminated, truncated, info = self._step_env(offset, env, action)
-            except Exception as exc:
+                if timed:
+                    env_ns += perf_counter_ns() - start_ns
+                    if fmu_env is not None:
+                        fmu_ns += fmu_env.fmu_time_ns - fmu_start
+                observations.write(index, observation)
+                rewards[index] = reward
+                terminations[index] = terminated
+                truncations[index] = truncated
+            except Exception as exc:  # the env's, or a result that does not fit its space
                 return Message(Kind.ERROR, RemoteError.capture(exc, index))
-            if timed:
-                env_ns += perf_counter_ns() - start
-                if fmu_env is not None:
-                    fmu_ns += fmu_env.fmu_time_ns - fmu_start
-            observations.write(index, observation)
-            rewards[index] = reward
-            terminations[index] = terminated
-            truncations[index] = truncated
             if info:
                 infos.append((index, info))
         if timed:
@@ -143,20 +188,66 @@ class EnvSlice:
 
     def _step_env(self, offset: int, env: gym.Env, action: Any) -> _StepResult:
         """One env's part of a vector step, with the autoreset of the pool's mode."""
+        if self._next_step and self.needs_reset[offset]:
+            observation, info = env.reset()
+            self.needs_reset[offset] = False
+            return observation, 0.0, False, False, info
+        return self._after_step(offset, env, env.step(action))
+
+    def _after_step(self, offset: int, env: gym.Env, result: _StepResult) -> _StepResult:
+        """The autoreset of the pool's mode after an env's step."""
+        observation, reward, terminated, truncated, info = result
         if self._next_step:
-            if self.needs_reset[offset]:
-                observation, info = env.reset()
-                result = (observation, 0.0, False, False, info)
-            else:
-                result = env.step(action)
-            self.needs_reset[offset] = bool(result[2] or result[3])
-            return result
-        observation, reward, terminated, truncated, info = env.step(action)
-        if self._same_step and (terminated or truncated):
+            self.needs_reset[offset] = terminated or truncated
+        elif self._same_step and (terminated or truncated):
             reset_observation, reset_info = env.reset()
             info = {"final_obs": observation, "final_info": info, **reset_info}
             observation = reset_observation
         return observation, reward, terminated, truncated, info
+
+    def finish_native_step(self) -> Message | None:
+        """Finish, on the Python path, what the last native step left to Python (see ``Flags``)."""
+        buffers, native = self.buffers, self.native
+        infos: list[tuple[int, dict[str, Any]]] = []
+        timed = bool(buffers.timing_enabled[0])
+        started = perf_counter_ns() if timed else 0
+        for offset in native.to_finish(self._same_step).tolist():
+            env, index, flags = self.envs[offset], self.first + offset, int(native.flags[offset])
+            buffers.current_env[self.slot] = index
+            if flags & Flags.BAD_ACTION:
+                return self._step_python(offset, infos)
+            try:
+                observation, reward, terminated, truncated, info = self._finish_env(offset, env, flags, native)
+                buffers.observations.write(index, observation)
+                buffers.rewards[index] = reward
+                buffers.terminations[index] = terminated
+                buffers.truncations[index] = truncated
+            except Exception as exc:
+                return Message(Kind.ERROR, RemoteError.capture(exc, index))
+            if info:
+                infos.append((index, info))
+        if timed:
+            buffers.timing[self.slot, SharedBuffers.ENV_NS] += perf_counter_ns() - started
+        return Message(Kind.INFOS, infos) if infos else None
+
+    def _finish_env(self, offset: int, env: gym.Env, flags: int, native: NativeBatch) -> _StepResult:
+        """One env's result, from what C did (``flags``) and what is left to do."""
+        if flags & Flags.FMU_ERROR:
+            return self._after_step(offset, env, env.native_step_failure())
+        if self._next_step and flags & Flags.PYTHON_RESET:
+            return self._step_env(offset, env, None)
+        step_info = {"fmu_terminated": True} if flags & Flags.MODEL_ENDED else {}
+        observation = env.observation()
+        result = (observation, float(self.buffers.rewards[self.first + offset]),
+                  bool(flags & Flags.TERMINATED), bool(flags & Flags.TRUNCATED))
+        if not (self._same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):
+            return (*result, step_info)
+        final_observation = native.final_obs[offset].copy()
+        reset_info: dict[str, Any] = {}
+        if flags & Flags.PYTHON_RESET:
+            observation, reset_info = env.reset()
+        info = {"final_obs": final_observation, "final_info": step_info, **reset_info}
+        return (observation, *result[1:], info)
 
     def reset(self, seeds: list[int | None] | None, options: dict[str, Any] | None) -> Message | None:
         """Reset the envs selected by the shared reset mask."""
@@ -170,9 +261,9 @@ class EnvSlice:
             buffers.current_env[self.slot] = index
             try:
                 observation, info = env.reset(seed=None if seeds is None else seeds[offset], options=options)
+                observations.write(index, observation)
             except Exception as exc:
                 return Message(Kind.ERROR, RemoteError.capture(exc, index))
-            observations.write(index, observation)
             self.needs_reset[offset] = False
             if info:
                 infos.append((index, info))

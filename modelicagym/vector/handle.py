@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import logging
+import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from multiprocessing.connection import Connection, wait
 from multiprocessing.context import BaseContext
 from multiprocessing.reduction import send_handle
@@ -13,7 +15,7 @@ import gymnasium as gym
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Message, WaitStatus, WorkerConfig
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, WaitStatus, WorkerConfig
 from modelicagym.vector.sync import FutexSignal, SemaphoreSignal
 from modelicagym.vector.worker import run_worker
 
@@ -71,7 +73,7 @@ class WorkerHandle:
             daemon=True,
         )
         self.conn = parent_conn
-        with clear_mpi_env_vars():
+        with clear_mpi_env_vars(), main_module_hidden():
             self.process.start()
         child_conn.close()
 
@@ -100,7 +102,7 @@ class WorkerHandle:
             except (EOFError, OSError):
                 pass
         elif not ready:
-            raise self.timeout_error(env_index, doing, timeout)
+            raise self.timeout_error(env_index, doing)
         raise self.died_error(env_index, doing)
 
     def wait_done(self, spin_time: float, deadline: float | None) -> WaitStatus:
@@ -123,7 +125,7 @@ class WorkerHandle:
         """The error for a :meth:`wait_done` status other than ``DONE``."""
         if status is WaitStatus.DIED:
             return self.died_error(env_index, doing)
-        return self.timeout_error(env_index, doing, None)
+        return self.timeout_error(env_index, doing)
 
     def died_error(self, env_index: int | None, doing: str) -> WorkerDiedError:
         """The error reporting that this worker died while running ``doing`` on ``env_index``."""
@@ -138,13 +140,17 @@ class WorkerHandle:
             exitcode,
         )
 
-    def timeout_error(self, env_index: int | None, doing: str, timeout: float | None) -> WorkerTimeoutError:
-        """The error reporting that this worker did not finish ``doing`` in time; kills it."""
+    def timeout_error(self, env_index: int | None, doing: str) -> WorkerTimeoutError:
+        """The error reporting that this worker did not finish ``doing`` in time, with the limit
+        and the option that sets it; kills the worker."""
         self.stop()
         where = f"env {env_index}" if env_index is not None else f"envs {self.describe_envs()}"
-        after = "" if timeout is None else f" within {timeout:.3g} s"
+        option = "startup_timeout" if doing in STARTUP_STAGES else "step_timeout"
+        limit = getattr(self._config, option)
+        within = "in time" if limit is None else f"within {option}={limit:g} s"
+        hint = "" if limit is None else f" (a larger {option}, or None, waits longer)"
         return WorkerTimeoutError(
-            f"worker {self.index} did not finish {doing} of {where}{after}; it was killed",
+            f"worker {self.index} did not finish {doing} of {where} {within}; it was killed{hint}",
             env_index,
             self.index,
         )
@@ -177,6 +183,30 @@ class WorkerHandle:
             if signal_ is not None:
                 signal_.close()
         self.process = self.conn = self.go = self.done = None
+
+
+@contextmanager
+def main_module_hidden() -> Iterator[None]:
+    """Start processes without the caller's main module.
+
+    ``spawn`` and ``forkserver`` re-run the caller's main script in every new process (as
+    ``__mp_main__``) so that functions defined there can be unpickled. The pool never needs that:
+    env fns travel with cloudpickle, by value. And it breaks the ways people run Python: a script
+    without an ``if __name__ == "__main__":`` guard would start a pool again inside each worker, a
+    script read from stdin or typed in a notebook has no file to re-run. So, while a worker starts,
+    the main module shows multiprocessing neither a file nor a module spec to re-run.
+    """
+    main = sys.modules.get("__main__")
+    saved = {name: main.__dict__[name] for name in ("__file__", "__spec__") if main and name in main.__dict__}
+    try:
+        if main is not None:
+            main.__dict__.pop("__file__", None)
+            main.__spec__ = None
+        yield
+    finally:
+        if main is not None:
+            main.__dict__.pop("__spec__", None)
+            main.__dict__.update(saved)
 
 
 def _slice(deadline: float | None) -> float:

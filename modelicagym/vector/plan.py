@@ -5,10 +5,43 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 from modelicagym.errors import ConfigError
 
-__all__ = ["default_start_method", "plan_workers", "usable_cores"]
+__all__ = ["Layout", "default_start_method", "plan_layout", "plan_workers", "usable_cores"]
+
+
+class Layout(NamedTuple):
+    """Which envs each worker steps, and which the calling process steps itself (or ``None``)."""
+
+    worker_slices: list[range]
+    caller_slice: range | None
+
+
+def plan_layout(
+    env_fns: Sequence[Callable[[], Any]],
+    num_workers: int | None,
+    max_envs_per_worker: int | None,
+    restart_dead_workers: bool,
+    step_timeout: float | None,
+    caller_steps: bool | None,
+) -> Layout:
+    """The pool's layout; see `PoolVectorEnv`'s ``caller_steps`` for when the caller steps a slice.
+
+    An env fn's ``max_envs_per_process`` attribute caps the envs per worker like
+    ``max_envs_per_worker``; the caller's slice is the last one.
+    """
+    caps = [max_envs_per_worker] + [getattr(fn, "max_envs_per_process", None) for fn in env_fns]
+    caps = [cap for cap in caps if cap is not None]
+    if caller_steps is None:
+        caller_steps = num_workers is None and not caps and not restart_dead_workers and step_timeout is None
+    if caller_steps and restart_dead_workers:
+        raise ConfigError("caller_steps=True and restart_dead_workers=True: the calling process cannot be restarted")
+    parties = num_workers + 1 if caller_steps and num_workers else num_workers
+    slices = plan_workers(len(env_fns), parties, min(caps) if caps else None)
+    return Layout(slices, slices.pop() if caller_steps else None)
 
 
 def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: int | None) -> list[range]:
@@ -59,8 +92,8 @@ def default_start_method() -> str:
     unsafe, and workers are restarted mid-run when such threads certainly exist; workers also
     inherit nothing else from the caller (no FMU libraries it may have loaded, no other pools'
     pipes). The cost is paid once per worker start (about 0.2 s on the target machine, small next
-    to creating an FMU env). As with every non-fork start method, a script must guard its entry
-    point with ``if __name__ == "__main__":``. ``start_method="fork"`` starts fastest and suits
-    tests and thread-free callers.
+    to creating an FMU env). Unlike a plain ``multiprocessing`` program, the caller's script needs
+    no main guard: workers are started without it (``handle.main_module_hidden``).
+    ``start_method="fork"`` starts fastest and suits tests and thread-free callers.
     """
     return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"

@@ -7,12 +7,15 @@ This module is the public API only. The path of one ``step``, and where each par
    sets each worker's command slot to ``STEP`` and posts its ``go`` signal
    (:mod:`~modelicagym.vector.sync`: spin briefly, then sleep).
 2. Each worker process (:mod:`~modelicagym.vector.worker`) wakes, steps its contiguous slice of
-   envs (``env.step``, with the autoreset of the pool's mode), writes observations, rewards and
-   flags straight into its rows of shared memory, and posts ``done``; only non-empty infos or an
-   error follow as a pickled message on its pipe (:mod:`~modelicagym.vector.protocol`).
-3. ``step_wait`` (here) has the dispatcher wait for every ``done``; a worker that died, hung or
-   raised is handled by :mod:`~modelicagym.vector.recovery` (restart it, or stop the pool); the
-   batch is copied out of shared memory and returned with the merged infos.
+   envs (:mod:`~modelicagym.vector.env_slice`: ``env.step``, with the autoreset of the pool's
+   mode), writes observations, rewards and flags straight into its rows of shared memory, and
+   posts ``done``; only non-empty infos or an error follow as a pickled message on its pipe
+   (:mod:`~modelicagym.vector.protocol`). A slice of FMU envs on the native step path is one C
+   call (:mod:`modelicagym.native.batch`), and its worker waits for commands in C as well.
+3. ``step_wait`` (here) has the dispatcher step the calling process's own slice (``caller_steps``)
+   and wait for every ``done`` (one C call on the native path); a worker that died, hung or raised
+   is handled by :mod:`~modelicagym.vector.recovery` (restart it, or stop the pool); the batch is
+   copied out of shared memory and returned with the merged infos.
 
 Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.workers`
 (one :mod:`~modelicagym.vector.handle` per process); the layout of envs over workers is
@@ -24,29 +27,39 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import Space
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.async_vector_env import AsyncState
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
+from modelicagym.vector.actions import ActionWriter
 from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.checks import (
+    check_async_vector_env_options,
+    check_env_fns,
+    check_pool_options,
+    check_reset_mask,
+    seeds_per_env,
+    values_per_env,
+)
 from modelicagym.vector.dispatch import Dispatcher
-from modelicagym.vector.env_slice import EnvSlice, close_envs
+from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError
-from modelicagym.vector.plan import default_start_method, plan_workers, usable_cores
-from modelicagym.vector.protocol import Outcome, WorkerConfig
+from modelicagym.vector.plan import default_start_method, plan_layout, usable_cores
+from modelicagym.vector.protocol import Outcome, StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 from modelicagym.vector.workers import WorkerSet
 
-__all__ = ["PoolVectorEnv", "RESTART_INFO_KEY"]
+__all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 
 logger = logging.getLogger(__name__)
 
@@ -59,44 +72,41 @@ DEFAULT_CLOSE_TIMEOUT = 30.0
 _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 
 
+#: the keyword options of `PoolVectorEnv` (``make_vec`` routes these names to the pool)
+POOL_OPTIONS = (
+    "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
+    "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
+    "observation_mode", "worker",
+)
+
+
 class PoolVectorEnv(VectorEnv):
-    """Runs ``num_envs`` environments in a few worker processes, each stepping a contiguous slice.
+    """Runs ``num_envs`` environments in a few worker processes (and the calling one), each
+    stepping a contiguous slice: a drop-in for :class:`gymnasium.vector.AsyncVectorEnv` (same API,
+    same results, same errors), built for speed and for envs that are expensive and may crash.
 
-    A drop-in for :class:`gymnasium.vector.AsyncVectorEnv` (same API, same results, same errors),
-    built for speed and for envs that are expensive to create and may crash:
-
-    - observations, actions, rewards, terminations and truncations live in shared memory; workers
-      write straight into their slice, nothing is pickled on a normal step, and infos travel over a
-      pipe only when they are non-empty;
-    - the parent and the workers wake each other through semaphores polled with
-      ``os.sched_yield()`` for ``spin_time`` seconds before blocking: a step round trip costs a
-      few microseconds, and an idle pool sleeps;
-    - a worker that dies (segfault), hangs past ``step_timeout``, or whose env raises, is reported
-      with the env index and the exit signal or the original traceback -- and, with
-      ``restart_dead_workers=True``, restarted while the pool goes on;
-    - spaces, metadata, ``render_mode`` and ``spec`` come from worker 0: no env is ever created in
-      the parent (FMU instances hold ctypes handles that can neither be pickled nor shared).
+    Observations, actions, rewards and flags live in shared memory, nothing is pickled on an
+    ordinary step, and infos travel only when non-empty; parties wake each other through futex
+    words in that memory, spinning briefly before they sleep. FMU envs on the native step path
+    step a whole slice in one C call (``step_paths`` says which envs do, and why). A worker that
+    dies, hangs past ``step_timeout`` or whose env raises is reported with the env index and the
+    exit signal or the original traceback. Spaces, metadata, ``render_mode`` and ``spec`` come from
+    the envs of worker 0: the parent creates envs only for its own slice.
 
     The step and autoreset contract is Gymnasium's (https://farama.org/Vector-Autoreset-Mode),
-    identical step by step to :class:`gymnasium.vector.SyncVectorEnv` over the same env fns and seeds:
-
-    - ``NEXT_STEP`` (default): an env that ended in step ``t`` is reset in step ``t + 1``; that
-      step ignores its action and returns the reset observation, reward 0 and both flags false.
-    - ``SAME_STEP``: an env that ended is reset in the same step; the step returns the reset
-      observation and puts the last one in ``infos["final_obs"]`` and its info in
-      ``infos["final_info"]``.
-    - ``DISABLED``: nothing is reset automatically; reset ended envs with
-      ``reset(options={"reset_mask": mask})``.
+    identical step by step to :class:`gymnasium.vector.SyncVectorEnv` over the same env fns and
+    seeds: ``NEXT_STEP`` (default) resets an env that ended in the next step, which ignores its
+    action and returns the reset observation, reward 0 and both flags false; ``SAME_STEP`` resets
+    it in the same step and puts the last observation and info in ``infos["final_obs"]`` and
+    ``infos["final_info"]``; ``DISABLED`` leaves it to ``reset(options={"reset_mask": mask})``.
 
     With ``restart_dead_workers=True`` a failed worker is restarted and its envs report a
-    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.recovery`
-    says exactly what each mode returns); otherwise a failure stops the whole pool (all workers, all
-    shared memory) before the error is raised, and further calls raise ``ClosedEnvironmentError``.
-
-    The default start method is ``forkserver`` (see
-    :func:`~modelicagym.vector.plan.default_start_method` for why): a script must guard its entry
-    point with ``if __name__ == "__main__":``, and env fns must be picklable by ``cloudpickle``
-    (lambdas and closures are).
+    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.recovery`);
+    otherwise a failure stops the whole pool before the error is raised, and further calls raise
+    ``ClosedEnvironmentError``. The default start method is ``forkserver``
+    (:func:`~modelicagym.vector.plan.default_start_method` says why); workers never re-run the
+    caller's script (:func:`~modelicagym.vector.handle.main_module_hidden`), so scripts without a
+    main guard, stdin and notebooks work; env fns must be picklable by ``cloudpickle``.
 
     Example:
         >>> import gymnasium as gym
@@ -135,6 +145,11 @@ class PoolVectorEnv(VectorEnv):
         spin_time: float = DEFAULT_SPIN_TIME,
         startup_timeout: float | None = None,
         caller_steps: bool | None = None,
+        context: str | None = None,
+        shared_memory: bool = True,
+        daemon: bool = True,
+        observation_mode: str | tuple[Space, Space] = "same",
+        worker: Callable[..., None] | None = None,
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -163,25 +178,35 @@ class PoolVectorEnv(VectorEnv):
                 caller's). ``None`` (default): when the pool plans its own layout and no fault
                 handling is asked for, i.e. ``num_workers``, ``max_envs_per_worker`` (or an env fn's
                 ``max_envs_per_process``), ``restart_dead_workers`` and ``step_timeout`` are unset.
+            observation_mode: ``AsyncVectorEnv``'s: ``"same"`` (every env has the same observation
+                space), ``"different"`` (spaces may differ but share shape and dtype: the batched
+                space is ``batch_differing_spaces`` of them), or a ``(batched, single)`` pair.
+            context, shared_memory, daemon, worker: ``AsyncVectorEnv``'s, so that swapping the
+                class is a one-word change: ``context`` is ``start_method``; the pool always uses
+                shared memory and daemon workers, and no custom ``worker`` (else a `ConfigError`).
         """
         self.env_fns = list(env_fns)
+        start_method = check_async_vector_env_options(start_method, context, daemon, observation_mode, worker)
+        check_env_fns(self.env_fns)
+        check_pool_options(
+            num_workers, max_envs_per_worker, step_timeout, startup_timeout, spin_time, start_method,
+            {"restart_dead_workers": restart_dead_workers, "measure_timing": measure_timing, "copy": copy,
+             "caller_steps": caller_steps, "shared_memory": shared_memory},
+        )
         self.num_envs = len(self.env_fns)
-        self.autoreset_mode = AutoresetMode(autoreset_mode)
+        try:
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ConfigError(f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, "
+                              f"got {autoreset_mode!r}") from None
         self.step_timeout = step_timeout
         self.restart_dead_workers = restart_dead_workers
         self.startup_timeout = startup_timeout
         self.copy = copy
-        caps = [max_envs_per_worker] + [getattr(fn, "max_envs_per_process", None) for fn in self.env_fns]
-        caps = [cap for cap in caps if cap is not None]
-        if caller_steps is None:
-            caller_steps = num_workers is None and not caps and not restart_dead_workers and step_timeout is None
-        if caller_steps and restart_dead_workers:
-            raise ConfigError("caller_steps=True and restart_dead_workers=True: the calling process cannot be restarted")
-        slices = plan_workers(
-            self.num_envs, num_workers + 1 if caller_steps and num_workers else num_workers, min(caps) if caps else None
+        slices, local_slice = plan_layout(
+            self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout, caller_steps
         )
-        local_slice = slices.pop() if caller_steps else None
-        self.caller_steps = bool(caller_steps)
+        self.caller_steps = local_slice is not None
         self.num_workers = len(slices)
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
@@ -197,12 +222,17 @@ class PoolVectorEnv(VectorEnv):
                 spin_time,
                 spin_yield=self.num_workers + 1 > usable_cores(),
                 shared_signals=futex_library() is not None,
+                step_timeout=step_timeout,
+                startup_timeout=startup_timeout,
+                observation_mode="same" if observation_mode == "same" else "different",
             ),
             startup_timeout,
         )
         self._workers.launch()
         try:
-            local = None if local_slice is None else self._make_local(local_slice)
+            local = None if local_slice is None else EnvSlice.create(
+                self.env_fns, local_slice, self.num_workers, self.autoreset_mode
+            )
             first = self._workers.connect(local)
         except BaseException:
             self._workers.release()
@@ -212,26 +242,22 @@ class PoolVectorEnv(VectorEnv):
         self.render_mode = first.render_mode
         self.spec = first.spec
         self.single_observation_space = first.observation_space
+        self.observation_mode = observation_mode
         self.single_action_space = first.action_space
-        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        if isinstance(observation_mode, tuple):
+            self.observation_space, self.single_observation_space = observation_mode
+        elif observation_mode == "different":
+            self.observation_space = batch_differing_spaces(self._workers.observation_spaces)
+        else:
+            self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._buffers: SharedBuffers = self._workers.buffers
+        self._actions = ActionWriter(self._buffers.actions, futex_library())
         self._dispatcher = Dispatcher(self._workers.handles, local, self._buffers, spin_time, step_timeout)
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
         self.set_timing(measure_timing)
-
-    def _make_local(self, indices: range) -> EnvSlice:
-        """Create the envs of the calling process's slice (while the workers create theirs)."""
-        envs: list[gym.Env] = []
-        try:
-            for fn in self.env_fns[indices.start : indices.stop]:
-                envs.append(fn())
-        except BaseException:
-            close_envs(envs)
-            raise
-        return EnvSlice(envs, indices.start, self.num_workers, self.autoreset_mode)
 
     # ------------------------------------------------------------------ reset
 
@@ -260,8 +286,9 @@ class PoolVectorEnv(VectorEnv):
         if options is not None and "reset_mask" in options:
             options = dict(options)
             mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
-        self._dispatcher.reset(seeds, options, mask)
-        self._state = AsyncState.WAITING_RESET
+        with self._stopped_on_interrupt():
+            self._dispatcher.reset(seeds, options, mask)
+            self._state = AsyncState.WAITING_RESET
 
     def reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
@@ -280,19 +307,30 @@ class PoolVectorEnv(VectorEnv):
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every env with its action; returns batched ``(obs, rewards, terminations,
-        truncations, infos)`` as :class:`~gymnasium.vector.SyncVectorEnv` does."""
-        self.step_async(actions)
-        return self.step_wait()
+        truncations, infos)`` as :class:`~gymnasium.vector.SyncVectorEnv` does. A Ctrl-C while it
+        runs leaves the pool as it was (the step never started) or stopped, never half-way."""
+        try:
+            self.step_async(actions)
+            return self.step_wait()
+        except (KeyboardInterrupt, SystemExit):
+            if self._state is not AsyncState.DEFAULT:
+                self._abort()
+            raise
 
     def step_async(self, actions: Any) -> None:
-        """Write the actions to shared memory and wake the workers; see :meth:`step_wait`."""
+        """Check the actions (`modelicagym.vector.actions`: an `ActionError` naming the env leaves
+        the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
         self._assert_is_running()
         self._assert_idle("step_async")
         if self._timing_enabled:
             self._step_started_ns = time.perf_counter_ns()
-        self._buffers.actions.write_batch(actions)
-        self._dispatcher.step_all()
-        self._state = AsyncState.WAITING_STEP
+        self._actions.write(actions)
+        try:
+            self._dispatcher.step_all()
+            self._state = AsyncState.WAITING_STEP
+        except BaseException:  # a Ctrl-C between waking the workers and recording it
+            self._abort()
+            raise
 
     def step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Wait for the step started by :meth:`step_async`; ``timeout`` defaults to ``step_timeout``."""
@@ -306,12 +344,12 @@ class PoolVectorEnv(VectorEnv):
         started = None if timeout is None else time.monotonic()
         try:
             complete = self._dispatcher.all_done(timeout)
-        except BaseException:
+            if complete:
+                self._state = AsyncState.DEFAULT
+        except BaseException:  # a Ctrl-C while waiting: the batch cannot be resumed
             self._abort()
             raise
-        if complete:
-            self._state = AsyncState.DEFAULT
-        else:
+        if not complete:
             if started is not None:
                 timeout = max(timeout - (time.monotonic() - started), 0.0)
             for handle, message, failure in self._gather(timeout, "step"):
@@ -332,7 +370,7 @@ class PoolVectorEnv(VectorEnv):
             buffers.rewards.copy(),
             buffers.terminations.copy(),
             buffers.truncations.copy(),
-            self._merge_infos(entries),
+            self._merge_infos(entries) if entries else {},
         )
 
     # ------------------------------------------------------------------ call, attributes, render
@@ -348,8 +386,9 @@ class PoolVectorEnv(VectorEnv):
         self._assert_idle("call_async")
         if name in _RESERVED_CALLS:
             raise ArgumentError(f"Trying to call function `{name}` with `call`, use `{name}` directly instead.")
-        self._dispatcher.call(name, args, kwargs)
-        self._state = AsyncState.WAITING_CALL
+        with self._stopped_on_interrupt():
+            self._dispatcher.call(name, args, kwargs)
+            self._state = AsyncState.WAITING_CALL
 
     def call_wait(self, timeout: float | None = None) -> tuple[Any, ...]:
         """Wait for :meth:`call_async`; ``timeout`` defaults to ``step_timeout``."""
@@ -367,8 +406,9 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         values = values_per_env(values, self.num_envs)
         self._assert_idle("set_attr")
-        self._dispatcher.set_attr(name, values)
-        self._state = AsyncState.WAITING_CALL
+        with self._stopped_on_interrupt():
+            self._dispatcher.set_attr(name, values)
+            self._state = AsyncState.WAITING_CALL
         self._collect_calls(None, "set_attr")
 
     def render(self) -> tuple[Any, ...] | None:
@@ -397,6 +437,12 @@ class PoolVectorEnv(VectorEnv):
     def worker_pids(self) -> tuple[int, ...]:
         """The process ids of the workers, in worker order (a restarted worker has a new one)."""
         return tuple(handle.process.pid for handle in self._workers.handles)
+
+    @property
+    def step_paths(self) -> list[StepPath]:
+        """Per env, the path it steps on (``"native"`` or ``"python"``) and why: a slice of bare
+        `~modelicagym.FMUEnv` instances whose configs define the whole step runs in one C call."""
+        return list(self._workers.step_paths)
 
     # ------------------------------------------------------------------ timing
 
@@ -439,7 +485,7 @@ class PoolVectorEnv(VectorEnv):
             timeout = DEFAULT_CLOSE_TIMEOUT if self.step_timeout is None else self.step_timeout
         deadline = time.monotonic() + timeout
         if self._state != AsyncState.DEFAULT and not terminate:
-            logger.warning("closing %s while a call to `%s` is pending; waiting for it", self, self._state.value)
+            gym.logger.warn(f"Calling close while waiting for a pending call to `{self._state.value}` to complete.")
             terminate = any(outcome.failure is not None for outcome in self._gather(timeout, self._state.value))
         if not terminate:
             for handle in self._dispatcher.close():
@@ -473,8 +519,18 @@ class PoolVectorEnv(VectorEnv):
         self._state = AsyncState.DEFAULT
         self._workers.release()
         self._dispatcher.release()
-        self._buffers = None
+        self._buffers = self._actions = None
         self.closed = True
+
+    @contextmanager
+    def _stopped_on_interrupt(self) -> Iterator[None]:
+        """A Ctrl-C (or ``SystemExit``) while a command is being sent stops the pool: a half-sent
+        command cannot be resumed, and ``close()`` is then immediate."""
+        try:
+            yield
+        except (KeyboardInterrupt, SystemExit):
+            self._abort()
+            raise
 
     def _assert_is_running(self) -> None:
         if self.closed:

@@ -88,6 +88,13 @@ class Message:
     data: Any = None
 
 
+class StepPath(NamedTuple):
+    """How a slice of envs steps: ``path`` is ``"native"`` or ``"python"``, ``reason`` says why."""
+
+    path: str
+    reason: str
+
+
 @dataclass(frozen=True)
 class EnvDescription:
     """What a worker reports about its envs once it has created them."""
@@ -97,6 +104,9 @@ class EnvDescription:
     metadata: dict[str, Any]
     render_mode: str | None
     spec: EnvSpec | None
+    step_path: StepPath
+    #: the observation space of every env of the slice (they may differ in ``observation_mode="different"``)
+    observation_spaces: tuple[Space, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -111,6 +121,16 @@ class WorkerConfig:
     #: the signals live in shared memory (:class:`~modelicagym.vector.sync.FutexSignal`), else
     #: they are semaphores handed to the worker process when it starts
     shared_signals: bool = False
+    #: the pool's limits, named in timeout messages (seconds; ``None``: none)
+    step_timeout: float | None = None
+    startup_timeout: float | None = None
+    #: ``"same"`` or ``"different"`` (`modelicagym.vector.space_checks`)
+    observation_mode: str = "same"
+
+
+#: what a worker is doing before it serves commands (named in messages; ``startup_timeout`` applies)
+CREATION, START_UP = "creation", "start-up"
+STARTUP_STAGES = (CREATION, START_UP)
 
 
 class PendingCommand(NamedTuple):

@@ -144,6 +144,11 @@ class FutexSignal:
         """The address of the signal in this process (for the native step loop)."""
         return self._address
 
+    @property
+    def yield_cpu(self) -> bool:
+        """Whether the spin yields the core at every poll."""
+        return bool(self._yield)
+
     def post(self) -> None:
         """Wake the waiter (or let its next :meth:`wait` return at once)."""
         self._post(self._address)

@@ -8,6 +8,8 @@ Life of a worker:
 2. receive the layout of the shared memory and its file descriptor, map it, answer ``ok``;
 3. loop: wait for ``go``, run the command (step / reset / a message), write results into shared
    memory, post ``done`` and send a reply on the pipe only if there is one (see ``protocol``).
+   A worker whose envs step natively waits and steps in C (:class:`~modelicagym.native.batch.NativeServer`)
+   and comes back to Python only for what Python must do.
 
 SIGINT is ignored: on Ctrl-C the parent, not every worker, decides what happens (it stops the pool).
 The worker exits when told to close, or when it notices its parent has died.
@@ -25,6 +27,7 @@ from multiprocessing.reduction import ForkingPickler, recv_handle
 import gymnasium as gym
 from gymnasium.vector.utils import CloudpickleWrapper
 
+from modelicagym.native.batch import SERVE_PYTHON_STEP, SERVE_TIMEOUT, NativeServer
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice, close_envs, describe_envs
 from modelicagym.vector.errors import RemoteError
@@ -52,8 +55,8 @@ def run_worker(
         try:
             for fn in env_fns.fn:
                 envs.append(fn())
-            description = describe_envs(envs, first_env)
-        except Exception as exc:
+            description = describe_envs(envs, first_env, config.observation_mode)
+        except BaseException as exc:  # SystemExit too: the caller learns why, not only an exit code
             failed = first_env + len(envs) if len(envs) < len(env_fns.fn) else None
             conn.send(Message(Kind.ERROR, RemoteError.capture(exc, failed)))
             return
@@ -87,6 +90,7 @@ class Worker:
         self._config = config
         self._spin_time = config.spin_time
         self._buffers: SharedBuffers | None = None
+        self._server: NativeServer | None = None
         self._parent = multiprocessing.parent_process()
         self._parent_pid = os.getppid()
 
@@ -103,18 +107,35 @@ class Worker:
             library, spin_yield = futex_library(), self._config.spin_yield
             self._go = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.GO), spin_yield)
             self._done = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.DONE), spin_yield)
+            if self._envs.native is not None:
+                slot = slice(self._index, self._index + 1)
+                self._server = NativeServer(
+                    self._envs.native, self._go.address, self._done.address, self._buffers.command[slot],
+                    self._buffers.reply[slot], Command.STEP, self._spin_time, LIVENESS_INTERVAL, spin_yield,
+                )
         self._conn.send(Message(Kind.OK))
 
     def serve(self) -> None:
         """Run commands until told to close (the envs are closed on the way out) or the parent dies."""
-        command = self._buffers.command
-        while self._wait_for_command():
-            code = int(command[self._index])
+        while (code := self._next_command()) is not None:
+            if code == SERVE_PYTHON_STEP:
+                self._answer(self._envs.finish_native_step())
+                continue
             message = self._conn.recv() if code == Command.MESSAGE else None
             if message is not None and message.kind is Kind.CLOSE:
                 self._answer(None)
                 return
             self._answer(self._envs.run(code, message))
+
+    def _next_command(self) -> int | None:
+        """The next command code (or `SERVE_PYTHON_STEP`); ``None`` if the parent died meanwhile."""
+        if self._server is None:
+            return int(self._buffers.command[self._index]) if self._wait_for_command() else None
+        while (code := self._server.next_command()) == SERVE_TIMEOUT:
+            if not self._parent_alive():
+                logger.debug("worker %d: parent died, exiting", self._index)
+                return None
+        return code
 
     def _wait_for_command(self) -> bool:
         """Wait for ``go``; ``False`` if the parent died meanwhile."""

@@ -16,12 +16,13 @@ from collections.abc import Callable, Sequence
 from multiprocessing.context import BaseContext
 
 import gymnasium as gym
+from gymnasium import Space
 
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice, describe_envs
-from modelicagym.vector.errors import SpaceMismatchError
 from modelicagym.vector.handle import WorkerHandle
-from modelicagym.vector.protocol import EnvDescription, Kind, Message, WorkerConfig
+from modelicagym.vector.protocol import CREATION, START_UP, EnvDescription, Kind, Message, StepPath, WorkerConfig
+from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.sync import FutexSignal, futex_library
 
 __all__ = ["WorkerSet"]
@@ -69,6 +70,9 @@ class WorkerSet:
         self._config = config
         self.buffers: SharedBuffers | None = None
         self.description: EnvDescription | None = None
+        #: per env, the path its slice steps on, and its observation space
+        self.step_paths: list[StepPath] = []
+        self.observation_spaces: list[Space] = [None] * self.num_envs
         self._resources = _Resources(self.handles)
         self._finalizer = weakref.finalize(self, self._resources.release)
 
@@ -95,10 +99,11 @@ class WorkerSet:
             deadline = self._deadline()
             descriptions = [self._await_ready(handle, deadline) for handle in self.handles]
             if local is not None:
-                descriptions.append(describe_envs(local.envs, local.first))
+                descriptions.append(describe_envs(local.envs, local.first, self._config.observation_mode))
             self.description = descriptions[0]
             for party, description in zip([*self.handles, local], descriptions):
                 self._check_spaces(party, description)
+                self.step_paths += [description.step_path] * len(party.env_indices)
             slots = len(self.handles) + (local is not None)
             spec = BufferSpec(self.description.observation_space, self.description.action_space, self.num_envs, slots)
             self.buffers, self._resources.fd = SharedBuffers.create(spec)
@@ -121,7 +126,9 @@ class WorkerSet:
         handle.release()
         handle.start()
         deadline = self._deadline()
-        self._check_spaces(handle, self._await_ready(handle, deadline))
+        description = self._await_ready(handle, deadline)
+        self._check_spaces(handle, description)
+        self.step_paths[handle.env_indices.start : handle.env_indices.stop] = [description.step_path] * len(handle.env_indices)
         self._hand_out_buffers(handle, deadline, needs_reset)
 
     def release(self) -> None:
@@ -133,20 +140,18 @@ class WorkerSet:
         return None if self.startup_timeout is None else time.monotonic() + self.startup_timeout
 
     def _await_ready(self, handle: WorkerHandle, deadline: float | None) -> EnvDescription:
-        message = handle.receive(deadline, None, "creation")
+        message = handle.receive(deadline, None, CREATION)
         if message.kind is Kind.ERROR:
             raise message.data.to_env_error(handle.index, "env creation")
         return message.data
 
     def _check_spaces(self, handle: WorkerHandle | EnvSlice, description: EnvDescription) -> None:
-        first = self.description
-        for what in ("observation_space", "action_space"):
-            theirs, ours = getattr(description, what), getattr(first, what)
-            if theirs != ours:
-                raise SpaceMismatchError(
-                    f"envs {handle.describe_envs()} have {what.replace('_', ' ')} {theirs}, "
-                    f"env 0 has {ours}: all envs must have the same spaces"
-                )
+        """The first env of ``handle``'s slice against env 0 (each slice checked its own envs)."""
+        first, start = self.description, handle.env_indices.start
+        indices = (0, start)
+        check_observation_spaces(self._config.observation_mode, [first.observation_space, description.observation_space], indices)
+        check_action_spaces([first.action_space, description.action_space], indices)
+        self.observation_spaces[start : start + len(description.observation_spaces)] = description.observation_spaces
 
     def _hand_out_buffers(self, handle: WorkerHandle, deadline: float | None, needs_reset: bool) -> None:
         if self._config.shared_signals:
@@ -156,6 +161,6 @@ class WorkerSet:
             handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE), spin_yield)
         handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset)))
         handle.send_fd(self._resources.fd)
-        message = handle.receive(deadline, None, "start-up")
+        message = handle.receive(deadline, None, START_UP)
         if message.kind is Kind.ERROR:
-            raise message.data.to_env_error(handle.index, "start-up")
+            raise message.data.to_env_error(handle.index, START_UP)

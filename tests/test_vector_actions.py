@@ -1,0 +1,116 @@
+"""The pool refuses, in the parent, every action the single env would refuse: with the single env's
+message and the env index, and the pool stays usable."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium.vector import SyncVectorEnv
+from test_native_step import probe_env
+from vector_envs import CountEnv
+from vector_rollouts import assert_same
+
+import modelicagym
+from modelicagym.errors import ActionError
+from modelicagym.vector import PoolVectorEnv
+
+pytestmark = pytest.mark.timeout(120)
+
+
+def single_env_message(action: Any) -> str:
+    env = modelicagym.make("cartpole")
+    env.reset(seed=0)
+    with pytest.raises(ActionError) as info:
+        env.step(action)
+    return str(info.value)
+
+
+@pytest.mark.parametrize("caller_steps", [True, False])
+@pytest.mark.parametrize(
+    "actions, env_index, single",
+    [
+        (np.array([0.0, 1.2]), 1, np.float64(1.2)),
+        (np.array([np.nan, 0.0]), 0, np.float64(np.nan)),
+        (np.array([1, 5]), 1, np.int64(5)),
+        (np.array([-1, 0]), 0, np.int64(-1)),
+    ],
+)
+def test_refused_with_the_single_envs_message_and_the_env_index(
+    caller_steps: bool, actions: np.ndarray, env_index: int, single: Any
+) -> None:
+    fns = [partial(modelicagym.make, "cartpole")] * 2
+    with PoolVectorEnv(fns, caller_steps=caller_steps, num_workers=None if caller_steps else 2) as pool:
+        pool.reset(seed=0)
+        with pytest.raises(ActionError) as info:
+            pool.step(actions)
+        assert str(info.value) == f"env {env_index}: {single_env_message(single)}"
+        observations, rewards, *_ = pool.step(np.array([1, 0]))  # still usable
+        assert rewards.tolist() == [1.0, 1.0]
+
+
+@pytest.mark.parametrize("actions", [np.array([1, 0, 1]), np.array([[1], [0]])])
+def test_a_batch_of_the_wrong_shape_is_refused(actions: Any) -> None:
+    with modelicagym.make_vec("cartpole", n=2) as pool:
+        pool.reset(seed=0)
+        with pytest.raises(ActionError, match="expected a batch of 2 actions"):
+            pool.step(actions)
+        pool.step(np.array([0, 1]))
+
+
+def test_integral_floats_and_lists_are_taken_as_the_single_env_takes_them() -> None:
+    with modelicagym.make_vec("cartpole", n=2) as pool, modelicagym.make_vec("cartpole", n=2) as other:
+        pool.reset(seed=0)
+        other.reset(seed=0)
+        for actions in ([1, 0], np.array([1.0, 0.0]), (0, 1)):
+            assert_same(pool.step(actions), other.step(np.asarray(actions, dtype=np.int64)))
+
+
+def test_box_actions_are_checked_for_bounds_and_nan(family_fmu: Callable[[str, int], Path]) -> None:
+    with PoolVectorEnv([partial(probe_env, family_fmu("probe", 2))] * 3, caller_steps=True) as pool:
+        pool.reset(seed=0)
+        for actions, index in ((np.array([[0.0], [11.0], [0.0]]), 1), (np.array([[0.0], [0.0], [np.nan]]), 2)):
+            with pytest.raises(ActionError, match=rf"env {index}: invalid action .*the action space is Box"):
+                pool.step(actions)
+        observations, *_ = pool.step(np.full((3, 1), 2.0))
+        assert observations.shape == (3, 2)
+
+
+@pytest.mark.parametrize("act, bad, match", [
+    ("dict", {"position": np.zeros((2, 2)), "mode": np.array([0, 3])}, "env 1: .*'mode': out of range"),
+    ("multidiscrete", np.array([[0, 0], [2, 4]]), "env 1: .*out of range"),
+    ("discrete", np.array([-2, 3]), "env 1: .*out of range \\[-2, 2\\]"),
+])
+def test_other_spaces_are_checked_element_by_element(act: str, bad: Any, match: str) -> None:
+    fns = [partial(CountEnv, act=act)] * 2
+    sync = SyncVectorEnv(fns)
+    with PoolVectorEnv(fns, caller_steps=True) as pool:
+        pool.reset(seed=0)
+        sync.reset(seed=0)
+        with pytest.raises(ActionError, match=match):
+            pool.step(bad)
+        pool.action_space.seed(1)
+        sync.action_space.seed(1)
+        actions = pool.action_space.sample()
+        assert_same(pool.step(actions)[:4], sync.step(actions)[:4])
+    sync.close()
+
+
+def test_a_dict_batch_names_missing_and_unknown_keys() -> None:
+    with PoolVectorEnv([partial(CountEnv, act="dict")] * 2, caller_steps=True) as pool:
+        pool.reset(seed=0)
+        with pytest.raises(ActionError, match=r"missing: \['mode'\], unknown: \['speed'\]"):
+            pool.step({"position": np.zeros((2, 2)), "speed": np.zeros(2)})
+
+
+@pytest.mark.parametrize("actions", [1, np.int64(1), np.array(1)])
+def test_a_scalar_for_a_vector_env_is_a_type_error_as_in_gymnasium(actions: Any) -> None:
+    with modelicagym.make_vec("cartpole", n=2) as pool:
+        pool.reset(seed=0)
+        with pytest.raises(TypeError, match="Unable to iterate over the following elements"):
+            pool.step(actions)
+        pool.step(np.array([0, 1]))

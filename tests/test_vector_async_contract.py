@@ -1,0 +1,117 @@
+"""What code written for ``gymnasium.vector.AsyncVectorEnv`` relies on: its constructor's keyword
+arguments and its warnings (the rest of the contract is tested against SyncVectorEnv elsewhere)."""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+from gymnasium.vector import SyncVectorEnv
+from vector_envs import ActionRecorder, BoundedEnv, CountEnv
+from vector_rollouts import assert_same, rollout
+
+from modelicagym.errors import ConfigError
+from modelicagym.vector import EnvError, PoolVectorEnv, SpaceMismatchError
+
+
+def test_async_vector_env_keyword_arguments_are_accepted() -> None:
+    with PoolVectorEnv([CountEnv] * 2, context="forkserver", shared_memory=True, copy=True, daemon=True,
+                       observation_mode="same", autoreset_mode="NextStep") as pool:
+        assert pool.start_method == "forkserver"
+        pool.reset(seed=0)
+        pool.step(np.zeros(2, dtype=np.int64))
+
+
+@pytest.mark.parametrize(
+    "options, match",
+    [
+        ({"worker": lambda *args: None}, "a custom worker function is not supported"),
+        ({"observation_mode": "weird"}, "Invalid `observation_mode`"),
+        ({"daemon": False}, "daemon=False is not supported"),
+        ({"context": "spawn", "start_method": "fork"}, "disagree"),
+    ],
+)
+def test_what_the_pool_does_not_support_is_said_at_once(options: dict, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        PoolVectorEnv([CountEnv] * 2, **options)
+
+
+def test_closing_with_a_pending_call_warns_as_async_vector_env_does() -> None:
+    pool = PoolVectorEnv([CountEnv] * 2, num_workers=2)
+    pool.reset(seed=0)
+    pool.step_async(np.zeros(2, dtype=np.int64))
+    with pytest.warns(UserWarning, match="Calling close while waiting for a pending call to `step` to complete"):
+        pool.close()
+    assert pool.closed
+
+
+class Refusing(CountEnv):
+    def reset(self, *, seed=None, options=None):
+        raise KeyError("no such scenario")
+
+
+class CustomError(Exception):
+    def __init__(self, code: int) -> None:
+        super().__init__(f"code {code}")
+        self.code = code
+
+
+class Failing(CountEnv):
+    def step(self, action):
+        raise CustomError(7)
+
+
+def test_an_envs_exception_keeps_its_type() -> None:
+    with PoolVectorEnv([CountEnv, Refusing], caller_steps=True) as pool:
+        with pytest.raises(KeyError) as info:
+            pool.reset(seed=0)
+    assert isinstance(info.value, EnvError) and info.value.env_index == 1
+    assert "no such scenario" in str(info.value)
+    pool = PoolVectorEnv([CountEnv, Failing], num_workers=2)
+    pool.reset(seed=0)
+    with pytest.raises(CustomError) as info:
+        pool.step(np.zeros(2, dtype=np.int64))
+    assert isinstance(info.value, EnvError) and "code 7" in str(info.value)
+    assert info.value.original.code == 7
+
+
+def test_each_env_receives_its_action_as_sync_vector_env_hands_it() -> None:
+    """A ``Box(shape=())`` action reaches the env as a numpy scalar, as ``iterate`` gives it."""
+    actions = np.array([0.5, 0.25], dtype=np.float32)
+    received = []
+    for envs in (SyncVectorEnv([ActionRecorder] * 2), PoolVectorEnv([ActionRecorder] * 2, num_workers=2)):
+        envs.reset(seed=0)
+        envs.step(actions)
+        received.append(envs.get_attr("last_action"))
+        envs.close()
+    assert [(type(a), a) for a in received[0]] == [(type(a), a) for a in received[1]]
+    assert type(received[1][0]) is np.float32
+
+
+def bounded_fns() -> list:
+    return [partial(BoundedEnv, high) for high in (1.0, 2.0, 3.0)]
+
+
+def test_observation_mode_same_refuses_differing_spaces_with_gymnasiums_message() -> None:
+    with pytest.raises(SpaceMismatchError, match="use `observation_mode='different'` instead"):
+        PoolVectorEnv(bounded_fns(), num_workers=2)
+
+
+@pytest.mark.parametrize("layout", [{"num_workers": 2}, {"caller_steps": True}])
+def test_observation_mode_different_batches_the_differing_spaces(layout: dict) -> None:
+    sync = SyncVectorEnv(bounded_fns(), observation_mode="different")
+    with PoolVectorEnv(bounded_fns(), observation_mode="different", **layout) as pool:
+        assert pool.observation_space == sync.observation_space
+        assert_same(rollout(sync, 30), rollout(pool, 30))
+    sync.close()
+
+
+def test_observation_mode_custom_spaces() -> None:
+    single = spaces.Box(-5.0, 5.0, shape=(3,), dtype=np.float32)
+    batched = spaces.Box(-5.0, 5.0, shape=(3, 3), dtype=np.float32)
+    with PoolVectorEnv(bounded_fns(), observation_mode=(batched, single), num_workers=2) as pool:
+        assert (pool.observation_space, pool.single_observation_space) == (batched, single)
+        observations, _ = pool.reset(seed=0)
+        assert observations.shape == (3, 3)
