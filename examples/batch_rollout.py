@@ -17,6 +17,7 @@ import time
 import numpy as np
 
 import modelicagym
+from modelicagym.agents import EpisodeTracker
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--episodes", type=int, default=100, help="episodes to finish in total")
@@ -53,34 +54,26 @@ def main():
                                      "terminated", "truncated")}
     episode_of_env = np.arange(args.envs)          # episode numbers are handed out in order
     next_episode = args.envs
-    step_in_episode = np.zeros(args.envs, dtype=np.int64)
-    resetting = np.zeros(args.envs, dtype=bool)    # NEXT_STEP autoreset: this step is a reset
+    tracker = EpisodeTracker(args.envs)            # skips the autoreset steps, counts the episodes
     lengths, returns = [], []
-    episode_return = np.zeros(args.envs)
 
     started = time.perf_counter()
     observations, _ = envs.reset(seed=args.seed)
     while len(lengths) < args.episodes:
         actions = policy(observations)
         next_observations, rewards, terminations, truncations, _ = envs.step(actions)
-        recorded = ~resetting & (episode_of_env < args.episodes)
-        for name, value in (("env", np.arange(args.envs)), ("episode", episode_of_env), ("step", step_in_episode),
+        recorded = tracker.live(episode_of_env < args.episodes)
+        for name, value in (("env", np.arange(args.envs)), ("episode", episode_of_env), ("step", tracker.length),
                             ("observation", observations), ("action", actions), ("reward", rewards),
                             ("terminated", terminations), ("truncated", truncations)):
             columns[name].append(np.asarray(value)[recorded])
-        episode_return += np.where(recorded, rewards, 0.0)
-        step_in_episode += recorded
-        ended = recorded & (terminations | truncations)
-        for i in np.flatnonzero(ended):
-            lengths.append(int(step_in_episode[i]))
-            returns.append(float(episode_return[i]))
-            if progress is not None:
-                progress.update(1)
-        episode_of_env[ended] = np.arange(next_episode, next_episode + ended.sum())
-        next_episode += int(ended.sum())
-        step_in_episode[ended] = 0
-        episode_return[ended] = 0.0
-        resetting = terminations | truncations
+        ended, ended_lengths, ended_returns = tracker.update(recorded, rewards, terminations, truncations)
+        lengths += ended_lengths.tolist()
+        returns += ended_returns.tolist()
+        if progress is not None:
+            progress.update(len(ended))
+        episode_of_env[ended] = np.arange(next_episode, next_episode + len(ended))
+        next_episode += len(ended)
         observations = next_observations
     elapsed = time.perf_counter() - started
     envs.close()

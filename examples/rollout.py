@@ -12,17 +12,6 @@ import numpy as np
 
 import modelicagym
 
-parser = argparse.ArgumentParser(description=__doc__)
-parser.add_argument("--episodes", type=int, default=10)
-parser.add_argument("--max-steps", type=int, default=500)
-parser.add_argument("--seed", type=int, default=0)
-args = parser.parse_args()
-
-env = modelicagym.make("cartpole", max_episode_steps=args.max_steps)
-print(f"environment: {env.description.name}, FMI {env.description.fmi_version}, mode {env.fmu.mode}, "
-      f"time step {env.time_step} s")
-print(f"observation space: {env.observation_space}; action space: {env.action_space}")
-
 
 def random_policy(observation, rng):
     return int(rng.integers(2))
@@ -35,18 +24,34 @@ def lean_controller(observation, rng):
     return int(lean > 0)
 
 
-rng = np.random.default_rng(args.seed)
-for name, policy in [("random", random_policy), ("lean controller", lean_controller)]:
-    lengths, steps, started = [], 0, time.perf_counter()
-    for episode in range(args.episodes):
-        observation, info = env.reset(seed=args.seed + episode)
-        terminated = truncated = False
-        while not (terminated or truncated):
-            observation, reward, terminated, truncated, info = env.step(policy(observation, rng))
-            steps += 1
-        lengths.append(env.elapsed_steps)
-    elapsed = time.perf_counter() - started
-    print(f"{name:>16}: {args.episodes} episodes, length mean {np.mean(lengths):.1f} "
-          f"(min {min(lengths)}, max {max(lengths)}), {steps} steps in {elapsed:.3f} s "
-          f"= {1e6 * elapsed / steps:.1f} us per step (the paper: ~110000 us)")
-env.close()
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--episodes", type=int, default=10)
+    parser.add_argument("--max-steps", type=int, default=500)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+
+    env = modelicagym.make("cartpole", max_episode_steps=args.max_steps)
+    print(f"environment: {env.description.name}, FMI {env.description.fmi_version}, mode {env.fmu.mode}, "
+          f"time step {env.time_step} s, {env.step_path} step path")
+    print(f"observation space: {env.observation_space}; action space: {env.action_space}")
+
+    rng = np.random.default_rng(args.seed)
+    for name, policy in [("random", random_policy), ("lean controller", lean_controller)]:
+        lengths, steps, started = [], 0, time.perf_counter()
+        for episode in range(args.episodes):
+            observation, info = env.reset(seed=args.seed + episode)
+            terminated = truncated = False
+            while not (terminated or truncated):
+                observation, reward, terminated, truncated, info = env.step(policy(observation, rng))
+                steps += 1
+            lengths.append(env.elapsed_steps)
+        elapsed = time.perf_counter() - started
+        print(f"{name:>16}: {args.episodes} episodes, length mean {np.mean(lengths):.1f} "
+              f"(min {min(lengths)}, max {max(lengths)}), {steps} steps in {elapsed:.3f} s "
+              f"= {1e6 * elapsed / steps:.1f} us per step (the paper: ~110000 us)")
+    env.close()
+
+
+if __name__ == "__main__":
+    main()

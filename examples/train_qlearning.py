@@ -11,9 +11,9 @@ Run: ``python examples/train_qlearning.py --episodes 200 --repeats 5 --out agent
 import argparse
 import time
 
-
 import modelicagym
-from modelicagym.agents import CARTPOLE_INTERVALS, Discretizer, QLearningAgent, QLearningConfig, train
+from modelicagym.agents import Discretizer, QLearningAgent, QLearningConfig, train
+from modelicagym.envs.cartpole import CARTPOLE_INTERVALS
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--episodes", type=int, default=200, help="episodes per repeat")

@@ -6,44 +6,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from toy_envs import chain, counter
 
-from modelicagym.agents import CARTPOLE_INTERVALS, Discretizer, QLearningAgent, QLearningConfig, train
-
-
-class Counter(gym.Env):
-    """Observation = number of steps taken; the episode terminates after ``length`` steps."""
-
-    observation_space = gym.spaces.Box(0.0, 10.0, (1,), np.float64)
-    action_space = gym.spaces.Discrete(2)
-
-    def __init__(self, length: int) -> None:
-        self.length = length
-        self.k = 0
-
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        self.k = 0
-        return np.array([0.0]), {}
-
-    def step(self, action):
-        self.k += 1
-        return np.array([float(self.k)]), 1.0, self.k >= self.length, False, {}
-
-
-class Chain(gym.Env):
-    """Positions 0..5; action 1 moves right, 0 moves left; -1 per step; terminates at 5."""
-
-    observation_space = gym.spaces.Box(0.0, 6.0, (1,), np.float64)
-    action_space = gym.spaces.Discrete(2)
-
-    def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
-        self.position = 0
-        return np.array([0.0]), {}
-
-    def step(self, action):
-        self.position = max(0, self.position + (1 if action == 1 else -1))
-        return np.array([float(self.position)]), -1.0, self.position == 5, False, {}
+from modelicagym.agents import Discretizer, QLearningAgent, QLearningConfig, train
+from modelicagym.envs.cartpole import CARTPOLE_INTERVALS
 
 
 def unit_discretizer(n_states: int) -> Discretizer:
@@ -210,7 +176,7 @@ def test_wrong_number_of_seeds():
 
 def test_next_step_reset_step_is_not_learned_from():
     lengths = [2, 3, 4]
-    envs = SyncVectorEnv([lambda n=n: Counter(n) for n in lengths], autoreset_mode=AutoresetMode.NEXT_STEP)
+    envs = SyncVectorEnv([lambda n=n: counter(n) for n in lengths], autoreset_mode=AutoresetMode.NEXT_STEP)
     agent = QLearningAgent(unit_discretizer(6), 2, n_envs=3, seeds=0)
     initial = agent.q_table.copy()
     log = train(envs, agent, 7)
@@ -226,7 +192,7 @@ def test_next_step_reset_step_is_not_learned_from():
 
 
 def test_reset_step_after_truncation_is_not_learned_from():
-    envs = SyncVectorEnv([lambda: gym.wrappers.TimeLimit(Counter(10), 3)])
+    envs = SyncVectorEnv([lambda: gym.wrappers.TimeLimit(counter(10), 3)])
     agent = QLearningAgent(unit_discretizer(11), 2, seeds=0)
     initial = agent.q_table.copy()
     log = train(envs, agent, 4)
@@ -235,7 +201,7 @@ def test_reset_step_after_truncation_is_not_learned_from():
 
 
 def test_finished_envs_are_ignored_while_others_continue():
-    envs = SyncVectorEnv([lambda: Counter(1), lambda: Counter(5)])
+    envs = SyncVectorEnv([lambda: counter(1), lambda: counter(5)])
     agent = QLearningAgent(unit_discretizer(6), 2, n_envs=2, seeds=0)
     episodes = []
     log = train(envs, agent, 3, on_episodes=episodes.append)
@@ -247,7 +213,7 @@ def test_finished_envs_are_ignored_while_others_continue():
 
 def test_learns_the_chain():
     agent = QLearningAgent(unit_discretizer(6), 2, n_envs=4, seeds=0)
-    envs = SyncVectorEnv([lambda: gym.wrappers.TimeLimit(Chain(), 50)] * 4)
+    envs = SyncVectorEnv([lambda: gym.wrappers.TimeLimit(chain(), 50)] * 4)
     log = train(envs, agent, 60)
     assert (log.lengths[:, -10:] == 5).all()
     assert all(agent.predict(np.array([float(p)]), env_index=i) == 1 for p in range(5) for i in range(4))
@@ -255,10 +221,10 @@ def test_learns_the_chain():
 
 def test_train_accepts_a_single_env_and_checks_its_arguments():
     agent = QLearningAgent(unit_discretizer(6), 2, seeds=0)
-    assert train(Counter(2), agent, 3).lengths.tolist() == [[2, 2, 2]]
+    assert train(counter(2), agent, 3).lengths.tolist() == [[2, 2, 2]]
     with pytest.raises(ValueError, match="1 Q-tables for 2 envs"):
-        train(SyncVectorEnv([lambda: Counter(2)] * 2), agent, 1)
-    same_step = SyncVectorEnv([lambda: Counter(2)], autoreset_mode=AutoresetMode.SAME_STEP)
+        train(SyncVectorEnv([lambda: counter(2)] * 2), agent, 1)
+    same_step = SyncVectorEnv([lambda: counter(2)], autoreset_mode=AutoresetMode.SAME_STEP)
     with pytest.raises(ValueError, match="NEXT_STEP"):
         train(same_step, agent, 1)
 

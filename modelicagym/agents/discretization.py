@@ -17,17 +17,9 @@ from collections.abc import Sequence
 import numpy as np
 from gymnasium import spaces
 
-__all__ = ["CARTPOLE_INTERVALS", "Discretizer"]
+from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 
-#: The paper's intervals for the cart-pole observation ``[x, x_dot, theta, theta_dot]``
-#: (m, m/s, rad, rad/s); theta is measured from the +x axis, so upright is pi/2.
-CARTPOLE_INTERVALS: tuple[tuple[float, float], ...] = (
-    (-2.4, 2.4),
-    (-1.0, 1.0),
-    (float(np.deg2rad(78.0)), float(np.deg2rad(102.0))),
-    (-2.0, 2.0),
-)
-
+__all__ = ["Discretizer"]
 
 class Discretizer:
     """Equal-width binning of each observation variable with open outermost bins.
@@ -40,12 +32,12 @@ class Discretizer:
     def __init__(self, intervals: Sequence[Sequence[float]], n_bins: int | Sequence[int] = 10) -> None:
         bounds = np.asarray(intervals, dtype=np.float64)
         if bounds.ndim != 2 or bounds.shape[1] != 2 or bounds.shape[0] == 0:
-            raise ValueError(f"intervals must be a non-empty list of (low, high) pairs, got {intervals!r}")
+            raise ConfigError(f"intervals must be a non-empty list of (low, high) pairs, got {intervals!r}")
         if not np.all(np.isfinite(bounds)) or np.any(bounds[:, 0] >= bounds[:, 1]):
-            raise ValueError(f"every interval needs finite low < high, got {bounds.tolist()}")
+            raise ConfigError(f"every interval needs finite low < high, got {bounds.tolist()}")
         counts = np.broadcast_to(np.asarray(n_bins), (bounds.shape[0],)).astype(np.int64)
         if np.any(counts < 1):
-            raise ValueError(f"n_bins must be >= 1, got {n_bins!r}")
+            raise ConfigError(f"n_bins must be >= 1, got {n_bins!r}")
         self.lows = bounds[:, 0].copy()
         self.highs = bounds[:, 1].copy()
         self.n_bins = counts.copy()
@@ -70,16 +62,16 @@ class Discretizer:
     ) -> Discretizer:
         """Build a discretizer for a flat ``Box`` space, over ``intervals`` or the box's own bounds."""
         if not isinstance(space, spaces.Box) or len(space.shape) != 1:
-            raise TypeError(f"tabular agents need a 1-D Box observation space, got {space!r}")
+            raise ArgumentTypeError(f"tabular agents need a 1-D Box observation space, got {space!r}")
         if intervals is None:
             if not (np.all(np.isfinite(space.low)) and np.all(np.isfinite(space.high))):
-                raise ValueError(
+                raise ConfigError(
                     f"the observation space {space!r} has infinite bounds: give intervals=[(low, high), ...] "
                     "for every variable"
                 )
             intervals = np.stack([space.low, space.high], axis=1)
         if len(intervals) != space.shape[0]:
-            raise ValueError(f"{len(intervals)} intervals for an observation of {space.shape[0]} variables")
+            raise ConfigError(f"{len(intervals)} intervals for an observation of {space.shape[0]} variables")
         return cls(intervals, n_bins)
 
     @property
@@ -91,7 +83,7 @@ class Discretizer:
         """Bin index of every variable: shape ``(..., d)`` in, same shape of int64 out."""
         obs = np.asarray(observations, dtype=np.float64)
         if obs.shape[-1:] != (self.n_variables,):
-            raise ValueError(f"expected observations with {self.n_variables} variables, got shape {obs.shape}")
+            raise ArgumentError(f"expected observations with {self.n_variables} variables, got shape {obs.shape}")
         # The bin index is the number of edges <= x (numpy.digitize's convention), counted at once.
         return (obs[..., None] >= self._padded_edges).sum(axis=-1)
 

@@ -26,6 +26,7 @@ from typing import BinaryIO
 import numpy as np
 
 from modelicagym.agents.discretization import Discretizer
+from modelicagym.errors import ArgumentError, ConfigError
 
 __all__ = ["QLearningAgent", "QLearningConfig", "SeedLike"]
 
@@ -62,7 +63,7 @@ class QLearningConfig:
         }
         bad = [name for name, ok in checks.items() if not ok]
         if bad:
-            raise ValueError(f"invalid Q-learning hyperparameters {bad}: {self}")
+            raise ConfigError(f"invalid Q-learning hyperparameters {bad}: {self}")
 
 
 def _generators(seeds: SeedLike | Sequence[SeedLike], n_envs: int) -> list[np.random.Generator]:
@@ -72,7 +73,7 @@ def _generators(seeds: SeedLike | Sequence[SeedLike], n_envs: int) -> list[np.ra
         return [np.random.default_rng(child) for child in root.spawn(n_envs)]
     seeds = list(seeds)
     if len(seeds) != n_envs:
-        raise ValueError(f"got {len(seeds)} seeds for {n_envs} envs")
+        raise ArgumentError(f"got {len(seeds)} seeds for {n_envs} envs")
     return [np.random.default_rng(seed) for seed in seeds]
 
 
@@ -112,7 +113,7 @@ class QLearningAgent:
         seeds: SeedLike | Sequence[SeedLike] = None,
     ) -> None:
         if n_actions < 1 or n_envs < 1:
-            raise ValueError(f"need n_actions >= 1 and n_envs >= 1, got {n_actions}, {n_envs}")
+            raise ArgumentError(f"need n_actions >= 1 and n_envs >= 1, got {n_actions}, {n_envs}")
         self.discretizer = discretizer
         self.config = config or QLearningConfig()
         self.n_envs = n_envs
@@ -135,7 +136,7 @@ class QLearningAgent:
         # Kept C-contiguous: learn() updates it through flat views.
         value = np.ascontiguousarray(value, dtype=np.float64)
         if value.shape != self._q_table.shape:
-            raise ValueError(f"Q-table shape {value.shape} != {self._q_table.shape}")
+            raise ArgumentError(f"Q-table shape {value.shape} != {self._q_table.shape}")
         self._q_table = value
 
     def states(self, observations: np.ndarray) -> np.ndarray:
@@ -191,7 +192,7 @@ class QLearningAgent:
         """Greedy action for one observation from the Q-table of ``env_index``: the learned policy."""
         observation = np.asarray(observation)
         if observation.ndim != 1:
-            raise ValueError(f"predict takes one observation of shape (d,), got shape {observation.shape}")
+            raise ArgumentError(f"predict takes one observation of shape (d,), got shape {observation.shape}")
         state = self.discretizer.states(observation)
         return int(self.q_table[env_index, state].argmax())
 

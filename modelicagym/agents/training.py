@@ -17,7 +17,9 @@ import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv, VectorEnv
 
+from modelicagym.agents.episodes import EpisodeTracker
 from modelicagym.agents.qlearning import QLearningAgent
+from modelicagym.errors import ArgumentError
 
 __all__ = ["TrainingLog", "train"]
 
@@ -62,19 +64,17 @@ def train(
     envs = _as_vector_env(envs)
     mode = AutoresetMode(envs.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP))
     if mode is not AutoresetMode.NEXT_STEP:
-        raise ValueError(f"train() needs a vector env with NEXT_STEP autoreset, got {mode}")
+        raise ArgumentError(f"train() needs a vector env with NEXT_STEP autoreset, got {mode}")
     n = envs.num_envs
     if agent.n_envs != n:
-        raise ValueError(f"the agent has {agent.n_envs} Q-tables for {n} envs")
+        raise ArgumentError(f"the agent has {agent.n_envs} Q-tables for {n} envs")
     if n_episodes < 1:
-        raise ValueError(f"n_episodes must be >= 1, got {n_episodes}")
+        raise ArgumentError(f"n_episodes must be >= 1, got {n_episodes}")
 
     lengths = np.zeros((n, n_episodes), dtype=np.int64)
     returns = np.zeros((n, n_episodes), dtype=np.float64)
     finished = np.zeros(n, dtype=np.int64)
-    episode_length = np.zeros(n, dtype=np.int64)
-    episode_return = np.zeros(n, dtype=np.float64)
-    resetting = np.zeros(n, dtype=bool)
+    tracker = EpisodeTracker(n)
     vector_steps = 0
     agent_seconds = 0.0
 
@@ -88,21 +88,15 @@ def train(
         vector_steps += 1
         clock = time.perf_counter()
         next_states = agent.states(observations)
-        live = ~resetting & (finished < n_episodes)
+        live = tracker.live(finished < n_episodes)
         agent.learn(states, actions, rewards, next_states, terminated, truncated, mask=live)
-
-        episode_length += live
-        episode_return += np.where(live, rewards, 0.0)
-        ended = np.flatnonzero(live & (terminated | truncated))
+        ended, ended_lengths, ended_returns = tracker.update(live, rewards, terminated, truncated)
         if ended.size:
-            lengths[ended, finished[ended]] = episode_length[ended]
-            returns[ended, finished[ended]] = episode_return[ended]
+            lengths[ended, finished[ended]] = ended_lengths
+            returns[ended, finished[ended]] = ended_returns
             finished[ended] += 1
-            episode_length[ended] = 0
-            episode_return[ended] = 0.0
             if on_episodes is not None:
                 on_episodes(int(ended.size))
-        resetting = terminated | truncated
         states = next_states
     agent_seconds += time.perf_counter() - clock
     return TrainingLog(lengths, returns, lengths.sum(axis=1), vector_steps, agent_seconds)
