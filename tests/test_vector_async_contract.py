@@ -3,13 +3,14 @@ arguments and its warnings (the rest of the contract is tested against SyncVecto
 
 from __future__ import annotations
 
+import logging
 from functools import partial
 
 import numpy as np
 import pytest
 from gymnasium import spaces
-from gymnasium.vector import SyncVectorEnv
-from vector_envs import ActionRecorder, BoundedEnv, CountEnv
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from vector_envs import ActionRecorder, BoundedEnv, CountEnv, WordEnv
 from vector_rollouts import assert_same, rollout
 
 from modelicagym.errors import ConfigError
@@ -115,3 +116,28 @@ def test_observation_mode_custom_spaces() -> None:
         assert (pool.observation_space, pool.single_observation_space) == (batched, single)
         observations, _ = pool.reset(seed=0)
         assert observations.shape == (3, 3)
+
+
+@pytest.mark.parametrize("autoreset_mode", list(AutoresetMode))
+@pytest.mark.parametrize("layout", [{"num_workers": 2}, {"num_workers": 1, "caller_steps": True}])
+def test_custom_spaces_travel_pickled_with_the_same_results(layout: dict, autoreset_mode: AutoresetMode) -> None:
+    """Spaces with no shared-memory layout work as in ``AsyncVectorEnv(shared_memory=False)``."""
+    fns = [partial(WordEnv, length) for length in (4, 6, 9)]
+    sync = SyncVectorEnv(fns, autoreset_mode=autoreset_mode)
+    with PoolVectorEnv(fns, autoreset_mode=autoreset_mode, **layout) as pool:
+        assert pool.observation_space == sync.observation_space
+        assert_same(rollout(sync, 40), rollout(pool, 40))
+    sync.close()
+
+
+def test_custom_spaces_are_said_once_and_env_errors_still_name_the_env(caplog: pytest.LogCaptureFixture) -> None:
+    with caplog.at_level(logging.WARNING, logger="modelicagym.vector"):
+        pool = PoolVectorEnv([WordEnv] * 2, num_workers=2)
+    said = [record.getMessage() for record in caplog.records if "no shared-memory layout" in record.getMessage()]
+    assert len(said) == 2 and "observation space" in said[0] and "action space" in said[1]
+    with pool:
+        pool.reset(seed=1)
+        pool.step(("ab", "b"))
+        with pytest.raises(ValueError, match="not a word over 'ab'") as info:
+            pool.step(("a", "c"))
+        assert isinstance(info.value, EnvError) and info.value.env_index == 1

@@ -239,3 +239,43 @@ class BoundedEnv(CountEnv):
     def __init__(self, high: float) -> None:
         super().__init__()
         self.observation_space = spaces.Box(-high, high, shape=(3,), dtype=np.float32)
+
+
+class WordSpace(gym.Space):
+    """A custom space (Gymnasium knows no shared-memory layout for it): words over ``letters``."""
+
+    def __init__(self, letters: str = "ab", seed: int | None = None) -> None:
+        super().__init__(None, None, seed)
+        self.letters = letters
+
+    def sample(self, mask: Any = None, probability: Any = None) -> str:
+        return "".join(self.np_random.choice(list(self.letters), size=int(self.np_random.integers(1, 4))))
+
+    def contains(self, x: Any) -> bool:
+        return isinstance(x, str) and set(x) <= set(self.letters)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, WordSpace) and other.letters == self.letters
+
+
+class WordEnv(gym.Env):
+    """Custom spaces both ways: the observation is the words received so far (variable length),
+    the episode ends once ``length`` letters have been received."""
+
+    observation_space = WordSpace("ab")
+    action_space = WordSpace("ab")
+
+    def __init__(self, length: int = 6) -> None:
+        self.length = length
+        self.text = ""
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[str, dict]:
+        super().reset(seed=seed)
+        self.text = "a" * int(self.np_random.integers(0, 3))
+        return self.text, {}
+
+    def step(self, action: str) -> tuple[str, float, bool, bool, dict]:
+        if not self.action_space.contains(action):
+            raise ValueError(f"not a word over 'ab': {action!r}")
+        self.text += action
+        return self.text, float(len(action)), len(self.text) >= self.length, False, {"last": action}

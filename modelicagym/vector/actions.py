@@ -20,7 +20,7 @@ from gymnasium.vector.utils import batch_space, iterate
 
 from modelicagym.actions import CHECKED_SPACES, check_action
 from modelicagym.errors import ActionError, ActionTypeError
-from modelicagym.vector.buffers import SharedBatch
+from modelicagym.vector.buffers import PickledBatch, SharedBatch
 
 __all__ = ["ActionWriter"]
 
@@ -33,7 +33,7 @@ class ActionWriter:
         library: our native library, or ``None`` (numpy then does the range checks).
     """
 
-    def __init__(self, shared: SharedBatch, library: ctypes.CDLL | None) -> None:
+    def __init__(self, shared: SharedBatch | PickledBatch, library: ctypes.CDLL | None) -> None:
         self.space = space = shared.space
         self.shared = shared
         self.num_envs = shared.n

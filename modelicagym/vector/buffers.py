@@ -14,7 +14,9 @@ cache line of its own.
 Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nested in
 ``Dict``/``Tuple``) are read and written through numpy views made once; a top-level array space
 (the common case) is a plain ``view[i] = value``. Other spaces (``Text``, ``OneOf``) go through
-Gymnasium's ``read_from_shared_memory``/``write_to_shared_memory`` on every access.
+Gymnasium's ``read_from_shared_memory``/``write_to_shared_memory`` on every access. A space with no
+shared-memory layout at all (a custom ``Space`` subclass) is a :class:`PickledBatch`: its values
+live in each process and travel pickled on the workers' pipes (see `modelicagym.vector.protocol`).
 """
 
 from __future__ import annotations
@@ -30,9 +32,12 @@ from typing import Any
 
 import numpy as np
 from gymnasium import Space
+from gymnasium.error import CustomSpaceError
 from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete, Tuple
 from gymnasium.vector.utils import (
     batch_space,
+    concatenate,
+    create_empty_array,
     create_shared_memory,
     iterate,
     read_from_shared_memory,
@@ -41,7 +46,7 @@ from gymnasium.vector.utils import (
 
 from modelicagym.errors import ArgumentError
 
-__all__ = ["BufferSpec", "SharedBatch", "SharedBuffers"]
+__all__ = ["BufferSpec", "PickledBatch", "SharedBatch", "SharedBuffers", "has_shared_layout"]
 
 _ALIGNMENT = 64
 _ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
@@ -128,8 +133,20 @@ class _Allocator:
         return np.frombuffer(region.get_obj(), dtype=dtype).reshape(shape)
 
 
+def has_shared_layout(space: Space) -> bool:
+    """Whether values of ``space`` can live in shared memory (Gymnasium knows a layout for it)."""
+    try:
+        create_shared_memory(space, n=1, ctx=_Allocator())
+    except CustomSpaceError:
+        return False
+    return True
+
+
 class SharedBatch:
     """A batch of ``n`` values of ``space`` in shared memory; each process writes its own indices."""
+
+    #: values travel in shared memory, not on the pipes
+    pickled = False
 
     def __init__(self, space: Space, n: int, allocator: _Allocator) -> None:
         self.space = space
@@ -177,6 +194,52 @@ class SharedBatch:
         return read_from_shared_memory(self.space, self._memory, n=self.n)
 
 
+class PickledBatch:
+    """A batch of ``n`` values of a space with no shared-memory layout, held in this process.
+
+    Same interface as :class:`SharedBatch`; what one process writes reaches the other only as the
+    pickled values the protocol carries (:meth:`values` on one side, :meth:`store` on the other).
+    """
+
+    pickled = True
+
+    def __init__(self, space: Space, n: int) -> None:
+        self.space = space
+        self.n = n
+        self._batch_space = batch_space(space, n)
+        self._values: list[Any] = [None] * n
+
+    def write(self, index: int, value: Any) -> None:
+        """Store the value of env ``index``."""
+        self._values[index] = value
+
+    def read(self, index: int) -> Any:
+        """The value of env ``index`` (a copy: the caller may keep it)."""
+        return copy.deepcopy(self._values[index])
+
+    def write_batch(self, values: Any) -> None:
+        """Store a whole batch (an element of the batched space)."""
+        self._values[:] = list(iterate(self._batch_space, values))
+
+    def read_batch(self, copy_out: bool) -> Any:
+        """The whole batch, as Gymnasium's ``concatenate`` builds it."""
+        values = copy.deepcopy(self._values) if copy_out else self._values
+        return concatenate(self.space, values, create_empty_array(self.space, self.n))
+
+    def values(self, indices: range) -> list[Any]:
+        """The values of envs ``indices``, to send to the other side."""
+        return self._values[indices.start : indices.stop]
+
+    def store(self, first: int, values: list[Any]) -> None:
+        """Take the values of envs ``first, first + 1, ...`` sent by the other side."""
+        self._values[first : first + len(values)] = values
+
+
+def _batch(space: Space, n: int, allocator: _Allocator) -> SharedBatch | PickledBatch:
+    """The batch for ``space``: in shared memory when it has a layout there, else pickled."""
+    return SharedBatch(space, n, allocator) if has_shared_layout(space) else PickledBatch(space, n)
+
+
 @dataclass(frozen=True)
 class BufferSpec:
     """Everything needed to lay out the shared memory identically in every process."""
@@ -197,8 +260,8 @@ class SharedBuffers:
         n, w = spec.num_envs, spec.num_workers
         allocator = _Allocator(buffer)
         self.spec = spec
-        self.observations = SharedBatch(spec.observation_space, n, allocator)
-        self.actions = SharedBatch(spec.action_space, n, allocator)
+        self.observations = _batch(spec.observation_space, n, allocator)
+        self.actions = _batch(spec.action_space, n, allocator)
         self.rewards = allocator.array(np.float64, (n,))
         self.terminations = allocator.array(np.bool_, (n,))
         self.truncations = allocator.array(np.bool_, (n,))

@@ -104,7 +104,15 @@ class Dispatcher:
             self.local.detach()
 
     def step_all(self) -> None:
-        """The hot path of :meth:`dispatch`: every worker steps; no messages, no allocation."""
+        """The hot path of :meth:`dispatch`: every worker steps; no messages, no allocation
+        (except for actions with no shared-memory layout, sent in a ``STEP`` message)."""
+        actions = self.buffers.actions
+        if actions.pickled:
+            self.dispatch([
+                PendingCommand(party, Command.MESSAGE, Message(Kind.STEP, actions.values(party.env_indices)))
+                for party in self._parties
+            ])
+            return
         if not self._slots_say_step:
             self.buffers.command[:] = Command.STEP
             self._slots_say_step = True
@@ -273,8 +281,16 @@ class Dispatcher:
                 process = None
             if message is not None and message.kind is Kind.ERROR:
                 failure = message.data.to_env_error(handle.index, doing, process)
+            elif message is not None and message.kind is Kind.OBSERVATIONS:
+                message = self._take_observations(message)
             outcomes.append(Outcome(handle, message, failure))
         return outcomes
+
+    def _take_observations(self, message: Message) -> Message | None:
+        """Store the observations an ``OBSERVATIONS`` reply carries; the ``INFOS`` reply left."""
+        first, observations, infos = message.data
+        self.buffers.observations.store(first, observations)
+        return Message(Kind.INFOS, infos) if infos else None
 
     def _answer_of(
         self, handle: WorkerHandle, deadline: float | None, doing: str

@@ -97,6 +97,7 @@ class EnvSlice:
         self.native: NativeBatch | None = None
         self._fmu_envs = [env.unwrapped if hasattr(env.unwrapped, "fmu_time_ns") else None for env in envs]
         self.handlers = {
+            Kind.STEP: self.step_with,
             Kind.RESET: lambda data: self.reset(*data),
             Kind.CALL: self.call,
             Kind.SET_ATTR: self.set_attr,
@@ -146,10 +147,23 @@ class EnvSlice:
         """Step every env with its action from shared memory, with the pool's autoreset."""
         native = self.native
         if native is None:
-            return self._step_python(0, [])
+            return self._with_observations(self._step_python(0, []))
         if not native.step():
             return None
         return self.finish_native_step()
+
+    def step_with(self, actions: list[Any]) -> Message | None:
+        """:meth:`step` with the actions of these envs sent on the pipe (no shared-memory layout)."""
+        self.buffers.actions.store(self.first, actions)
+        return self.step()
+
+    def _with_observations(self, reply: Message | None) -> Message | None:
+        """The reply of a step or reset, carrying the observations when they cannot be shared."""
+        observations = self.buffers.observations
+        if not observations.pickled or (reply is not None and reply.kind is Kind.ERROR):
+            return reply
+        infos = [] if reply is None else reply.data
+        return Message(Kind.OBSERVATIONS, (self.first, observations.values(self.env_indices), infos))
 
     def _step_python(self, start: int, infos: list[tuple[int, dict[str, Any]]]) -> Message | None:
         """Step the envs from offset ``start`` on, on the Python path."""
@@ -267,7 +281,7 @@ class EnvSlice:
             self.needs_reset[offset] = False
             if info:
                 infos.append((index, info))
-        return Message(Kind.INFOS, infos) if infos else None
+        return self._with_observations(Message(Kind.INFOS, infos) if infos else None)
 
     def call(self, data: tuple[str, tuple[Any, ...], dict[str, Any]]) -> Message:
         name, args, kwargs = data

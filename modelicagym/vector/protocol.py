@@ -5,7 +5,9 @@ the shared ``command`` array and posts the worker's ``go`` signal; the worker an
 results into shared memory, setting its ``reply`` slot and posting ``done``. Only when the reply slot
 says so does a pickled reply follow on the pipe (non-empty infos, an error, results of ``call``).
 Rare commands (reset with seeds or options, call, set_attr, close) travel as a pickled
-:class:`Message` on the pipe, announced by the ``MESSAGE`` command code.
+:class:`Message` on the pipe, announced by the ``MESSAGE`` command code. So do the actions and
+observations of a space with no shared-memory layout (a custom ``Space``): each step is then a
+``STEP`` message with the actions, answered by an ``OBSERVATIONS`` message.
 """
 
 from __future__ import annotations
@@ -60,6 +62,8 @@ class Kind(str, enum.Enum):
     CALL = "call"
     #: ``(name, values of the worker's envs)``
     SET_ATTR = "set_attr"
+    #: actions of the worker's envs, when the action space has no shared-memory layout: step
+    STEP = "step"
     #: no data: close the envs and exit
     CLOSE = "close"
     #: ``(BufferSpec, needs_reset)``, followed on the pipe by the memory's file descriptor
@@ -71,6 +75,9 @@ class Kind(str, enum.Enum):
     OK = "ok"
     #: list of ``(env_index, info)`` for the non-empty infos of a step or reset
     INFOS = "infos"
+    #: ``(first env index, observations, infos)`` of a step or reset, when the observation space
+    #: has no shared-memory layout (``infos`` as for ``INFOS``)
+    OBSERVATIONS = "observations"
     #: list of results of ``call``, one per env
     RESULTS = "results"
     #: :class:`~modelicagym.vector.errors.RemoteError`: an env (or the worker) failed; the pool

@@ -107,6 +107,7 @@ class WorkerSet:
             slots = len(self.handles) + (local is not None)
             spec = BufferSpec(self.description.observation_space, self.description.action_space, self.num_envs, slots)
             self.buffers, self._resources.fd = SharedBuffers.create(spec)
+            _say_what_is_pickled(self.buffers)
             for handle in self.handles:
                 self._hand_out_buffers(handle, deadline, needs_reset=False)
             if local is not None:
@@ -164,3 +165,11 @@ class WorkerSet:
         message = handle.receive(deadline, None, START_UP)
         if message.kind is Kind.ERROR:
             raise message.data.to_env_error(handle.index, START_UP)
+
+
+def _say_what_is_pickled(buffers: SharedBuffers) -> None:
+    """Warn, once per pool, about the spaces whose values travel pickled instead of shared."""
+    for name, batch in (("observation", buffers.observations), ("action", buffers.actions)):
+        if batch.pickled:
+            logger.warning("the %s space %s has no shared-memory layout: its values travel pickled on the "
+                           "workers' pipes (slower)", name, batch.space)
