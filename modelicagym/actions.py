@@ -74,6 +74,8 @@ def action_problem(space: spaces.Space, action: Any) -> str | None:
             if problem:
                 return f"{name!r}: {problem}"
         return None
+    if not isinstance(space, CHECKED_SPACES):
+        return None
     try:
         array = np.asarray(action)
     except Exception:

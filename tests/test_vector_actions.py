@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from gymnasium import spaces
 from gymnasium.vector import SyncVectorEnv
 from test_native_step import probe_env
 from vector_envs import CountEnv
@@ -114,3 +115,24 @@ def test_a_scalar_for_a_vector_env_is_a_type_error_as_in_gymnasium(actions: Any)
         with pytest.raises(TypeError, match="Unable to iterate over the following elements"):
             pool.step(actions)
         pool.step(np.array([0, 1]))
+
+
+class Int32Discrete(CountEnv):
+    """Actions from a ``Discrete`` space with a start and a dtype other than int64."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.action_space = spaces.Discrete(4, start=1, dtype=np.int32)
+
+
+def test_discrete_actions_of_any_dtype_are_range_checked_in_their_dtype() -> None:
+    sync = SyncVectorEnv([Int32Discrete] * 3)
+    with PoolVectorEnv([Int32Discrete] * 3, num_workers=2) as pool:
+        pool.reset(seed=0)
+        sync.reset(seed=0)
+        good = np.array([1, 4, 2], dtype=np.int32)
+        assert_same(pool.step(good)[:4], sync.step(good)[:4])
+        with pytest.raises(ActionError, match="env 2: .*out of range \\[1, 4\\]"):
+            pool.step(np.array([1, 4, 0], dtype=np.int32))
+        assert_same(pool.step(good)[:4], sync.step(good)[:4])
+    sync.close()

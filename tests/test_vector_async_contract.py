@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from vector_envs import ActionRecorder, BoundedEnv, CountEnv, WordEnv
+from vector_envs import ActionRecorder, BoundedEnv, CountEnv, GrowingEnv, WordEnv
 from vector_rollouts import assert_same, rollout
 
 from modelicagym.errors import ConfigError
@@ -39,12 +39,13 @@ def test_what_the_pool_does_not_support_is_said_at_once(options: dict, match: st
         PoolVectorEnv([CountEnv] * 2, **options)
 
 
-def test_closing_with_a_pending_call_warns_as_async_vector_env_does() -> None:
+@pytest.mark.parametrize("terminate", [False, True])
+def test_closing_with_a_pending_call_warns_as_async_vector_env_does(terminate: bool) -> None:
     pool = PoolVectorEnv([CountEnv] * 2, num_workers=2)
     pool.reset(seed=0)
     pool.step_async(np.zeros(2, dtype=np.int64))
-    with pytest.warns(UserWarning, match="Calling close while waiting for a pending call to `step` to complete"):
-        pool.close()
+    with pytest.warns(UserWarning, match="Calling `close` while waiting for a pending call to `step` to complete"):
+        pool.close(terminate=terminate)
     assert pool.closed
 
 
@@ -127,6 +128,13 @@ def test_custom_spaces_travel_pickled_with_the_same_results(layout: dict, autore
     with PoolVectorEnv(fns, autoreset_mode=autoreset_mode, **layout) as pool:
         assert pool.observation_space == sync.observation_space
         assert_same(rollout(sync, 40), rollout(pool, 40))
+    sync.close()
+
+
+def test_spaces_of_dynamic_shape_travel_pickled_with_the_same_results() -> None:
+    sync = SyncVectorEnv([GrowingEnv] * 3)
+    with PoolVectorEnv([GrowingEnv] * 3, num_workers=2, shared_memory=True) as pool:
+        assert_same(rollout(sync, 12), rollout(pool, 12))
     sync.close()
 
 

@@ -279,3 +279,20 @@ class WordEnv(gym.Env):
             raise ValueError(f"not a word over 'ab': {action!r}")
         self.text += action
         return self.text, float(len(action)), len(self.text) >= self.length, False, {"last": action}
+
+
+class GrowingEnv(gym.Env):
+    """An observation of dynamic shape (a ``Sequence``, no static shared-memory layout) and a
+    ``Dict`` action holding a ``Graph``: how many nodes the graph had, one entry per step."""
+
+    observation_space = spaces.Sequence(spaces.Discrete(8))
+    action_space = spaces.Dict({"graph": spaces.Graph(spaces.Box(-1.0, 1.0, (2,)), None), "go": spaces.Discrete(2)})
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[tuple, dict]:
+        super().reset(seed=seed)
+        self.seen: tuple[int, ...] = ()
+        return self.seen, {}
+
+    def step(self, action: dict) -> tuple[tuple, float, bool, bool, dict]:
+        self.seen += (min(len(action["graph"].nodes), 7),)
+        return self.seen, float(action["go"]), len(self.seen) >= 5, False, {}

@@ -38,11 +38,11 @@ class ActionWriter:
         self.shared = shared
         self.num_envs = shared.n
         self._batched = batch_space(space, shared.n)
-        self._target = target = shared.read_batch(copy_out=False)
+        self._target = target = None if shared.pickled else shared.read_batch(copy_out=False)
         self._range_check = None
         if type(space) is spaces.Discrete and isinstance(target, np.ndarray):
             self._bounds = (int(space.start), int(space.start + space.n - 1))
-            if library is not None:
+            if library is not None and target.dtype == np.int64:
                 args = (target.ctypes.data, shared.n, *self._bounds)
                 self._range_check = lambda: library.mg_first_outside_int64(*args)
         elif type(space) is spaces.Box and space.dtype == np.float64 and isinstance(target, np.ndarray):

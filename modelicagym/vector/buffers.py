@@ -15,7 +15,7 @@ Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nest
 ``Dict``/``Tuple``) are read and written through numpy views made once; a top-level array space
 (the common case) is a plain ``view[i] = value``. Other spaces (``Text``, ``OneOf``) go through
 Gymnasium's ``read_from_shared_memory``/``write_to_shared_memory`` on every access. A space with no
-shared-memory layout at all (a custom ``Space`` subclass) is a :class:`PickledBatch`: its values
+shared-memory layout at all (a custom ``Space`` subclass, ``Graph``, ``Sequence``) is a :class:`PickledBatch`: its values
 live in each process and travel pickled on the workers' pipes (see `modelicagym.vector.protocol`).
 """
 
@@ -134,10 +134,11 @@ class _Allocator:
 
 
 def has_shared_layout(space: Space) -> bool:
-    """Whether values of ``space`` can live in shared memory (Gymnasium knows a layout for it)."""
+    """Whether values of ``space`` can live in shared memory: Gymnasium knows a static layout for it
+    (not for a custom ``Space`` subclass, nor for spaces of dynamic shape: ``Graph``, ``Sequence``)."""
     try:
         create_shared_memory(space, n=1, ctx=_Allocator())
-    except CustomSpaceError:
+    except (CustomSpaceError, TypeError):
         return False
     return True
 

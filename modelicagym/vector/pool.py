@@ -108,6 +108,16 @@ class PoolVectorEnv(VectorEnv):
     caller's script (:func:`~modelicagym.vector.handle.main_module_hidden`), so scripts without a
     main guard, stdin and notebooks work; env fns must be picklable by ``cloudpickle``.
 
+    Where it deliberately differs from ``AsyncVectorEnv`` (Gymnasium's own vector tests pass
+    otherwise): actions are checked against the action space in the calling process and cast to
+    its dtype, so an out-of-range action raises `ActionError` before any env sees it and each env
+    gets an action its space contains; spaces with no shared-memory layout (custom spaces,
+    ``Graph``, ``Sequence``) travel pickled whatever ``shared_memory`` says, instead of being
+    refused; an env's exception is raised once, as its own type carrying the env index and the
+    remote traceback, rather than also logged per worker; and while the calling process steps a
+    slice itself (``caller_steps``), a ``timeout`` given to ``step_wait``/``reset_wait`` bounds the
+    wait for the workers, not the caller's own envs (``caller_steps=False`` bounds them all).
+
     Example:
         >>> import gymnasium as gym
         >>> from modelicagym.vector import PoolVectorEnv
@@ -484,8 +494,9 @@ class PoolVectorEnv(VectorEnv):
         if timeout is None:
             timeout = DEFAULT_CLOSE_TIMEOUT if self.step_timeout is None else self.step_timeout
         deadline = time.monotonic() + timeout
+        if self._state != AsyncState.DEFAULT:
+            gym.logger.warn(f"Calling `close` while waiting for a pending call to `{self._state.value}` to complete.")
         if self._state != AsyncState.DEFAULT and not terminate:
-            gym.logger.warn(f"Calling close while waiting for a pending call to `{self._state.value}` to complete.")
             terminate = any(outcome.failure is not None for outcome in self._gather(timeout, self._state.value))
         if not terminate:
             for handle in self._dispatcher.close():

@@ -31,16 +31,15 @@ def check_observation_spaces(mode: str, spaces: Sequence[Space], indices: Sequen
     for index, space in zip(indices[1:], spaces[1:]):
         if _agree(mode, spaces[0], space):
             continue
-        where = f"(env {index} has {space}, env {indices[0]} has {spaces[0]})"
+        where = f"Env {index} has {space}, env {indices[0]} has {spaces[0]}."
         if mode == "same":
             raise SpaceMismatchError(
-                "AsyncVectorEnv(..., observation_mode='same') however some of the sub-environments observation "
-                f"spaces are not equivalent {where}. If this is intentional, use `observation_mode='different'` "
-                "instead."
+                "AsyncVectorEnv(..., observation_mode='same') however the sub-environments observation spaces are "
+                f"not equivalent. {where} If this is intentional, use `observation_mode='different'` instead."
             )
         raise SpaceMismatchError(
             "AsyncVectorEnv(..., observation_mode='different' or custom space) however the sub-environment's "
-            f"observation spaces do not share a common shape and dtype {where}."
+            f"observation spaces do not share a common shape and dtype. {where}"
         )
 
 
