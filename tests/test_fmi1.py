@@ -8,6 +8,7 @@ from __future__ import annotations
 import logging
 import math
 import shutil
+import warnings
 import zipfile
 
 import gymnasium as gym
@@ -15,6 +16,7 @@ import numpy as np
 import pytest
 from episodes import observations
 from fmu_family import BALL_DIR, BALL_OUTPUTS, FMUS_DIR
+from gymnasium.utils.env_checker import check_env
 from vector_rollouts import assert_same, rollout
 
 import modelicagym
@@ -222,3 +224,11 @@ def test_a_third_party_fmi1_slave_as_an_env(dahlquist_fmu):
             obs, reward, terminated, truncated, _ = env.step(np.array([1.0]))
         assert obs == pytest.approx([1.0])  # x = u/k = 1 is the equilibrium
         assert truncated and not terminated
+
+
+def test_passes_gymnasium_env_checker(fmu_mode):
+    env = CartPoleEnv(fmi_version=1, mode=fmu_mode)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unbounded observation space warnings
+        check_env(env, skip_render_check=False)
+    env.close()
