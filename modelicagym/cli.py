@@ -23,7 +23,7 @@ def _info(args: argparse.Namespace) -> int:
 def _build(args: argparse.Namespace) -> int:
     from modelicagym.fmu.build import build_all_models
 
-    for path in build_all_models():
+    for path in build_all_models(fmi_versions=args.fmi_version):
         print(path)
     return 0
 
@@ -37,6 +37,7 @@ def _bench(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from modelicagym.bench import add_arguments as bench_arguments
     from modelicagym.experiments.cli import add_parsers as experiment_parsers
+    from modelicagym.fmu.build import FMI_VERSIONS
 
     parser = argparse.ArgumentParser(prog="modelicagym", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
@@ -49,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     info.set_defaults(func=_info)
 
     build = commands.add_parser("build", help="build the bundled model FMUs from their C sources")
+    build.add_argument("--fmi-version", type=int, nargs="+", choices=FMI_VERSIONS, metavar="N",
+                       help=f"FMI versions to build ({', '.join(map(str, FMI_VERSIONS))}; default: all; "
+                            "FMI 1.0 builds a co-simulation and a model-exchange FMU)")
     build.set_defaults(func=_build)
 
     bench = commands.add_parser("bench", help="benchmarks: FMI call costs, pool throughput")

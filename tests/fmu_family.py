@@ -2,7 +2,8 @@
 
 Two C models (see each folder's ``config.h``), compiled with the framework in
 ``modelicagym/models/csrc`` by `modelicagym.fmu.build.build_source_fmu` (cached on disk by content
-hash, so only the first session pays for compilation), each for FMI 2.0 and 3.0:
+hash, so only the first session pays for compilation), each for FMI 2.0 and 3.0 (the ball also
+for FMI 1.0 model exchange, ``modelDescription_fmi1_me.xml``, built directly in ``test_fmi1.py``):
 
 ``probe``
     integer / enumeration / boolean inputs and outputs, FMI 3.0 arrays and Float32 / Int8 / UInt16 /

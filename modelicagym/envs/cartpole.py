@@ -48,7 +48,7 @@ class CartPoleEnv(FMUEnv):
         positive_reward / negative_reward: reward per surviving step / on failure.
         max_episode_steps: truncate after this many steps (None: never).
         x_threshold [m], theta_threshold [rad]: the failure bounds.
-        fmi_version: 2 or 3; mode: ``"cs"`` or ``"me"``.
+        fmi_version: 1, 2 or 3; mode: ``"cs"`` or ``"me"`` (FMI 1.0 builds the FMU of that mode).
         cs_step_size: the FMU's internal co-simulation integration step [s] (None: its default).
         render_mode: ``"rgb_array"`` draws the scene into a numpy image.
         fmu_options: further `FMUEnvConfig` keys (e.g. ``reset_rung``, ``solver``).
@@ -91,7 +91,7 @@ class CartPoleEnv(FMUEnv):
         self.x_threshold = float(x_threshold)
         self.theta_threshold = float(theta_threshold)
         super().__init__(
-            fmu=cartpole_fmu(fmi_version),
+            fmu=cartpole_fmu(fmi_version, mode),
             inputs=["f"],
             outputs=list(OUTPUTS),
             parameters=parameters,

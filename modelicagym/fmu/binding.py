@@ -4,12 +4,13 @@
 ctypes signature on its public ``dll``, a ``ctypes.CDLL``) and then calls the raw C functions
 itself (`FunctionTable`, which checks that each signature is really declared): fmpy's convenience methods build
 ctypes arrays on every call and raise on warnings, while the runtime needs preallocated arrays on
-the hot path and its own status handling. `fmi2.py` and `fmi3.py` fill in what differs between
-the two standards; everything above them (`instance.py`, `model_exchange.py`) is version-neutral.
+the hot path and its own status handling. `fmi1.py`, `fmi2.py` and `fmi3.py` fill in what
+differs between the standards; everything above them (`instance.py`, `model_exchange.py`) is
+version-neutral.
 
-Status codes are the FMI ones (fmi2Status and fmi3Status share their values). ``do_step``
-collapses the "did the model end the simulation" question that the two versions answer
-differently into one extra code, `TERMINATED`.
+Status codes are the FMI ones (fmiStatus, fmi2Status and fmi3Status share their values).
+``do_step`` collapses the "did the model end the simulation" question that the versions answer
+differently (FMI 1.0 not at all) into one extra code, `TERMINATED`.
 """
 
 from __future__ import annotations
@@ -63,14 +64,21 @@ class FunctionTable(dict):
 class FMIBinding:
     """One loaded FMU library and at most one live instance of it.
 
-    Subclasses set ``PREFIX``, ``FMPY_CLASSES`` and ``TYPE_FUNCTIONS``: for every FMI value type,
-    the suffix of its get/set functions and the ctypes type of its values.
+    Subclasses set ``PREFIX``, ``FMPY_CLASSES``, ``TYPE_FUNCTIONS`` (for every FMI value type,
+    the suffix of its get/set functions and the ctypes type of its values) and
+    ``CONTINUOUS_STATE_FUNCTIONS``; ``FREE_INSTANCE``, ``TERMINATE`` and ``RESET`` name the
+    lifecycle functions where they differ. Function names are ``PREFIX`` + suffix.
     """
 
     TYPE_FUNCTIONS: dict[str, tuple[str, Any]] = {}
     PREFIX = ""
     FMPY_CLASSES: dict[str, type] = {}
     """fmpy's class for each mode; it loads the library and declares the C signatures."""
+    FREE_INSTANCE = "FreeInstance"
+    TERMINATE = "Terminate"
+    RESET = "Reset"
+    CONTINUOUS_STATE_FUNCTIONS: dict[str, str] = {}
+    """Suffixes of the model-exchange functions `continuous_state_functions` binds, by key."""
 
     def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None):
         self.description = description
@@ -94,6 +102,13 @@ class FMIBinding:
             instanceName=self.instance_name,
             libraryPath=library,
         )
+
+    def _check_instantiated(self, function: str) -> None:
+        """Raise `FMUError` with the FMU's own messages if ``function`` returned no instance."""
+        if not self.component:
+            self.component = None
+            messages = " | ".join(self.log.take_recent())
+            raise FMUError(f"{self.fmu_name}: {function} failed{': ' + messages if messages else ''}")
 
     def function_address(self, name: str) -> int:
         """The address of the FMU's C function ``name`` (e.g. ``"fmi2DoStep"``), for native callers."""
@@ -186,7 +201,7 @@ class FMIBinding:
     def free_instance(self) -> None:
         """Free the instance but keep the library loaded, so it can be instantiated again."""
         if self.component is not None:
-            self.raw[self.PREFIX + "FreeInstance"](self.component)
+            self.raw[self.PREFIX + self.FREE_INSTANCE](self.component)
             self.component = None
 
     def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
@@ -196,10 +211,10 @@ class FMIBinding:
         self.call("ExitInitializationMode")
 
     def terminate(self) -> None:
-        self.call("Terminate")
+        self.call(self.TERMINATE)
 
     def reset(self) -> None:
-        self.call("Reset")
+        self.call(self.RESET)
 
     def do_step_call(self) -> Callable[[float, float], int]:
         """A fast ``(t, h) -> status`` co-simulation step returning OK, TERMINATED, DISCARD, ERROR or FATAL."""
@@ -241,7 +256,8 @@ class FMIBinding:
 
     def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
         """Raw ``(pointer, n)`` calls bound to this instance: set_time (``(t)``), get_x, set_x, get_dx, get_z, get_nominals."""
-        raise NotImplementedError
+        return {key: partial(self.raw[self.PREFIX + suffix], self.component)
+                for key, suffix in self.CONTINUOUS_STATE_FUNCTIONS.items()}
 
     def close(self) -> None:
         """Free the instance and release the log route; the library is left to the OS."""

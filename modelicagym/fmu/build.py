@@ -1,9 +1,11 @@
 """Build source FMUs from our C framework and a model folder, cached by content hash.
 
 A *model folder* holds a model's C sources (``model.c``, ``config.h``, any other
-``*.c``/``*.h``) and its model descriptions ``modelDescription_fmi2.xml`` and/or
-``modelDescription_fmi3.xml`` (see ``modelicagym/models/csrc/model.h`` for the C
-contract). :func:`build_source_fmu` assembles a source FMU (model description,
+``*.c``/``*.h``) and its model descriptions ``modelDescription_fmi2.xml``,
+``modelDescription_fmi3.xml`` and/or ``modelDescription_fmi1_cs.xml`` /
+``modelDescription_fmi1_me.xml`` (see ``modelicagym/models/csrc/model.h`` for the C
+contract). FMI 2.0 and 3.0 FMUs offer co-simulation and model exchange in one binary;
+an FMI 1.0 FMU is one or the other, so FMI 1.0 is built per mode. :func:`build_source_fmu` assembles a source FMU (model description,
 ``sources/`` = framework + model + generated ``build_config.h`` +
 ``buildDescription.xml``), compiles it with fmpy's CMake project and zips it into a
 ``.fmu`` that keeps its sources.
@@ -26,7 +28,7 @@ import subprocess
 import sys
 import tempfile
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Union
@@ -39,12 +41,15 @@ from modelicagym.fmu.cache import cache_dir, locked
 from modelicagym.fmu.errors import FMUError
 
 __all__ = [
+    "FMI_VERSIONS",
     "FMUBuildError",
     "FRAMEWORK_DIR",
     "MODELS_DIR",
     "build_all_models",
     "build_source_fmu",
     "cache_dir",
+    "compile_sources",
+    "description_name",
 ]
 
 logger = logging.getLogger(__name__)
@@ -54,7 +59,12 @@ DefineValue = Union[str, int, float, bool, None]
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 FRAMEWORK_DIR = MODELS_DIR / "csrc"
 _FRAMEWORK_FILES = ("model.h", "fmu_instance.h", "fmu_internal.h", "fmu_instance.c", "fmu_solver.c")
-_ADAPTERS = {2: "fmi2Functions.c", 3: "fmi3Functions.c"}
+_ADAPTERS = {1: "fmi1Functions.c", 2: "fmi2Functions.c", 3: "fmi3Functions.c"}
+#: The FMI versions a source FMU can be built for.
+FMI_VERSIONS = tuple(sorted(_ADAPTERS))
+_MODES = ("cs", "me")
+#: What build_config.h defines to choose the API of an FMI 1.0 binary.
+_FMI1_DEFINES = {"cs": "FMI1_CO_SIMULATION", "me": "FMI1_MODEL_EXCHANGE"}
 _GENERATED_HEADER = "build_config.h"
 _BUILD_DESCRIPTION = "buildDescription.xml"
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
@@ -64,9 +74,16 @@ class FMUBuildError(FMUError, BuildError):
     """A source FMU could not be assembled or compiled (the message holds the compiler output)."""
 
 
+def description_name(fmi_version: int, mode: str | None = None) -> str:
+    """The file name of a model folder's model description for ``fmi_version`` (and, for FMI 1.0,
+    ``mode``): ``modelDescription_fmi2.xml``, ``modelDescription_fmi1_cs.xml``, ..."""
+    return f"modelDescription_fmi{fmi_version}_{mode}.xml" if fmi_version == 1 else f"modelDescription_fmi{fmi_version}.xml"
+
+
 def build_source_fmu(
     model_dir: str | os.PathLike,
     fmi_version: int = 2,
+    mode: str | None = None,
     *,
     model_description: str | os.PathLike | None = None,
     defines: Mapping[str, DefineValue] | None = None,
@@ -76,16 +93,21 @@ def build_source_fmu(
 
     Args:
         model_dir: folder with the model's ``*.c``/``*.h`` files and model descriptions.
-        fmi_version: 2 or 3; selects ``modelDescription_fmi<version>.xml`` and the adapter.
+        fmi_version: 1, 2 or 3; selects the model description (:func:`description_name`) and
+            the adapter.
+        mode: FMI 1.0 only (an FMI 1.0 FMU is either co-simulation or model exchange):
+            ``"cs"`` (default) or ``"me"``. FMI 2.0/3.0 FMUs offer both in one binary and
+            ignore it.
         model_description: another model description file (relative to ``model_dir`` or
-            absolute); its ``fmiVersion`` must match ``fmi_version``.
+            absolute); its ``fmiVersion`` (and for FMI 1.0 its interface type) must match.
         defines: extra preprocessor definitions written to ``build_config.h``
             (``None`` defines a flag, ``bool`` becomes 1/0), e.g. to configure a test FMU.
         cache: cache folder, default :func:`cache_dir`.
     """
-    job = _BuildJob.create(Path(model_dir), fmi_version, model_description, defines or {})
+    job = _BuildJob.create(Path(model_dir), fmi_version, mode, model_description, defines or {})
     fmus = Path(cache) if cache is not None else cache_dir()
-    target = fmus / "fmus" / f"{job.identifier}-fmi{fmi_version}-{job.key}.fmu"
+    flavour = f"fmi1{job.mode}" if fmi_version == 1 else f"fmi{fmi_version}"
+    target = fmus / "fmus" / f"{job.identifier}-{flavour}-{job.key}.fmu"
     if target.is_file():
         return target
     with locked(fmus / "locks" / f"{job.key}.lock"):
@@ -94,14 +116,46 @@ def build_source_fmu(
     return target
 
 
-def build_all_models(cache: str | os.PathLike | None = None) -> list[Path]:
-    """Build every model shipped in ``modelicagym/models`` for each FMI version it describes."""
+def build_all_models(cache: str | os.PathLike | None = None,
+                     fmi_versions: Sequence[int] | None = None) -> list[Path]:
+    """Build every model shipped in ``modelicagym/models`` for each FMI version (and, for FMI 1.0,
+    each interface type) it describes; ``fmi_versions`` restricts the versions."""
+    versions = sorted(_ADAPTERS) if fmi_versions is None else sorted(set(fmi_versions))
+    for version in versions:
+        _check_version(version)
     built = []
     for model_dir in sorted(p for p in MODELS_DIR.iterdir() if p.is_dir() and p != FRAMEWORK_DIR):
-        for version in sorted(_ADAPTERS):
-            if (model_dir / f"modelDescription_fmi{version}.xml").is_file():
-                built.append(build_source_fmu(model_dir, version, cache=cache))
+        for version in versions:
+            for mode in _MODES if version == 1 else (None,):
+                if (model_dir / description_name(version, mode)).is_file():
+                    built.append(build_source_fmu(model_dir, version, mode, cache=cache))
     return built
+
+
+def _check_version(fmi_version: object) -> None:
+    if isinstance(fmi_version, bool) or fmi_version not in _ADAPTERS:
+        raise ArgumentError(f"fmi_version must be one of {', '.join(map(str, FMI_VERSIONS))}, not {fmi_version!r}")
+
+
+def compile_sources(unzipdir: str | os.PathLike, build_dir: str | os.PathLike | None = None) -> Path:
+    """Compile an extracted source FMU's ``sources/`` into its ``binaries/<platform>`` folder with
+    fmpy's CMake project; returns the binary.
+
+    FMI 2.0 and 3.0 FMUs list their sources (``<SourceFiles>``, ``buildDescription.xml``) and fmpy
+    reads the list; FMI 1.0 model descriptions list none, so every ``sources/*.c`` is compiled.
+    """
+    unzipdir = Path(unzipdir)
+    root = ElementTree.parse(unzipdir / "modelDescription.xml").getroot()
+    version = root.get("fmiVersion", "")
+    if version.startswith("1."):
+        identifier = root.get("modelIdentifier") or ""
+        c_files = sorted(p.name for p in (unzipdir / "sources").glob("*.c"))
+    else:
+        identifier = next((e.get("modelIdentifier") for e in root if e.tag in ("CoSimulation", "ModelExchange")), "")
+        c_files = None
+    with tempfile.TemporaryDirectory(prefix="modelicagym-build-") as tmp:
+        _compile(unzipdir, Path(build_dir) if build_dir else Path(tmp) / "build", identifier, c_files)
+    return _check_binary(unzipdir, identifier)
 
 
 @dataclass
@@ -112,6 +166,7 @@ class _BuildJob:
     sources: dict[str, bytes]
     defines: dict[str, str | None]
     fmi_version: int
+    mode: str | None
     identifier: str
     token: str
     key: str = field(init=False)
@@ -120,17 +175,22 @@ class _BuildJob:
         self.key = self._hash()
 
     @classmethod
-    def create(cls, model_dir: Path, fmi_version: int, model_description: str | os.PathLike | None,
-               defines: Mapping[str, DefineValue]) -> "_BuildJob":
-        if fmi_version not in _ADAPTERS:
-            raise ArgumentError(f"fmi_version must be one of {sorted(_ADAPTERS)}, not {fmi_version!r}")
-        md_path = model_dir / (model_description or f"modelDescription_fmi{fmi_version}.xml")
+    def create(cls, model_dir: Path, fmi_version: int, mode: str | None,
+               model_description: str | os.PathLike | None, defines: Mapping[str, DefineValue]) -> "_BuildJob":
+        _check_version(fmi_version)
+        if mode is not None and mode not in _MODES:
+            raise ArgumentError(f"mode must be one of {', '.join(map(repr, _MODES))}, not {mode!r}")
+        mode = (mode or "cs") if fmi_version == 1 else None
+        md_path = model_dir / (model_description or description_name(fmi_version, mode))
         if not md_path.is_file():
             raise NotFoundError(f"model description not found: {md_path}")
         description = md_path.read_bytes()
-        identifier, token = _read_description(description, fmi_version, md_path)
+        identifier, token = _read_description(description, fmi_version, mode, md_path)
         sources = _read_sources(model_dir, fmi_version)
-        return cls(description, sources, _normalize_defines(defines), fmi_version, identifier, token)
+        normalized = _normalize_defines(defines)
+        if fmi_version == 1:
+            normalized = {"MODEL_IDENTIFIER": identifier, _FMI1_DEFINES[mode]: None, **normalized}
+        return cls(description, sources, normalized, fmi_version, mode, identifier, token)
 
     def _hash(self) -> str:
         h = hashlib.sha256()
@@ -144,14 +204,16 @@ class _BuildJob:
 
     def build(self, target: Path) -> None:
         """Assemble, compile and zip into ``target`` (atomically)."""
-        logger.info("building %s (FMI %d) -> %s", self.identifier, self.fmi_version, target)
+        logger.info("building %s (FMI %d%s) -> %s", self.identifier, self.fmi_version,
+                    f" {self.mode}" if self.mode else "", target)
         tmp_root = target.parent.parent / "tmp"
         tmp_root.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=f"{self.identifier}-", dir=tmp_root))
         try:
             unzipdir = work / "fmu"
             self._assemble(unzipdir)
-            _compile(unzipdir, work / "build")
+            _compile(unzipdir, work / "build", self.identifier,
+                     sorted(n for n in self.sources if n.endswith(".c")) if self.fmi_version == 1 else None)
             _check_binary(unzipdir, self.identifier)
             partial = work / "partial.fmu"
             _zip(unzipdir, partial)
@@ -174,14 +236,25 @@ class _BuildJob:
         (unzipdir / "modelDescription.xml").write_bytes(description)
 
 
-def _read_description(description: bytes, fmi_version: int, path: Path) -> tuple[str, str]:
-    """Check the FMI version; return the model identifier and the guid / instantiation token."""
+def _read_description(description: bytes, fmi_version: int, mode: str | None, path: Path) -> tuple[str, str]:
+    """Check the FMI version (and FMI 1.0's interface type); return the model identifier and the
+    guid / instantiation token."""
     try:
         root = ElementTree.fromstring(description)
     except ElementTree.ParseError as e:
         raise FMUBuildError(f"{path}: {e}") from e
     if not root.get("fmiVersion", "").startswith(f"{fmi_version}."):
         raise FMUBuildError(f"{path}: fmiVersion is {root.get('fmiVersion')!r}, expected FMI {fmi_version}")
+    if fmi_version == 1:
+        # FMI 1.0: the identifier is an attribute of the root; <Implementation> makes it co-simulation.
+        described = "cs" if root.find("Implementation") is not None else "me"
+        if described != mode:
+            raise FMUBuildError(f"{path} describes an FMI 1.0 {'co-simulation' if described == 'cs' else 'model-exchange'} "
+                                f"FMU, not mode={mode!r}")
+        identifier = root.get("modelIdentifier")
+        if not identifier or not _IDENTIFIER.match(identifier):
+            raise FMUBuildError(f"{path}: modelIdentifier {identifier!r} is not a C identifier")
+        return identifier, root.get("guid") or ""
     identifiers = {e.get("modelIdentifier") for e in root if e.tag in ("CoSimulation", "ModelExchange")}
     if len(identifiers) != 1 or None in identifiers:
         raise FMUBuildError(f"{path}: CoSimulation and ModelExchange need one common modelIdentifier, "
@@ -277,19 +350,24 @@ def _link_options() -> dict[str, str]:
     return {} if sys.platform == "win32" else {"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm"}
 
 
-def _compile(unzipdir: Path, build_dir: Path) -> None:
+def _compile(unzipdir: Path, build_dir: Path, identifier: str, c_files: list[str] | None) -> None:
     """Compile ``unzipdir/sources`` into ``unzipdir/binaries/<platform>`` with fmpy's CMake project.
 
     This is what ``fmpy.build.build_platform_binary`` does, with the tool output captured
-    for logging and error messages instead of printed.
+    for logging and error messages instead of printed. ``c_files`` (FMI 1.0, whose model
+    descriptions fmpy reads no source list from) are the sources to compile; ``None`` lets fmpy
+    read them from the FMU.
     """
-    try:
-        from fmpy.build import create_cmake_settings
-    except ImportError as e:
-        raise FMUBuildError(f"building source FMUs needs fmpy.build.create_cmake_settings "
-                            f"(fmpy 0.3.32 has it), but fmpy is {fmpy.__version__}") from e
     build_dir.mkdir(parents=True)
-    create_cmake_settings(unzipdir, build_dir, all_warnings=True, cmake_options=_link_options())
+    if c_files is None:
+        try:
+            from fmpy.build import create_cmake_settings
+        except ImportError as e:
+            raise FMUBuildError(f"building source FMUs needs fmpy.build.create_cmake_settings "
+                                f"(fmpy 0.3.32 has it), but fmpy is {fmpy.__version__}") from e
+        create_cmake_settings(unzipdir, build_dir, all_warnings=True, cmake_options=_link_options())
+    else:
+        _write_cmake_settings(unzipdir, build_dir, identifier, c_files)
     cmake = _cmake()
     project = Path(fmpy.__file__).parent / "c-code"
     output = []
@@ -304,10 +382,31 @@ def _compile(unzipdir: Path, build_dir: Path) -> None:
         logger.warning("compiler warnings while building %s:\n%s", unzipdir, output[-1])
 
 
-def _check_binary(unzipdir: Path, identifier: str) -> None:
-    binaries = list((unzipdir / "binaries").glob(f"*/{identifier}.*"))
+def _write_cmake_settings(unzipdir: Path, build_dir: Path, identifier: str, c_files: list[str]) -> None:
+    """The CMake cache ``fmpy.build.create_cmake_settings`` writes, for an FMI 1.0 source FMU
+    (binaries in ``binaries/<fmpy.platform>``, as for FMI 2.0)."""
+    sources = unzipdir / "sources"
+    if not c_files:
+        raise FMUBuildError(f"{sources} has no C sources to compile")
+    entries = {
+        "CMAKE_BUILD_TYPE:STRING": "Release",
+        "CMAKE_C_STANDARD:STRING": "99",
+        "FMI_MODEL_IDENTIFIER:STRING": identifier,
+        "FMI_INCLUDE_DIRS:STRING": sources.as_posix(),
+        "FMI_SOURCES:STRING": ";".join((sources / name).as_posix() for name in c_files),
+        "FMI_DEFINITIONS:STRING": "",
+        "FMI_TARGET_DIR:STRING": (unzipdir / "binaries" / fmpy.platform).as_posix(),
+        "FMI_ALL_WARNINGS:BOOL": "ON",
+        **_link_options(),
+    }
+    (build_dir / "CMakeCache.txt").write_text("".join(f"{name}={value}\n" for name, value in entries.items()))
+
+
+def _check_binary(unzipdir: Path, identifier: str) -> Path:
+    binaries = sorted((unzipdir / "binaries").glob(f"*/{identifier}.*"))
     if not binaries:
         raise FMUBuildError(f"the build produced no binary for {identifier} in {unzipdir / 'binaries'}")
+    return binaries[0]
 
 
 def _zip(unzipdir: Path, path: Path) -> None:

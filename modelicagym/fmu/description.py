@@ -63,14 +63,16 @@ class FMUDescription:
         self.unzip_dir = unzip_dir
         self.raw = model_description
         self.name = path.name
-        self.variables: dict[str, Variable] = {v.name: from_fmpy(v) for v in model_description.modelVariables}
+        self.variables: dict[str, Variable] = {
+            v.name: from_fmpy(v, self.fmi_version) for v in model_description.modelVariables
+        }
 
     def __repr__(self) -> str:
         return f"FMUDescription({str(self.path)!r}, fmi={self.fmi_version}, modes={self.modes})"
 
     @property
     def fmi_version(self) -> int:
-        """2 or 3 (FMI 1.0 is not supported)."""
+        """1, 2 or 3."""
         return int(self.raw.fmiVersion.split(".")[0])
 
     @property
@@ -108,8 +110,18 @@ class FMUDescription:
         return self.modes[0]
 
     def can_snapshot(self, mode: str) -> bool:
-        """Whether the FMU can save and restore its state (``canGetAndSetFMUstate``)."""
-        return bool(self.interface(mode).canGetAndSetFMUstate)
+        """Whether the FMU can save and restore its state (``canGetAndSetFMUstate``; never in FMI 1.0)."""
+        return self.fmi_version > 1 and bool(self.interface(mode).canGetAndSetFMUstate)
+
+    def can_reset(self, mode: str) -> bool:
+        """Whether the FMU has a reset function for ``mode``: FMI 1.0 model exchange has none
+        (co-simulation has ``fmiResetSlave``)."""
+        self.interface(mode)
+        return not (self.fmi_version == 1 and mode == "me")
+
+    def needs_completed_integrator_step(self) -> bool:
+        """Model exchange: whether ``fmiCompletedIntegratorStep`` must be called (always in FMI 1.0)."""
+        return self.fmi_version == 1 or bool(self.interface("me").needsCompletedIntegratorStep)
 
     def once_per_process(self, mode: str | None = None) -> bool:
         """Whether only one instance may live in a process (``canBeInstantiatedOnlyOncePerProcess``)."""
@@ -138,7 +150,7 @@ class FMUDescription:
     @property
     def platform_dir(self) -> str:
         """The ``binaries/`` sub-folder this machine needs (``linux64`` / ``x86_64-linux`` ...)."""
-        return fmpy.platform if self.fmi_version == 2 else fmpy.platform_tuple
+        return fmpy.platform if self.fmi_version < 3 else fmpy.platform_tuple
 
     @cached_property
     def platforms(self) -> tuple[str, ...]:
@@ -258,8 +270,6 @@ def open_fmu(
     except Exception as error:
         hint = " (pass validate=False to skip schema validation)" if validate else ""
         raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: {error}{hint}") from error
-    if model_description.fmiVersion.startswith("1."):
-        raise InvalidFMUError(f"{path} is an FMI 1.0 FMU; modelicagym supports FMI 2.0 and 3.0")
     return FMUDescription(path, unzip_dir, model_description)
 
 

@@ -11,13 +11,13 @@ from collections.abc import Iterable
 
 from modelicagym.errors import ModelicaGymError
 
-#: FMI status codes (``fmi2Status`` and ``fmi3Status`` share their values)
+#: FMI status codes (FMI 1.0's ``fmiStatus``, ``fmi2Status`` and ``fmi3Status`` share their values)
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 STATUS_NAMES = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 
 
 def status_name(status: int) -> str:
-    """The FMI name of a status code (``fmi2Status`` and ``fmi3Status`` share their values)."""
+    """The FMI name of a status code (the status types of FMI 1.0, 2.0 and 3.0 share their values)."""
     return STATUS_NAMES[status] if 0 <= status < len(STATUS_NAMES) else f"illegal status {status}"
 
 

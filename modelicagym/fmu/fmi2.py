@@ -20,7 +20,6 @@ from fmpy.fmi2 import (
 from fmpy.logging import addLoggerProxy
 
 from modelicagym.fmu.binding import DISCARD, OK, TERMINATED, WARNING, FMIBinding
-from modelicagym.fmu.errors import FMUError
 from modelicagym.fmu.logs import FMI2_LOGGER
 
 _ALLOCATE = fmi2CallbackAllocateMemoryTYPE(calloc)
@@ -36,6 +35,10 @@ class FMI2Binding(FMIBinding):
         "Enumeration": ("Integer", ctypes.c_int),
         "Boolean": ("Boolean", ctypes.c_int),
         "String": ("String", ctypes.c_char_p),
+    }
+    CONTINUOUS_STATE_FUNCTIONS = {
+        "set_time": "SetTime", "get_x": "GetContinuousStates", "set_x": "SetContinuousStates",
+        "get_dx": "GetDerivatives", "get_z": "GetEventIndicators", "get_nominals": "GetNominalsOfContinuousStates",
     }
 
     def instantiate(self, logging_on: bool = False) -> None:
@@ -56,10 +59,7 @@ class FMI2Binding(FMIBinding):
             0,
             1 if logging_on else 0,
         )
-        if not self.component:
-            self.component = None
-            messages = " | ".join(self.log.take_recent())
-            raise FMUError(f"{self.fmu_name}: fmi2Instantiate failed{': ' + messages if messages else ''}")
+        self._check_instantiated("fmi2Instantiate")
 
     def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         self.call(
@@ -103,13 +103,3 @@ class FMI2Binding(FMIBinding):
         self.call("CompletedIntegratorStep", 1, ctypes.byref(enter_event_mode), ctypes.byref(terminate))
         return bool(enter_event_mode.value), bool(terminate.value)
 
-    def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
-        c, raw = self.component, self.raw
-        return {
-            "set_time": partial(raw["fmi2SetTime"], c),
-            "get_x": partial(raw["fmi2GetContinuousStates"], c),
-            "set_x": partial(raw["fmi2SetContinuousStates"], c),
-            "get_dx": partial(raw["fmi2GetDerivatives"], c),
-            "get_z": partial(raw["fmi2GetEventIndicators"], c),
-            "get_nominals": partial(raw["fmi2GetNominalsOfContinuousStates"], c),
-        }

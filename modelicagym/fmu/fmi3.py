@@ -9,7 +9,6 @@ from functools import partial
 from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3IntermediateUpdateCallback
 
 from modelicagym.fmu.binding import DISCARD, OK, TERMINATED, WARNING, FMIBinding
-from modelicagym.fmu.errors import FMUError
 from modelicagym.fmu.logs import FMI3_LOGGER
 
 _NO_INTERMEDIATE_UPDATE = fmi3IntermediateUpdateCallback()
@@ -28,6 +27,11 @@ class FMI3Binding(FMIBinding):
         )},
         "Enumeration": ("Int64", ctypes.c_int64),
     }
+    CONTINUOUS_STATE_FUNCTIONS = {
+        "set_time": "SetTime", "get_x": "GetContinuousStates", "set_x": "SetContinuousStates",
+        "get_dx": "GetContinuousStateDerivatives", "get_z": "GetEventIndicators",
+        "get_nominals": "GetNominalsOfContinuousStates",
+    }
 
     def _value_count_args(self, n_values: int) -> tuple[int, ...]:
         return (n_values,)
@@ -41,10 +45,7 @@ class FMI3Binding(FMIBinding):
             )
         else:
             self.component = self.raw["fmi3InstantiateModelExchange"](*common, self.log.environment, FMI3_LOGGER)
-        if not self.component:
-            self.component = None
-            messages = " | ".join(self.log.take_recent())
-            raise FMUError(f"{self.fmu_name}: fmi3Instantiate failed{': ' + messages if messages else ''}")
+        self._check_instantiated("fmi3Instantiate")
 
     def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         self.call(
@@ -87,13 +88,3 @@ class FMI3Binding(FMIBinding):
         self.call("CompletedIntegratorStep", True, ctypes.byref(enter_event_mode), ctypes.byref(terminate))
         return enter_event_mode.value, terminate.value
 
-    def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
-        c, raw = self.component, self.raw
-        return {
-            "set_time": partial(raw["fmi3SetTime"], c),
-            "get_x": partial(raw["fmi3GetContinuousStates"], c),
-            "set_x": partial(raw["fmi3SetContinuousStates"], c),
-            "get_dx": partial(raw["fmi3GetContinuousStateDerivatives"], c),
-            "get_z": partial(raw["fmi3GetEventIndicators"], c),
-            "get_nominals": partial(raw["fmi3GetNominalsOfContinuousStates"], c),
-        }

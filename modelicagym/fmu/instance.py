@@ -37,6 +37,7 @@ from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.description import FMUDescription, open_fmu
 from modelicagym.fmu.errors import FMUCallError, FMUError, UnsupportedFeatureError
+from modelicagym.fmu.fmi1 import FMI1Binding
 from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.fmi3 import FMI3Binding
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
@@ -45,7 +46,7 @@ logger = logging.getLogger(__name__)
 
 RUNGS = ("snapshot", "reset", "reinstantiate")
 
-_BINDINGS: dict[int, type[FMIBinding]] = {2: FMI2Binding, 3: FMI3Binding}
+_BINDINGS: dict[int, type[FMIBinding]] = {1: FMI1Binding, 2: FMI2Binding, 3: FMI3Binding}
 
 
 def _freeze(values: Mapping[str, Any]) -> tuple:
@@ -112,7 +113,7 @@ class FMUInstance:
         self.description = description = open_fmu(fmu, validate=validate)
         self.clock = StepClock()
         self.mode = mode or description.default_mode()
-        interface = description.interface(self.mode)
+        description.interface(self.mode)  # a clear error for a mode the FMU lacks
         self.input_variables = [description.input_variable(n) for n in inputs]
         self.output_variables = [description.observable_variable(n) for n in outputs]
         self.start_time = description.default_experiment.start_time if start_time is None else float(start_time)
@@ -135,7 +136,7 @@ class FMUInstance:
                 self.binding,
                 description.number_of_states,
                 description.number_of_event_indicators,
-                bool(interface.needsCompletedIntegratorStep),
+                description.needs_completed_integrator_step(),
                 solver=solver,
                 tolerance=tolerance or 1e-10,
                 step_size=solver_step,
@@ -300,14 +301,20 @@ class FMUInstance:
 
     def _first_rung(self, requested: str) -> str:
         can_snapshot = self.description.can_snapshot(self.mode)
+        can_reset = self.description.can_reset(self.mode)
         if requested == "auto":
-            return "snapshot" if can_snapshot else "reset"
+            return "snapshot" if can_snapshot else "reset" if can_reset else "reinstantiate"
         if requested not in RUNGS:
             raise ConfigError(f"reset_rung must be 'auto' or one of {RUNGS}, got {requested!r}")
         if requested == "snapshot" and not can_snapshot:
+            why = "FMI 1.0 has no FMU state" if self.description.fmi_version == 1 else "canGetAndSetFMUstate is false"
             raise UnsupportedFeatureError(
-                f"{self.fmu_name} cannot save and restore its state (canGetAndSetFMUstate is false); "
-                "use reset_rung='reset' or 'reinstantiate'"
+                f"{self.fmu_name} cannot save and restore its state ({why}); "
+                f"use reset_rung={'reset' if can_reset else 'reinstantiate'!r}" + (" or 'reinstantiate'" if can_reset else "")
+            )
+        if requested == "reset" and not can_reset:
+            raise UnsupportedFeatureError(
+                f"{self.fmu_name} has no reset function (FMI 1.0 model exchange); use reset_rung='reinstantiate'"
             )
         return requested
 

@@ -3,7 +3,10 @@
 An FMU reports through a logger callback. FMI 2.0's callback is variadic, which ctypes cannot
 receive, so fmpy's native proxy formats the message first; that proxy keeps one process-wide
 target, so a single callback per FMI version serves every instance here and routes each message
-by the environment pointer the instance was created with. Each instance keeps its last messages
+by the environment pointer the instance was created with. FMI 1.0's callback has the same
+signature but passes the instance (component) pointer where FMI 2.0 passes the environment: an
+FMI 1.0 instance is routed by its component once instantiated (`FMULog.route_component`), and
+while it is being instantiated by `FMULog.instantiating`. Each instance keeps its last messages
 so that an FMI error can be reported with the FMU's own explanation.
 """
 
@@ -12,6 +15,8 @@ from __future__ import annotations
 import itertools
 import logging
 from collections import deque
+from collections.abc import Iterator
+from contextlib import contextmanager
 from ctypes import c_void_p
 
 from fmpy.fmi2 import fmi2CallbackLoggerTYPE
@@ -23,6 +28,7 @@ _LEVELS = (logging.DEBUG, logging.WARNING, logging.WARNING, logging.ERROR, loggi
 
 _routes: dict[int, FMULog] = {}
 _keys = itertools.count(1)
+_instantiating: list[FMULog] = []
 
 
 class FMULog:
@@ -33,6 +39,7 @@ class FMULog:
         self.instance_name = instance_name
         self.recent: deque[str] = deque(maxlen=keep)
         self.key = next(_keys)
+        self._components: list[int] = []
         _routes[self.key] = self
 
     @property
@@ -52,7 +59,30 @@ class FMULog:
         self.recent.clear()
         return messages
 
+    def route_component(self, component: int | None) -> None:
+        """Route messages whose first argument is ``component`` here (FMI 1.0 loggers get the
+        instance pointer); `unroute_components` before the instance is freed."""
+        if component:
+            _routes[component] = self
+            self._components.append(component)
+
+    def unroute_components(self) -> None:
+        for component in self._components:
+            if _routes.get(component) is self:
+                del _routes[component]
+        self._components.clear()
+
+    @contextmanager
+    def instantiating(self) -> Iterator[None]:
+        """Messages of instances not yet routed go here meanwhile (FMI 1.0 instantiation)."""
+        _instantiating.append(self)
+        try:
+            yield
+        finally:
+            _instantiating.remove(self)
+
     def close(self) -> None:
+        self.unroute_components()
         _routes.pop(self.key, None)
 
 
@@ -62,6 +92,8 @@ def _decode(text: bytes | None) -> str:
 
 def _route(environment: int | None, status: int, category: bytes | None, message: bytes | None) -> None:
     log = _routes.get(environment or 0)
+    if log is None and _instantiating:
+        log = _instantiating[-1]
     if log is None:
         logging.getLogger("modelicagym.fmu").log(
             _LEVELS[status] if 0 <= status < len(_LEVELS) else logging.ERROR, "%s", _decode(message)
@@ -71,6 +103,7 @@ def _route(environment: int | None, status: int, category: bytes | None, message
 
 
 def _fmi2_logger(environment: int | None, instance_name: bytes, status: int, category: bytes, message: bytes) -> None:
+    """FMI 2.0's logger (environment first) and FMI 1.0's (component first): same C signature."""
     _route(environment, status, category, message)
 
 
@@ -79,5 +112,7 @@ def _fmi3_logger(environment: int | None, status: int, category: bytes, message:
 
 
 FMI2_LOGGER = fmi2CallbackLoggerTYPE(_fmi2_logger)
+#: FMI 1.0's logger type is FMI 2.0's (ctypes caches function types by signature).
+FMI1_LOGGER = FMI2_LOGGER
 FMI3_LOGGER = fmi3LogMessageCallback(_fmi3_logger)
 

@@ -137,8 +137,19 @@ def parse_start(kind: str, text: Any) -> Any:
     return values[0] if len(values) == 1 else values
 
 
-def from_fmpy(v: Any) -> Variable:
-    """Convert an fmpy ``ModelVariable`` (FMI 2.0 or 3.0) into a `Variable`."""
+def _fmi1_initial(causality: str, start: Any) -> str | None:
+    """FMI 1.0 has no ``initial``: what FMI 2.0 would say. Parameters (FMI 1.0 variability
+    "parameter", which fmpy reads as causality "parameter") and other variables with a start value
+    may be set before ``fmiInitialize`` (exact / a guess); inputs need no ``initial``."""
+    if causality == "input":
+        return None
+    if start is None:
+        return "calculated"
+    return "exact" if causality == "parameter" else "approx"
+
+
+def from_fmpy(v: Any, fmi_version: int = 2) -> Variable:
+    """Convert an fmpy ``ModelVariable`` (FMI 1.0, 2.0 or 3.0) into a `Variable`."""
     declared = v.declaredType
     kind = _kind(v.type)
     items: tuple[tuple[str, int], ...] = ()
@@ -151,7 +162,7 @@ def from_fmpy(v: Any) -> Variable:
         kind=kind,
         causality=v.causality or "local",
         variability=v.variability or ("continuous" if kind == "float" else "discrete"),
-        initial=v.initial,
+        initial=_fmi1_initial(v.causality, v.start) if fmi_version == 1 and v.initial is None else v.initial,
         shape=tuple(int(n) for n in (v.shape or ())),
         start=parse_start(kind, v.start),
         min=_to_float(_first(v.min, getattr(declared, "min", None))),

@@ -97,6 +97,8 @@ def python_path_reason(env: FMUEnv) -> str | None:
     cls = type(env)
     if config.step_path == "python":
         return "the config asks for step_path='python'"
+    if fmu.description.fmi_version == 1:
+        return "FMI 1.0: the native step library calls FMI 2.0/3.0 functions only"
     if fmu.mode != "cs":
         return "model exchange runs on the Python path (its solver loop is in Python)"
     for name in _OVERRIDABLE:

@@ -1,9 +1,10 @@
 """The Cart-Pole model (the ModelicaGym toolbox's ``CartPole.mo``) as a source FMU.
 
 ``cartpole_fmu(2)`` / ``cartpole_fmu(3)`` return the path of the built FMU (FMI 2.0 / 3.0,
-co-simulation and model exchange in one binary), building it on first use and caching it
-(see :mod:`modelicagym.fmu.build`). The variable names below are those of both model
-descriptions; the value references are identical in both.
+co-simulation and model exchange in one binary), ``cartpole_fmu(1, "cs")`` /
+``cartpole_fmu(1, "me")`` the FMI 1.0 one (which is either), building it on first use and caching
+it (see :mod:`modelicagym.fmu.build`). The variable names below are those of every model
+description; the value references are identical in all of them.
 """
 
 from __future__ import annotations
@@ -46,6 +47,10 @@ VALUE_REFERENCES = {
 }
 
 
-def cartpole_fmu(fmi_version: int = 2) -> Path:
-    """Path of the Cart-Pole ``.fmu`` for FMI ``fmi_version`` (2 or 3), built on first use."""
-    return build_source_fmu(MODEL_DIR, fmi_version)
+def cartpole_fmu(fmi_version: int = 2, mode: str | None = None) -> Path:
+    """Path of the Cart-Pole ``.fmu`` for FMI ``fmi_version`` (1, 2 or 3), built on first use.
+
+    ``mode`` (``"cs"``, the default, or ``"me"``) matters for FMI 1.0 only, whose FMUs are either
+    co-simulation or model exchange.
+    """
+    return build_source_fmu(MODEL_DIR, fmi_version, mode)

@@ -8,7 +8,7 @@
 #define NX 4 /* x, x_dot, theta, theta_dot */
 #define NZ 0 /* no state events */
 
-/* Value references (identical in the FMI 2.0 and FMI 3.0 model descriptions). */
+/* Value references (identical in the FMI 1.0, 2.0 and 3.0 model descriptions). */
 enum {
     VR_F = 1,
     VR_X = 2,
@@ -30,6 +30,9 @@ enum {
     VR_X_DOT_0 = 18,
     VR_CS_STEP_SIZE = 19
 };
+
+/* The states' value references, for FMI 1.0's fmiGetStateValueReferences. */
+#define STATE_VALUE_REFERENCES {VR_X, VR_X_DOT, VR_THETA, VR_THETA_DOT}
 
 typedef struct {
     double f; /* input force on the cart [N] */

@@ -17,17 +17,10 @@ static void log_to_fmi2(ModelInstance *comp, Status status, const char *category
                         const char *message) {
     fmi2CallbackLogger logger = (fmi2CallbackLogger)comp->log_callback;
     char escaped[2048];
-    size_t i, n = 0;
     if (!logger) {
         return;
     }
-    for (i = 0; message[i] && n + 2 < sizeof escaped; i++) {
-        if (message[i] == '%') {
-            escaped[n++] = '%';
-        }
-        escaped[n++] = message[i];
-    }
-    escaped[n] = '\0';
+    fmu_escape_percent(message, escaped, sizeof escaped);
     logger(comp->log_env, comp->instance_name, (fmi2Status)status, category, escaped);
 }
 

@@ -57,6 +57,20 @@ Status fmu_fail(ModelInstance *comp, const char *format, ...) {
     return StatusError;
 }
 
+void fmu_escape_percent(const char *message, char *out, size_t size) {
+    size_t i, n = 0;
+    if (size == 0) {
+        return;
+    }
+    for (i = 0; message[i] && n + 2 < size; i++) {
+        if (message[i] == '%') {
+            out[n++] = '%';
+        }
+        out[n++] = message[i];
+    }
+    out[n] = '\0';
+}
+
 Status fmu_unsupported(ModelInstance *comp, const char *function) {
     if (!comp) {
         return StatusError;

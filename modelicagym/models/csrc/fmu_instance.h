@@ -1,7 +1,8 @@
 /*
  * fmu_instance.h -- the FMI-version-independent core of the framework.
  *
- * The FMI 2.0 and FMI 3.0 adapters (fmi2Functions.c, fmi3Functions.c) are thin
+ * The FMI 1.0, 2.0 and 3.0 adapters (fmi1Functions.c, fmi2Functions.c,
+ * fmi3Functions.c) are thin
  * translations of the FMI API onto these functions: lifecycle and interface
  * state checks, typed get/set through the model's variable table, the RK4
  * co-simulation step, the model-exchange calls, and FMU state snapshots.
@@ -67,6 +68,14 @@ Status fmu_serialize_state(ModelInstance *comp, const void *state, unsigned char
                            size_t size);
 Status fmu_deserialize_state(ModelInstance *comp, const unsigned char *buffer, size_t size,
                              void **state);
+
+/* Copy `message` into `out` (`size` bytes) with every '%' doubled: FMI 1.0 and 2.0 loggers
+ * treat the message as a printf format. */
+void fmu_escape_percent(const char *message, char *out, size_t size);
+
+/* Model exchange without explicit event mode (FMI 1.0): enter event mode if needed, run event
+ * updates (until settled unless `intermediate`), return to continuous-time mode when settled. */
+Status fmu_me_event_update(ModelInstance *comp, bool intermediate, EventFlags *flags);
 
 /* Report a call the framework does not implement. */
 Status fmu_unsupported(ModelInstance *comp, const char *function);

@@ -363,3 +363,35 @@ Status fmu_completed_integrator_step(ModelInstance *comp, bool *enter_event_mode
     return StatusOK;
 }
 
+
+Status fmu_me_event_update(ModelInstance *comp, bool intermediate, EventFlags *flags) {
+    Status status = StatusOK, s;
+    bool values_changed = false;
+    int i;
+    if (!comp) {
+        return StatusError;
+    }
+    if (comp->s.mode == ModeContinuousTime) {
+        status = fmu_enter_event_mode(comp);
+        if (status > StatusWarning) {
+            return status;
+        }
+    }
+    for (i = 0; i < MAX_EVENT_ITERATIONS; i++) {
+        s = fmu_update_discrete_states(comp, flags);
+        status = s > status ? s : status;
+        values_changed = values_changed || flags->values_changed;
+        flags->values_changed = values_changed;
+        if (status > StatusWarning || flags->terminate_simulation) {
+            return status;
+        }
+        if (!flags->new_discrete_states_needed) {
+            s = fmu_enter_continuous_time_mode(comp);
+            return s > status ? s : status;
+        }
+        if (intermediate) {
+            return status;
+        }
+    }
+    return fmu_fail(comp, "event iteration did not converge after %d updates", MAX_EVENT_ITERATIONS);
+}
