@@ -203,6 +203,8 @@ def test_keyboard_interrupt_while_waiting_stops_the_pool(tmp_path: Path) -> None
     marker = tmp_path / "struck"
     pool = PoolVectorEnv([partial(FaultyEnv, "hang", at_step=1, marker=str(marker))] * 2, num_workers=2)
     pool.reset(seed=0)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
     stop = threading.Event()
     interrupter = threading.Thread(target=interrupt_when_created, args=(marker, stop), daemon=True)
     interrupter.start()
@@ -222,7 +224,7 @@ def interrupt_when_created(path: Path, stop: threading.Event) -> None:
     while not path.exists():
         time.sleep(0.01)
     while not stop.is_set():
-        os.kill(os.getpid(), signal.SIGINT)
+        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
         stop.wait(1.0)
 
 

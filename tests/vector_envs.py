@@ -296,3 +296,17 @@ class GrowingEnv(gym.Env):
     def step(self, action: dict) -> tuple[tuple, float, bool, bool, dict]:
         self.seen += (min(len(action["graph"].nodes), 7),)
         return self.seen, float(action["go"]), len(self.seen) >= 5, False, {}
+
+
+class GatedEnv(CountEnv):
+    """A :class:`CountEnv` whose steps wait until the file ``gate`` exists (a slow env whose
+    slowness the test controls, with no timing in it)."""
+
+    def __init__(self, gate: str, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.gate = gate
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        while not os.path.exists(self.gate):
+            time.sleep(0.001)
+        return super().step(action)

@@ -54,6 +54,7 @@ class MgBatch(ctypes.Structure):
         ("terminations", ctypes.c_void_p),
         ("truncations", ctypes.c_void_p),
         ("needs_reset", ctypes.c_void_p),
+        ("active", ctypes.c_void_p),
         ("flags", ctypes.c_void_p),
         ("current_env", ctypes.c_void_p),
         ("first_env", ctypes.c_int64),
@@ -116,7 +117,7 @@ class NativeBatch:
         first_env: the pool index of ``envs[0]``: the row of the shared arrays it uses.
         autoreset_mode: the pool's autoreset mode.
         arrays: the pool's shared arrays by name: ``actions``, ``observations``, ``rewards``,
-            ``terminations``, ``truncations`` (all envs), ``current_env`` and ``timing`` (this
+            ``terminations``, ``truncations``, ``step_mask`` (all envs), ``current_env`` and ``timing`` (this
             slice's slot), ``timing_enabled``.
         needs_reset: per env of the slice, uint8: it ended and is reset by its next step.
     """
@@ -151,6 +152,7 @@ class NativeBatch:
         batch.terminations = _row_address(arrays["terminations"], first_env)
         batch.truncations = _row_address(arrays["truncations"], first_env)
         batch.needs_reset = needs_reset.ctypes.data
+        batch.active = _row_address(arrays["step_mask"], first_env)
         batch.flags = self.flags.ctypes.data
         batch.current_env = arrays["current_env"].ctypes.data
         batch.first_env = first_env

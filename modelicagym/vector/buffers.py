@@ -267,6 +267,8 @@ class SharedBuffers:
         self.terminations = allocator.array(np.bool_, (n,))
         self.truncations = allocator.array(np.bool_, (n,))
         self.reset_mask = allocator.array(np.bool_, (n,))
+        #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.batches`)
+        self.step_mask = allocator.array(np.uint8, (n,))
         self.command = allocator.array(np.int32, (w,))
         self.reply = allocator.array(np.int32, (w,))
         self.current_env = allocator.array(np.int64, (w,))
@@ -290,6 +292,7 @@ class SharedBuffers:
             "rewards": self.rewards,
             "terminations": self.terminations,
             "truncations": self.truncations,
+            "step_mask": self.step_mask,
             "current_env": self.current_env[slot : slot + 1],
             "timing": self.timing[slot],
             "timing_enabled": self.timing_enabled,
@@ -308,7 +311,9 @@ class SharedBuffers:
         fd = _anonymous_fd()
         try:
             os.ftruncate(fd, size)
-            return cls.attach(spec, fd), fd
+            buffers = cls.attach(spec, fd)
+            buffers.step_mask[:] = 1
+            return buffers, fd
         except BaseException:
             os.close(fd)
             raise

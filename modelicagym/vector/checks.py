@@ -107,6 +107,19 @@ def check_pool_options(
             raise ConfigTypeError(f"{name} must be True or False, got {value!r}")
 
 
+def check_batch_size(batch_size: Any, num_envs: int, caller_steps: Any) -> int:
+    """``batch_size`` (envs per `recv`, see `modelicagym.vector.batches`), ``num_envs`` if ``None``."""
+    if batch_size is None:
+        return num_envs
+    if isinstance(batch_size, bool) or not isinstance(batch_size, Integral):
+        raise ConfigTypeError(f"batch_size must be an int, not {type(batch_size).__name__}")
+    if not 1 <= batch_size <= num_envs:
+        raise ConfigError(f"batch_size must lie in [1, num_envs={num_envs}], got {batch_size}")
+    if caller_steps:
+        raise ConfigError("batch_size and caller_steps=True: partial batches need every env in a worker")
+    return int(batch_size)
+
+
 def check_env_fns(env_fns: list[Any]) -> None:
     """Every env fn is a callable that can be sent to a worker process (with cloudpickle)."""
     if not env_fns:

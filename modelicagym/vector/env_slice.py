@@ -170,12 +170,14 @@ class EnvSlice:
         buffers = self.buffers
         actions, observations = buffers.actions, buffers.observations
         rewards, terminations, truncations = buffers.rewards, buffers.terminations, buffers.truncations
-        current_env = buffers.current_env
+        current_env, step_mask = buffers.current_env, buffers.step_mask
         timed = bool(buffers.timing_enabled[0])
         env_ns = fmu_ns = 0
         for offset in range(start, len(self.envs)):
-            env = self.envs[offset]
             index = self.first + offset
+            if not step_mask[index]:
+                continue
+            env = self.envs[offset]
             current_env[self.slot] = index
             action = actions.read(index)
             if timed:

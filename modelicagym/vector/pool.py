@@ -40,9 +40,11 @@ from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.actions import ActionWriter
+from modelicagym.vector.batches import PartialBatches
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import (
     check_async_vector_env_options,
+    check_batch_size,
     check_env_fns,
     check_pool_options,
     check_reset_mask,
@@ -51,7 +53,7 @@ from modelicagym.vector.checks import (
 )
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.env_slice import EnvSlice
-from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError
+from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError, PoolError
 from modelicagym.vector.plan import default_start_method, plan_layout, usable_cores
 from modelicagym.vector.protocol import Outcome, StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
@@ -76,7 +78,7 @@ _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 POOL_OPTIONS = (
     "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
-    "observation_mode", "worker",
+    "observation_mode", "worker", "batch_size",
 )
 
 
@@ -160,6 +162,7 @@ class PoolVectorEnv(VectorEnv):
         daemon: bool = True,
         observation_mode: str | tuple[Space, Space] = "same",
         worker: Callable[..., None] | None = None,
+        batch_size: int | None = None,
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -194,6 +197,9 @@ class PoolVectorEnv(VectorEnv):
             context, shared_memory, daemon, worker: ``AsyncVectorEnv``'s, so that swapping the
                 class is a one-word change: ``context`` is ``start_method``; the pool always uses
                 shared memory and daemon workers, and no custom ``worker`` (else a `ConfigError`).
+            batch_size: how many envs :meth:`recv` returns, for EnvPool-style partial batches
+                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.batches`);
+                every env then lives in a worker. ``None``: ``num_envs``.
         """
         self.env_fns = list(env_fns)
         start_method = check_async_vector_env_options(start_method, context, daemon, observation_mode, worker)
@@ -204,6 +210,9 @@ class PoolVectorEnv(VectorEnv):
              "caller_steps": caller_steps, "shared_memory": shared_memory},
         )
         self.num_envs = len(self.env_fns)
+        self.batch_size = check_batch_size(batch_size, self.num_envs, caller_steps)
+        if batch_size is not None:
+            caller_steps = False
         try:
             self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -267,6 +276,7 @@ class PoolVectorEnv(VectorEnv):
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
+        self._partial: PartialBatches | None = None
         self.set_timing(measure_timing)
 
     # ------------------------------------------------------------------ reset
@@ -302,6 +312,11 @@ class PoolVectorEnv(VectorEnv):
 
     def reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
+        entries = self._reset_entries(timeout)
+        return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
+
+    def _reset_entries(self, timeout: float | None) -> Entries:
+        """Collect the pending reset; the ``(env index, info)`` of the reset envs' non-empty infos."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_RESET, "reset_wait", "reset_async")
         commands = self._dispatcher.pending
@@ -311,7 +326,7 @@ class PoolVectorEnv(VectorEnv):
                 entries += self._recovery.after_reset(handle, failure, command)
             elif message is not None:
                 entries += message.data
-        return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
+        return entries
 
     # ------------------------------------------------------------------ step
 
@@ -382,6 +397,42 @@ class PoolVectorEnv(VectorEnv):
             buffers.truncations.copy(),
             self._merge_infos(entries) if entries else {},
         )
+
+    # ------------------------------------------------------------------ partial batches
+
+    def async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
+        """Reset every env and make their results the first to come back from :meth:`recv`
+        (EnvPool's ``async_reset``; see `modelicagym.vector.batches`)."""
+        self.reset_async(seed=seed, options=options)
+        entries = self._reset_entries(None)
+        if self._partial is None:
+            self._partial = PartialBatches(
+                self._workers.handles, self._buffers, self._actions, self.batch_size,
+                self._dispatcher.spin_time, self.step_timeout,
+            )
+        self._partial.start(entries)
+
+    def send(self, actions: Any, env_ids: Any) -> None:
+        """Step envs ``env_ids`` (returned by :meth:`recv` since they were last sent) with
+        ``actions``, one per id, and return at once (EnvPool's ``send``)."""
+        with self._stopped_on_interrupt():
+            self._partial_batches("send").send(actions, env_ids)
+
+    def recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The first ``batch_size`` envs whose results are in, as a batch of that many; their
+        indices are in ``infos["env_id"]`` (EnvPool's ``recv``)."""
+        partial = self._partial_batches("recv")
+        try:
+            return partial.recv()
+        except (PoolError, KeyboardInterrupt, SystemExit):  # a failed or half-collected batch: stop the pool
+            self._abort()
+            raise
+
+    def _partial_batches(self, call: str) -> PartialBatches:
+        self._assert_is_running()
+        if self._partial is None:
+            raise NoPendingCallError(f"Calling `{call}` before `async_reset`.", call)
+        return self._partial
 
     # ------------------------------------------------------------------ call, attributes, render
 
@@ -496,6 +547,11 @@ class PoolVectorEnv(VectorEnv):
         deadline = time.monotonic() + timeout
         if self._state != AsyncState.DEFAULT:
             gym.logger.warn(f"Calling `close` while waiting for a pending call to `{self._state.value}` to complete.")
+        if self._partial is not None and self._partial.in_flight and not terminate:
+            try:
+                self._partial.drain()
+            except PoolError:
+                terminate = True
         if self._state != AsyncState.DEFAULT and not terminate:
             terminate = any(outcome.failure is not None for outcome in self._gather(timeout, self._state.value))
         if not terminate:
@@ -548,6 +604,10 @@ class PoolVectorEnv(VectorEnv):
             raise PoolClosedError(f"Trying to operate on `{type(self).__name__}`, after a call to `close()`.")
 
     def _assert_idle(self, call: str) -> None:
+        if self._partial is not None and self._partial.busy:
+            raise PendingCallError(
+                f"Calling `{call}` while envs sent with `send` are not all returned by `recv`.", "send"
+            )
         if self._state != AsyncState.DEFAULT:
             raise PendingCallError(
                 f"Calling `{call}` while waiting for a pending call to `{self._state.value}` to complete.",

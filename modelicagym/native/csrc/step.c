@@ -179,6 +179,10 @@ int64_t mg_step_batch(mg_batch *b) {
     bool next_step = b->autoreset_mode == MG_AUTORESET_NEXT_STEP;
     bool same_step = b->autoreset_mode == MG_AUTORESET_SAME_STEP;
     for (int64_t i = 0; i < b->n; i++) {
+        if (!b->active[i]) {
+            b->flags[i] = 0;
+            continue;
+        }
         mg_env *env = b->envs[i];
         *b->current_env = b->first_env + i;
         size_t obs_bytes = sizeof(double) * (size_t)env->n_outputs;

@@ -88,6 +88,7 @@ typedef struct {
     double *rewards;
     uint8_t *terminations, *truncations;
     uint8_t *needs_reset; /* NEXT_STEP: the env ended last step and is reset by this one */
+    const uint8_t *active; /* per env: step it in this call (the pool's step mask); else flags 0 */
     int32_t *flags;       /* per env, the flags of this step */
     int64_t *current_env; /* the pool index of the env being stepped (to name it if the FMU crashes) */
     int64_t first_env;    /* the pool index of envs[0] */

@@ -1,0 +1,257 @@
+"""Partial batches: step some envs while others are still busy, as EnvPool's ``send``/``recv``.
+
+The pool's ordinary ``step`` is a barrier: every env steps, the call returns when the slowest one
+is done. With ``batch_size < num_envs`` the pool also works as EnvPool does: ``send(actions,
+env_ids)`` hands actions to some envs and returns at once, ``recv()`` returns the first
+``batch_size`` envs whose results are in, their ids in ``info["env_id"]``. A fast env is never
+kept waiting for a slow one, so the cores stay busy when step costs differ.
+
+Workers step whole slices, so the unit of work here is the part of a worker's slice that was
+sent: the shared ``step_mask`` says which of its envs a ``STEP`` steps (on the native path too),
+and a worker still busy when more of its envs are sent gets them as soon as it finishes. Each env
+keeps its own autoreset (``NEXT_STEP``), so its trajectory is the one ``SyncVectorEnv`` gives for
+the same seed and actions, whatever order the envs come back in.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import VectorEnv
+from gymnasium.vector.utils import concatenate, create_empty_array
+
+from modelicagym.actions import check_action
+from modelicagym.errors import ActionError, ArgumentError
+from modelicagym.vector.actions import ActionWriter
+from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.handle import WorkerHandle
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Reply, WaitStatus
+
+__all__ = ["PartialBatches"]
+
+#: how long ``recv`` blocks on one busy worker before it looks at the others again (seconds)
+_POLL_BLOCK = 0.0002
+
+
+class _InfoBatch:
+    """Gymnasium's info merging for a batch of ``num_envs`` results that are not the whole pool."""
+
+    _add_info = VectorEnv._add_info
+
+    def __init__(self, num_envs: int) -> None:
+        self.num_envs = num_envs
+
+
+class PartialBatches:
+    """The parent's side of partial batches for a pool whose envs all live in workers.
+
+    Args:
+        handles: the pool's workers, in slot order.
+        buffers: the pool's shared memory.
+        actions: the pool's action writer (actions are checked as for a whole batch).
+        batch_size: how many envs :meth:`recv` returns.
+        spin_time: seconds to poll a worker before blocking.
+        step_timeout: seconds a worker may take for one step (``None``: no limit).
+    """
+
+    def __init__(
+        self,
+        handles: list[WorkerHandle],
+        buffers: SharedBuffers,
+        actions: ActionWriter,
+        batch_size: int,
+        spin_time: float,
+        step_timeout: float | None,
+    ) -> None:
+        self.handles = handles
+        self.buffers = buffers
+        self.actions = actions
+        self.batch_size = batch_size
+        self.spin_time = spin_time
+        self.step_timeout = step_timeout
+        n = buffers.rewards.shape[0]
+        self.num_envs = n
+        self._owner = np.empty(n, dtype=np.int64)
+        for k, handle in enumerate(handles):
+            self._owner[handle.env_indices.start : handle.env_indices.stop] = k
+        #: per worker: the env ids it is stepping now, and those sent while it was busy
+        self._stepping: list[list[int]] = [[] for _ in handles]
+        self._queued: list[list[int]] = [[] for _ in handles]
+        self._started = [0.0] * len(handles)
+        #: env ids whose results are in and not yet returned, in the order they came in
+        self._ready: deque[int] = deque()
+        self._infos: dict[int, dict[str, Any]] = {}
+        #: env ids that were returned by recv and may be sent again
+        self._idle = np.zeros(n, dtype=np.bool_)
+
+    @property
+    def busy(self) -> bool:
+        """Whether any env has been sent and not yet returned by :meth:`recv`."""
+        return bool(self._ready) or self.in_flight
+
+    @property
+    def in_flight(self) -> bool:
+        """Whether a worker is stepping envs, or has envs waiting for it."""
+        return any(self._stepping) or any(self._queued)
+
+    def drain(self) -> None:
+        """Wait until no worker is stepping (before the pool closes); the results are dropped."""
+        while self.in_flight:
+            self._collect()
+        self._ready.clear()
+        self._infos.clear()
+
+    def start(self, entries: list[tuple[int, dict[str, Any]]]) -> None:
+        """After a reset of every env: all their results are in (``entries``: the reset infos)."""
+        self._ready = deque(range(self.num_envs))
+        self._infos = dict(entries)
+        self._idle[:] = False
+
+    def send(self, actions: Any, env_ids: Any) -> None:
+        """Step envs ``env_ids`` with ``actions`` (one per id, in the same order)."""
+        ids = self._check_ids(env_ids)
+        self._write_actions(actions, ids)
+        self._idle[ids] = False
+        for k in np.unique(self._owner[ids]).tolist():
+            mine = ids[self._owner[ids] == k].tolist()
+            if self._stepping[k]:
+                self._queued[k] += mine
+            else:
+                self._dispatch(k, mine)
+
+    def recv(self, count: int | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The first ``count`` (default ``batch_size``) envs whose results are in: observations,
+        rewards, terminations, truncations and infos as a batch of that many, their ids in
+        ``infos["env_id"]``."""
+        count = self.batch_size if count is None else count
+        outstanding = len(self._ready) + sum(map(len, self._stepping)) + sum(map(len, self._queued))
+        if count > outstanding:
+            raise ArgumentError(f"recv() waits for {count} envs, but only {outstanding} were sent and not yet "
+                                f"received: send() more envs first")
+        while len(self._ready) < count:
+            self._collect()
+        ids = np.array([self._ready.popleft() for _ in range(count)], dtype=np.int64)
+        self._idle[ids] = True
+        return self._results(ids)
+
+    def _check_ids(self, env_ids: Any) -> np.ndarray:
+        ids = np.asarray(env_ids)
+        if ids.ndim != 1 or ids.dtype.kind not in "iu":
+            raise ArgumentError(f"env_ids must be a 1-d array of env indices, got {env_ids!r}")
+        ids = ids.astype(np.int64)
+        if ids.size and (ids.min() < 0 or ids.max() >= self.num_envs):
+            raise ArgumentError(f"env_ids must lie in [0, {self.num_envs - 1}], got {ids.tolist()}")
+        if np.unique(ids).size != ids.size:
+            raise ArgumentError(f"env_ids must not repeat an env, got {ids.tolist()}")
+        busy = ids[~self._idle[ids]]
+        if busy.size:
+            raise ArgumentError(f"envs {busy.tolist()} were sent and not yet returned by recv(): each env can "
+                                "be sent again only once recv() has returned it")
+        return ids
+
+    def _write_actions(self, actions: Any, ids: np.ndarray) -> None:
+        """Check each env's action as the single env would (`ActionError` naming the env), then
+        store them; nothing is stored if one is refused."""
+        shared = self.actions.shared
+        if not isinstance(shared.read_batch(copy_out=False), np.ndarray):
+            raise ArgumentError(f"partial batches need actions of an array space (Box, Discrete, MultiDiscrete, "
+                                f"MultiBinary), not {shared.space}")
+        actions = np.asarray(actions)
+        if actions.shape[:1] != ids.shape:
+            raise ArgumentError(f"expected {ids.size} actions, one per env id, got shape {actions.shape}")
+        for env, action in zip(ids.tolist(), actions):
+            try:
+                check_action(shared.space, action)
+            except ActionError as error:
+                raise ActionError(f"env {env}: {error}") from None
+        for env, action in zip(ids.tolist(), actions):
+            shared.write(env, action)
+
+    def _dispatch(self, k: int, ids: list[int]) -> None:
+        """Wake worker ``k`` to step envs ``ids`` of its slice (it is idle)."""
+        handle, buffers = self.handles[k], self.buffers
+        indices = handle.env_indices
+        mask = buffers.step_mask[indices.start : indices.stop]
+        mask[:] = 0
+        buffers.step_mask[ids] = 1
+        buffers.command[handle.index] = Command.STEP
+        self._stepping[k] = ids
+        self._started[k] = time.monotonic()
+        handle.go.post()
+
+    def _collect(self) -> None:
+        """Wait until at least one busy worker is done; take in the results of every done one
+        (all of them, so that no worker's results wait behind a faster worker's)."""
+        busy = [k for k, ids in enumerate(self._stepping) if ids]
+        deadline = time.monotonic() + self.spin_time
+        while not self._take_done(busy, 0.0):
+            if time.monotonic() >= deadline:
+                break
+        else:
+            return
+        while not self._take_done(busy, _POLL_BLOCK / len(busy)):
+            for k in busy:
+                if self._stepping[k]:
+                    self._check_alive(k)
+
+    def _take_done(self, busy: list[int], block: float) -> bool:
+        """Take in every worker of ``busy`` that is done (blocking up to ``block`` on each)."""
+        took = False
+        for k in busy:
+            if self._stepping[k] and self.handles[k].done.wait(0.0, block):
+                self._take(k)
+                took = True
+        return took
+
+    def _check_alive(self, k: int) -> None:
+        """Raise the worker's failure if it died or overran ``step_timeout``."""
+        handle = self.handles[k]
+        overran = self.step_timeout is not None and time.monotonic() - self._started[k] > self.step_timeout
+        if overran or (time.monotonic() - self._started[k] > LIVENESS_INTERVAL and not handle.process.is_alive()):
+            if self._stepping[k] and handle.done.wait(0.0, 0.0):
+                self._take(k)
+                return
+            status = WaitStatus.TIMED_OUT if overran else WaitStatus.DIED
+            raise handle.failure(status, self._stepping[k][0], "step")
+
+    def _take(self, k: int) -> None:
+        """Worker ``k`` is done: its envs' results are in; send it what was queued meanwhile."""
+        handle, buffers = self.handles[k], self.buffers
+        ids, self._stepping[k] = self._stepping[k], []
+        indices = handle.env_indices
+        buffers.step_mask[indices.start : indices.stop] = 1
+        if buffers.reply[handle.index] == Reply.MESSAGE:
+            message = handle.receive(None, ids[0], "step")
+            if message.kind is Kind.ERROR:
+                raise message.data.to_env_error(handle.index, "step", None)
+            if message.kind is Kind.INFOS:
+                self._infos.update(message.data)
+        self._ready.extend(ids)
+        if self._queued[k]:
+            queued, self._queued[k] = self._queued[k], []
+            self._dispatch(k, queued)
+
+    def _results(self, ids: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict]:
+        """The batch of results of envs ``ids`` (copies: the envs may be sent again at once)."""
+        buffers = self.buffers
+        observations = buffers.observations
+        batch = observations.read_batch(copy_out=False)
+        if isinstance(batch, np.ndarray):
+            selected = batch[ids]
+        else:
+            space = observations.space
+            selected = concatenate(space, [observations.read(i) for i in ids.tolist()],
+                                   create_empty_array(space, len(ids)))
+        infos: dict[str, Any] = {}
+        merger = _InfoBatch(len(ids))
+        for position, env in enumerate(ids.tolist()):
+            info = self._infos.pop(env, None)
+            if info:
+                infos = merger._add_info(infos, info, position)
+        infos["env_id"] = ids.astype(np.int32)
+        return (selected, buffers.rewards[ids].copy(), buffers.terminations[ids].copy(),
+                buffers.truncations[ids].copy(), infos)
+

@@ -1,0 +1,166 @@
+"""Partial batches (EnvPool's ``async_reset``/``send``/``recv``): each env's own trajectory is the
+one SyncVectorEnv gives for the same seed and actions, whatever order envs come back in, on the
+Python and the native step path; bad ids and actions are refused with the pool still usable."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium.vector import SyncVectorEnv
+from test_vector_native import cartpole_fns
+from vector_envs import CountEnv, FaultyEnv, GatedEnv, count_fns
+
+from modelicagym.errors import ActionError, ArgumentError, ConfigError
+from modelicagym.vector import EnvError, NoPendingCallError, PendingCallError, PoolVectorEnv
+
+pytestmark = pytest.mark.timeout(120)
+
+
+def action_of(env: int, t: int, space: Any) -> int:
+    """The action env ``env`` gets at its ``t``-th step (of a ``Discrete`` space): fixed in advance,
+    whatever the order envs come back in."""
+    return int(space.start) + (env * 7 + t * 3 + t // 4) % int(space.n)
+
+
+def partial_trajectories(pool: PoolVectorEnv, rounds: int, seed: int) -> dict[int, list[tuple]]:
+    """Per env, what ``recv`` returned for it, while actions follow `action_of`."""
+    space = pool.single_action_space
+    pool.async_reset(seed=seed)
+    seen: dict[int, list[tuple]] = {}
+    for _ in range(rounds):
+        observations, rewards, terminations, truncations, infos = pool.recv()
+        ids = infos["env_id"]
+        assert len(ids) == pool.batch_size
+        for k, env in enumerate(ids.tolist()):
+            seen.setdefault(env, []).append(
+                (observations[k].copy(), float(rewards[k]), bool(terminations[k]), bool(truncations[k]))
+            )
+        pool.send(np.array([action_of(env, len(seen[env]) - 1, space) for env in ids.tolist()]), ids)
+    return seen
+
+
+def sync_trajectories(fns: list[Callable[[], Any]], steps: int, seed: int) -> dict[int, list[tuple]]:
+    """Per env, ``steps + 1`` results of SyncVectorEnv (the reset, then steps) with `action_of`."""
+    sync = SyncVectorEnv(fns)
+    space = sync.single_action_space
+    observations, _ = sync.reset(seed=seed)
+    records: dict[int, list[tuple]] = {env: [(observations[env].copy(), 0.0, False, False)] for env in range(len(fns))}
+    for t in range(steps):
+        actions = np.array([action_of(env, t, space) for env in range(len(fns))])
+        observations, rewards, terminations, truncations, _ = sync.step(actions)
+        for env in range(len(fns)):
+            records[env].append((observations[env].copy(), float(rewards[env]), bool(terminations[env]),
+                                 bool(truncations[env])))
+    sync.close()
+    return records
+
+
+def assert_prefixes_agree(partial_runs: dict[int, list[tuple]], sync_runs: dict[int, list[tuple]]) -> None:
+    for env, records in partial_runs.items():
+        expected = sync_runs[env][: len(records)]
+        assert len(expected) == len(records), f"env {env} stepped more than the reference"
+        for t, (got, want) in enumerate(zip(records, expected)):
+            np.testing.assert_array_equal(got[0], want[0], err_msg=f"env {env}, step {t}")
+            assert got[1:] == want[1:], f"env {env}, step {t}: {got[1:]} != {want[1:]}"
+
+
+@pytest.mark.parametrize("batch_size", [1, 2, 5])
+def test_each_env_follows_its_sync_vector_env_trajectory(batch_size: int) -> None:
+    fns = count_fns(6, act="discrete")
+    with PoolVectorEnv(fns, num_workers=2, batch_size=batch_size) as pool:
+        runs = partial_trajectories(pool, 60, seed=11)
+    assert set(runs) == set(range(6))
+    assert_prefixes_agree(runs, sync_trajectories(fns, max(map(len, runs.values())), seed=11))
+
+
+def test_cartpole_on_the_native_path_follows_sync_vector_env() -> None:
+    native, python = cartpole_fns(5)
+    with PoolVectorEnv(native, num_workers=2, batch_size=2) as pool:
+        assert {path for path, _ in pool.step_paths} == {"native"}
+        runs = partial_trajectories(pool, 80, seed=5)
+    assert_prefixes_agree(runs, sync_trajectories(python, max(map(len, runs.values())), seed=5))
+
+
+def test_a_slow_env_does_not_hold_back_the_fast_ones(tmp_path: Path) -> None:
+    """Env 0 cannot finish a step until the gate opens: meanwhile the other worker's envs keep
+    coming back; once it opens, env 0 comes back too."""
+    gate = tmp_path / "gate"
+    fns = [partial(GatedEnv, str(gate), max_len=1000)] + [partial(CountEnv, max_len=1000)] * 3
+    with PoolVectorEnv(fns, num_workers=2, max_envs_per_worker=3, batch_size=1) as pool:
+        pool.async_reset(seed=0)
+        returned = []
+        for _ in range(40):
+            *_, infos = pool.recv()
+            returned += infos["env_id"].tolist()
+            pool.send(np.zeros(1, dtype=np.int64), infos["env_id"])
+        assert returned.count(0) == 1 and len(returned) == 40
+        gate.touch()
+        for _ in range(10):
+            *_, infos = pool.recv()
+            returned += infos["env_id"].tolist()
+            pool.send(np.zeros(1, dtype=np.int64), infos["env_id"])
+        assert returned[40:].count(0) >= 1
+
+
+def test_bad_ids_and_actions_are_refused_and_the_pool_stays_usable() -> None:
+    with PoolVectorEnv(count_fns(4), num_workers=2, batch_size=2) as pool:
+        with pytest.raises(NoPendingCallError, match="before `async_reset`"):
+            pool.send(np.zeros(1, dtype=np.int64), [0])
+        pool.async_reset(seed=0)
+        *_, infos = pool.recv()
+        ids = infos["env_id"]
+        others = sorted(set(range(4)) - set(ids.tolist()))
+        with pytest.raises(ArgumentError, match="not yet returned by recv"):
+            pool.send(np.zeros(1, dtype=np.int64), others[:1])
+        with pytest.raises(ArgumentError, match="must lie in"):
+            pool.send(np.zeros(1, dtype=np.int64), [7])
+        with pytest.raises(ArgumentError, match="must not repeat"):
+            pool.send(np.zeros(2, dtype=np.int64), [ids[0], ids[0]])
+        with pytest.raises(ActionError, match=f"env {ids[1]}: .*out of range"):
+            pool.send(np.array([0, 9]), ids)
+        with pytest.raises(PendingCallError, match="not all returned by `recv`"):
+            pool.step(np.zeros(4, dtype=np.int64))
+        pool.send(np.zeros(2, dtype=np.int64), ids)
+        *_, infos = pool.recv()
+        *_, infos2 = pool.recv()
+        assert sorted(infos["env_id"].tolist() + infos2["env_id"].tolist()) == [0, 1, 2, 3]
+        with pytest.raises(ArgumentError, match="send\\(\\) more envs first"):
+            pool.recv()
+        pool.reset(seed=0)
+        pool.step(np.zeros(4, dtype=np.int64))
+
+
+def test_an_env_error_names_the_env_and_stops_the_pool() -> None:
+    fns = [partial(FaultyEnv, "raise", at_step=2)] * 2 + count_fns(2)
+    pool = PoolVectorEnv(fns, num_workers=2, batch_size=2)
+    pool.async_reset(seed=0)
+    with pytest.raises(EnvError, match="env 0"):
+        for _ in range(10):
+            *_, infos = pool.recv()
+            pool.send(np.zeros(2, dtype=np.int64), infos["env_id"])
+    assert pool.closed
+
+
+def test_closing_with_envs_in_flight_is_clean() -> None:
+    pool = PoolVectorEnv(count_fns(4), num_workers=2, batch_size=4)
+    pool.async_reset(seed=0)
+    *_, infos = pool.recv()
+    pool.send(np.zeros(4, dtype=np.int64), infos["env_id"])
+    pool.close()
+    assert pool.closed
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"batch_size": 0}, "batch_size must lie in"),
+    ({"batch_size": 5}, "batch_size must lie in"),
+    ({"batch_size": 2.0}, "batch_size must be an int"),
+    ({"batch_size": 2, "caller_steps": True}, "partial batches need every env in a worker"),
+])
+def test_batch_size_is_checked(options: dict, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        PoolVectorEnv(count_fns(4), **options)
