@@ -10,6 +10,7 @@ from toy_envs import chain, counter
 
 from modelicagym.agents import Discretizer, QLearningAgent, QLearningConfig, train
 from modelicagym.envs.cartpole import CARTPOLE_INTERVALS
+from modelicagym.vector import PoolVectorEnv
 
 
 def unit_discretizer(n_states: int) -> Discretizer:
@@ -209,6 +210,22 @@ def test_finished_envs_are_ignored_while_others_continue():
     assert sum(episodes) == 6
     assert log.vector_steps == 3 * 5 + 2  # the long env's episodes plus its two reset steps
     np.testing.assert_allclose(agent.epsilon, 0.5 * 0.99 ** np.array([3, 15]))
+
+
+def test_a_pool_steps_only_unfinished_envs_and_the_episodes_stay_the_same():
+    """On the pool (which can step a subset of its envs) finished envs cost nothing, and every
+    env's episodes and Q-table are those of the SyncVectorEnv run, which steps every env."""
+    fns = [lambda: counter(1), lambda: counter(5), chain, chain]
+    runs = []
+    for envs in (SyncVectorEnv(fns), PoolVectorEnv(fns, num_workers=2)):
+        agent = QLearningAgent(unit_discretizer(6), 2, n_envs=4, seeds=3)
+        runs.append((train(envs, agent, 4, seed=9), agent.q_table.copy()))
+        envs.close()
+    (sync_log, sync_q), (pool_log, pool_q) = runs
+    np.testing.assert_array_equal(pool_log.lengths, sync_log.lengths)
+    np.testing.assert_array_equal(pool_q, sync_q)
+    assert (sync_log.env_steps_stepped == sync_log.vector_steps).all()
+    np.testing.assert_array_equal(pool_log.env_steps_stepped, pool_log.env_steps + 4 - 1)
 
 
 def test_learns_the_chain():

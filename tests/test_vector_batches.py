@@ -164,3 +164,31 @@ def test_closing_with_envs_in_flight_is_clean() -> None:
 def test_batch_size_is_checked(options: dict, match: str) -> None:
     with pytest.raises(ConfigError, match=match):
         PoolVectorEnv(count_fns(4), **options)
+
+
+@pytest.mark.parametrize("native", [False, True], ids=["python path", "native path"])
+@pytest.mark.parametrize("layout", [{"num_workers": 2}, {"caller_steps": True}])
+def test_step_envs_steps_only_those_envs(layout: dict, native: bool) -> None:
+    """Each env advances only when it is among ``env_ids``, exactly as a vector env of its own."""
+    fns = cartpole_fns(5)[0] if native else count_fns(5)
+    singles = [SyncVectorEnv([fn]) for fn in fns]
+    rng = np.random.default_rng(0)
+    with PoolVectorEnv(fns, **layout) as pool:
+        pool.reset(seed=3)
+        for i, single in enumerate(singles):
+            single.reset(seed=3 + i)
+        space = pool.single_action_space
+        for t in range(60):
+            ids = np.flatnonzero(rng.random(5) < 0.6)
+            actions = np.array([action_of(i, t, space) for i in ids.tolist()], dtype=np.int64)
+            observations, rewards, terminations, truncations, infos = pool.step_envs(actions, ids)
+            assert infos["env_id"].tolist() == ids.tolist()
+            for k, i in enumerate(ids.tolist()):
+                expected = singles[i].step(actions[k : k + 1])
+                np.testing.assert_array_equal(observations[k], expected[0][0], err_msg=f"env {i}, step {t}")
+                assert (rewards[k], terminations[k], truncations[k]) == (expected[1][0], expected[2][0], expected[3][0])
+        everyone = pool.step(np.zeros(5, dtype=np.int64))
+        for i, single in enumerate(singles):
+            np.testing.assert_array_equal(everyone[0][i], single.step(np.zeros(1, dtype=np.int64))[0][0])
+    for single in singles:
+        single.close()

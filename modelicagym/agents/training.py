@@ -3,8 +3,10 @@
 The loop assumes the vector env's NEXT_STEP autoreset (gymnasium's default and the pool's): after
 env ``i`` returns ``terminated`` or ``truncated``, its next ``step`` ignores the action, resets the
 env and returns the first observation of the new episode with reward 0. That transition is not part
-of any episode, so it is neither learned from nor counted. An env that has finished its
-``n_episodes`` keeps being stepped with the others, but its transitions are ignored.
+of any episode, so it is neither learned from nor counted. Once an env has finished its
+``n_episodes`` it is no longer stepped when the vector env can step a subset of its envs (the
+pool's ``step_envs``); otherwise it keeps being stepped with the others and its transitions are
+ignored. The episodes are the same either way: the agent draws its random numbers for every env.
 """
 
 from __future__ import annotations
@@ -30,13 +32,16 @@ class TrainingLog:
 
     ``lengths[i, k]`` and ``returns[i, k]`` are the number of steps and the sum of rewards of
     episode ``k`` of env ``i``; ``env_steps[i]`` counts the steps learned from (the sum of
-    ``lengths[i]``); ``vector_steps`` counts calls to the vector env's ``step``; ``agent_seconds``
-    is the time spent in the agent (discretising, acting, learning).
+    ``lengths[i]``), ``env_steps_stepped[i]`` the steps env ``i`` took (autoresets and, without
+    subset steps, the steps after its last episode included); ``vector_steps`` counts calls to
+    the vector env; ``agent_seconds`` is the time spent in the agent (discretising, acting,
+    learning).
     """
 
     lengths: np.ndarray
     returns: np.ndarray
     env_steps: np.ndarray
+    env_steps_stepped: np.ndarray
     vector_steps: int
     agent_seconds: float
 
@@ -75,20 +80,27 @@ def train(
     returns = np.zeros((n, n_episodes), dtype=np.float64)
     finished = np.zeros(n, dtype=np.int64)
     tracker = EpisodeTracker(n)
+    stepped = np.zeros(n, dtype=np.int64)
     vector_steps = 0
     agent_seconds = 0.0
+    step_envs = getattr(envs, "step_envs", None)
 
     observations, _ = envs.reset(seed=seed)
     clock = time.perf_counter()
     states = agent.states(observations)
-    while np.any(finished < n_episodes):
+    while np.any(wanted := finished < n_episodes):
         actions = agent.act(states)
         agent_seconds += time.perf_counter() - clock
-        observations, rewards, terminated, truncated, _ = envs.step(actions)
+        if step_envs is None or wanted.all():
+            observations, rewards, terminated, truncated, _ = envs.step(actions)
+            stepped += 1
+        else:
+            observations, rewards, terminated, truncated = _step_subset(step_envs, observations, actions, wanted)
+            stepped += wanted
         vector_steps += 1
         clock = time.perf_counter()
         next_states = agent.states(observations)
-        live = tracker.live(finished < n_episodes)
+        live = tracker.live(wanted)
         agent.learn(states, actions, rewards, next_states, terminated, truncated, mask=live)
         ended, ended_lengths, ended_returns = tracker.update(live, rewards, terminated, truncated)
         if ended.size:
@@ -99,4 +111,21 @@ def train(
                 on_episodes(int(ended.size))
         states = next_states
     agent_seconds += time.perf_counter() - clock
-    return TrainingLog(lengths, returns, lengths.sum(axis=1), vector_steps, agent_seconds)
+    return TrainingLog(lengths, returns, lengths.sum(axis=1), stepped, vector_steps, agent_seconds)
+
+
+def _step_subset(
+    step_envs: Callable[..., tuple], observations: np.ndarray, actions: np.ndarray, wanted: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Step only the ``wanted`` envs; the others keep their observation, with reward 0 and no end."""
+    ids = np.flatnonzero(wanted)
+    sub_observations, sub_rewards, sub_terminated, sub_truncated, _ = step_envs(actions[ids], ids)
+    observations = observations.copy()
+    observations[ids] = sub_observations
+    rewards = np.zeros(len(wanted), dtype=np.float64)
+    rewards[ids] = sub_rewards
+    terminated = np.zeros(len(wanted), dtype=bool)
+    terminated[ids] = sub_terminated
+    truncated = np.zeros(len(wanted), dtype=bool)
+    truncated[ids] = sub_truncated
+    return observations, rewards, terminated, truncated

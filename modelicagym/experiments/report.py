@@ -196,7 +196,7 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
     rows = []
     for name, result in results.items():
         t = result.timing
-        pool_steps = t["vector_steps"] * t["num_envs"]
+        pool_steps = t.get("env_steps_stepped", t["vector_steps"] * t["num_envs"])
         rows.append(
             [
                 name,
@@ -215,9 +215,9 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
             "sweep",
             "envs",
             "learned steps",
-            "pool steps",
+            "stepped steps",
             "wall time [s]",
-            "µs per pool step",
+            "µs per stepped step",
             "µs per learned step",
             "agent share",
             "paper: s per step (Table 1)",
@@ -231,7 +231,7 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
         if "fmu_seconds_per_step" in entry
     ]
     fmu_table = (
-        "Time inside the FMU per env step, per setting (each env's FMU time over all the steps the pool gave it), "
+        "Time inside the FMU per env step, per setting (each env's FMU time over all the steps it took, autoresets included), "
         "next to the paper's time per step of the same experiment:\n\n"
         + _table(["sweep", "setting", "ours: FMU µs per step", "paper: s per step"], fmu_rows)
         if fmu_rows
@@ -245,9 +245,8 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
             "## Execution time",
             "Ours: wall-clock time of a whole sweep, agent included (its share is shown), divided by env steps. "
             "All (setting, repeat) pairs of a sweep step side by side in one multi-process pool on this machine; "
-            "an env that has finished its episodes keeps stepping (ignored) until the last one finishes, so "
-            "*pool steps* (every env stepped) exceed *learned steps* (the episodes' steps) when episode lengths "
-            "differ a lot. "
+            "an env that has finished its episodes is no longer stepped, so *stepped steps* exceed *learned steps* "
+            "(the episodes' steps) only by the autoreset step that starts each episode. "
             "The paper's Table 1: one run at a time in a single process (PyFMI + JModelica FMU, 2017 laptop), "
             f"about {PAPER_SECONDS_PER_STEP['default'][0]:g}-{PAPER_SECONDS_PER_STEP['default'][1]:g} s per step, "
             f"more with the longest time steps ({per_setting}).",

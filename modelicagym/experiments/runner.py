@@ -104,20 +104,20 @@ def _fmu_time_ns(envs: VectorEnv) -> np.ndarray | None:
 
 
 def _per_setting(
-    config: SweepConfig, lengths: np.ndarray, vector_steps: int, fmu_ns: np.ndarray | None
+    config: SweepConfig, lengths: np.ndarray, stepped: np.ndarray, fmu_ns: np.ndarray | None
 ) -> dict[str, dict[str, Any]]:
-    """Learned steps per setting and, when measured, FMU seconds per env step of the setting.
-
-    Every env is stepped ``vector_steps`` times (autoreset steps and the steps after it finished
-    included), so that is the denominator of its FMU time.
-    """
-    per_env_steps = lengths.sum(axis=1).reshape(len(config.settings), config.repeats)
+    """Learned and stepped env steps per setting and, when measured, FMU seconds per env step of
+    the setting (over every step its envs took, autoresets included)."""
+    shape = (len(config.settings), config.repeats)
+    per_env_steps = lengths.sum(axis=1).reshape(shape)
+    per_env_stepped = stepped.reshape(shape)
     out = {}
     for s, setting in enumerate(config.settings):
-        entry: dict[str, Any] = {"env_steps": int(per_env_steps[s].sum())}
+        entry: dict[str, Any] = {"env_steps": int(per_env_steps[s].sum()),
+                                 "env_steps_stepped": int(per_env_stepped[s].sum())}
         if fmu_ns is not None:
-            setting_ns = fmu_ns.reshape(len(config.settings), config.repeats)[s].sum()
-            entry["fmu_seconds_per_step"] = float(setting_ns) / 1e9 / (vector_steps * config.repeats)
+            setting_ns = fmu_ns.reshape(shape)[s].sum()
+            entry["fmu_seconds_per_step"] = float(setting_ns) / 1e9 / int(per_env_stepped[s].sum())
         out[setting.label] = entry
     return out
 
@@ -197,6 +197,7 @@ def run_sweep(
         "setup_seconds": setup_seconds,
         "wall_seconds": wall_seconds,
         "env_steps": env_steps,
+        "env_steps_stepped": int(log.env_steps_stepped.sum()),
         "vector_steps": log.vector_steps,
         "seconds_per_step": wall_seconds / env_steps,
         "agent_seconds": log.agent_seconds,
@@ -204,7 +205,7 @@ def run_sweep(
         "num_workers": getattr(envs, "num_workers", num_workers),
         "pool_timing": pool_timing,
         "per_setting": _per_setting(
-            config, log.lengths, log.vector_steps, None if fmu_before is None else fmu_after - fmu_before
+            config, log.lengths, log.env_steps_stepped, None if fmu_before is None else fmu_after - fmu_before
         ),
     }
     logger.info(

@@ -27,11 +27,14 @@ from modelicagym.actions import check_action
 from modelicagym.errors import ActionError, ArgumentError
 from modelicagym.vector.actions import ActionWriter
 from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.handle import WorkerHandle
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Reply, WaitStatus
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WaitStatus
 
 __all__ = ["PartialBatches"]
 
+#: the owner of the envs of the calling process's slice
+_LOCAL = -1
 #: how long ``recv`` blocks on one busy worker before it looks at the others again (seconds)
 _POLL_BLOCK = 0.0002
 
@@ -50,6 +53,7 @@ class PartialBatches:
 
     Args:
         handles: the pool's workers, in slot order.
+        local: the calling process's slice, if it steps one (its envs step inside :meth:`send`).
         buffers: the pool's shared memory.
         actions: the pool's action writer (actions are checked as for a whole batch).
         batch_size: how many envs :meth:`recv` returns.
@@ -60,6 +64,7 @@ class PartialBatches:
     def __init__(
         self,
         handles: list[WorkerHandle],
+        local: EnvSlice | None,
         buffers: SharedBuffers,
         actions: ActionWriter,
         batch_size: int,
@@ -67,6 +72,7 @@ class PartialBatches:
         step_timeout: float | None,
     ) -> None:
         self.handles = handles
+        self.local = local
         self.buffers = buffers
         self.actions = actions
         self.batch_size = batch_size
@@ -74,7 +80,7 @@ class PartialBatches:
         self.step_timeout = step_timeout
         n = buffers.rewards.shape[0]
         self.num_envs = n
-        self._owner = np.empty(n, dtype=np.int64)
+        self._owner = np.full(n, _LOCAL, dtype=np.int64)
         for k, handle in enumerate(handles):
             self._owner[handle.env_indices.start : handle.env_indices.stop] = k
         #: per worker: the env ids it is stepping now, and those sent while it was busy
@@ -84,8 +90,8 @@ class PartialBatches:
         #: env ids whose results are in and not yet returned, in the order they came in
         self._ready: deque[int] = deque()
         self._infos: dict[int, dict[str, Any]] = {}
-        #: env ids that were returned by recv and may be sent again
-        self._idle = np.zeros(n, dtype=np.bool_)
+        #: env ids that were returned by recv (or never sent) and may be sent
+        self._idle = np.ones(n, dtype=np.bool_)
 
     @property
     def busy(self) -> bool:
@@ -115,12 +121,26 @@ class PartialBatches:
         ids = self._check_ids(env_ids)
         self._write_actions(actions, ids)
         self._idle[ids] = False
-        for k in np.unique(self._owner[ids]).tolist():
-            mine = ids[self._owner[ids] == k].tolist()
+        owners = self._owner[ids]
+        for k in np.unique(owners).tolist():
+            mine = ids[owners == k].tolist()
+            if k == _LOCAL:
+                continue
             if self._stepping[k]:
                 self._queued[k] += mine
             else:
                 self._dispatch(k, mine)
+        if self.local is not None and (owners == _LOCAL).any():
+            self._step_local(ids[owners == _LOCAL].tolist())
+
+    def recv_envs(self, env_ids: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The results of exactly envs ``env_ids`` (all sent), in that order, once all are in."""
+        wanted = set(env_ids.tolist())
+        while not wanted <= set(self._ready):
+            self._collect()
+        self._ready = deque(env for env in self._ready if env not in wanted)
+        self._idle[env_ids] = True
+        return self._results(env_ids)
 
     def recv(self, count: int | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The first ``count`` (default ``batch_size``) envs whose results are in: observations,
@@ -182,6 +202,29 @@ class PartialBatches:
         self._started[k] = time.monotonic()
         handle.go.post()
 
+    def _step_local(self, ids: list[int]) -> None:
+        """Step the calling process's envs ``ids`` here and now."""
+        local, buffers = self.local, self.buffers
+        indices = local.env_indices
+        mask = buffers.step_mask[indices.start : indices.stop]
+        mask[:] = 0
+        buffers.step_mask[ids] = 1
+        try:
+            reply = local.step()
+        finally:
+            mask[:] = 1
+        self._take_reply(reply, local.index, "the calling process")
+        self._ready.extend(ids)
+
+    def _take_reply(self, message: Message | None, slot: int, process: str | None) -> None:
+        """The infos of a reply, or the env's error raised."""
+        if message is None:
+            return
+        if message.kind is Kind.ERROR:
+            raise message.data.to_env_error(slot, "step", process)
+        if message.kind is Kind.INFOS:
+            self._infos.update(message.data)
+
     def _collect(self) -> None:
         """Wait until at least one busy worker is done; take in the results of every done one
         (all of them, so that no worker's results wait behind a faster worker's)."""
@@ -224,11 +267,7 @@ class PartialBatches:
         indices = handle.env_indices
         buffers.step_mask[indices.start : indices.stop] = 1
         if buffers.reply[handle.index] == Reply.MESSAGE:
-            message = handle.receive(None, ids[0], "step")
-            if message.kind is Kind.ERROR:
-                raise message.data.to_env_error(handle.index, "step", None)
-            if message.kind is Kind.INFOS:
-                self._infos.update(message.data)
+            self._take_reply(handle.receive(None, ids[0], "step"), handle.index, None)
         self._ready.extend(ids)
         if self._queued[k]:
             queued, self._queued[k] = self._queued[k], []

@@ -405,33 +405,54 @@ class PoolVectorEnv(VectorEnv):
         (EnvPool's ``async_reset``; see `modelicagym.vector.batches`)."""
         self.reset_async(seed=seed, options=options)
         entries = self._reset_entries(None)
-        if self._partial is None:
-            self._partial = PartialBatches(
-                self._workers.handles, self._buffers, self._actions, self.batch_size,
-                self._dispatcher.spin_time, self.step_timeout,
-            )
-        self._partial.start(entries)
+        self._partial_batches(None).start(entries)
 
     def send(self, actions: Any, env_ids: Any) -> None:
         """Step envs ``env_ids`` (returned by :meth:`recv` since they were last sent) with
         ``actions``, one per id, and return at once (EnvPool's ``send``)."""
+        self._assert_is_running()
         with self._stopped_on_interrupt():
             self._partial_batches("send").send(actions, env_ids)
 
     def recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The first ``batch_size`` envs whose results are in, as a batch of that many; their
         indices are in ``infos["env_id"]`` (EnvPool's ``recv``)."""
-        partial = self._partial_batches("recv")
+        self._assert_is_running()
+        return self._collected(self._partial_batches("recv").recv)
+
+    def step_envs(self, actions: Any, env_ids: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step only envs ``env_ids`` (the others keep their state) and return their results, in
+        the order of ``env_ids``, as a batch of that many; ``infos["env_id"]`` repeats the ids.
+
+        For loops where some envs have no more work: a finished env costs nothing. Works on any
+        pool, with the same autoreset as :meth:`step` (see `modelicagym.vector.batches`).
+        """
+        self._assert_is_running()
+        self._assert_idle("step_envs")
+        partial = self._partial_batches(None)
+        ids = np.asarray(env_ids)
+        with self._stopped_on_interrupt():
+            partial.send(actions, ids)
+        return self._collected(lambda: partial.recv_envs(ids.astype(np.int64)))
+
+    def _collected(self, collect: Callable[[], Any]) -> Any:
+        """``collect()`` results of partial batches; a worker's failure (or Ctrl-C) while
+        collecting stops the pool: a half-collected batch cannot be resumed."""
         try:
-            return partial.recv()
-        except (PoolError, KeyboardInterrupt, SystemExit):  # a failed or half-collected batch: stop the pool
+            return collect()
+        except (PoolError, KeyboardInterrupt, SystemExit):
             self._abort()
             raise
 
-    def _partial_batches(self, call: str) -> PartialBatches:
-        self._assert_is_running()
+    def _partial_batches(self, call: str | None) -> PartialBatches:
+        """The partial batches' state; created on first use, unless ``call`` needs an ``async_reset`` first."""
         if self._partial is None:
-            raise NoPendingCallError(f"Calling `{call}` before `async_reset`.", call)
+            if call is not None:
+                raise NoPendingCallError(f"Calling `{call}` before `async_reset`.", call)
+            self._partial = PartialBatches(
+                self._workers.handles, self._dispatcher.local, self._buffers, self._actions, self.batch_size,
+                self._dispatcher.spin_time, self.step_timeout,
+            )
         return self._partial
 
     # ------------------------------------------------------------------ call, attributes, render
