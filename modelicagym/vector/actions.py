@@ -69,7 +69,7 @@ class ActionWriter:
             self._target[...] = actions
             bad = self._range_check()
             if bad >= 0:
-                raise self._refusal(actions, bad)
+                raise self._refusal(actions[bad], bad)
             return
         self._check_each(actions)
         self.shared.write_batch(actions if self._dtype is None else np.asarray(actions).astype(self._dtype))
@@ -96,12 +96,36 @@ class ActionWriter:
             except ActionError as error:
                 raise ActionError(f"env {index}: {error}") from None
 
-    def _refusal(self, actions: np.ndarray, index: int) -> ActionError:
+    def write_rows(self, actions: Any, env_ids: np.ndarray) -> None:
+        """Check and write the actions of envs ``env_ids`` only, one per id (the others keep
+        theirs); refused as by :meth:`write`, with nothing written."""
+        if len(actions) != len(env_ids):
+            raise ActionError(f"expected {len(env_ids)} actions, one per env id, got {len(actions)}")
+        if self._fast and type(actions) is np.ndarray and actions.dtype == self._dtype:
+            low, high = self._bounds
+            if actions.shape[1:] == self._shape[1:]:
+                rows = actions.reshape(len(env_ids), int(np.prod(self._shape[1:])))
+                inside = ((rows >= low) & (rows <= high)).all(axis=1)
+                if not inside.all():
+                    k = int(np.flatnonzero(~inside)[0])
+                    raise self._refusal(actions[k], int(env_ids[k]))
+                self._target[env_ids] = actions
+                return
+        for env, action in zip(env_ids.tolist(), actions):
+            try:
+                check_action(self.space, action)
+            except ActionError as error:
+                raise ActionError(f"env {env}: {error}") from None
+        for env, action in zip(env_ids.tolist(), actions):
+            self.shared.write(env, action)
+
+    def _refusal(self, action: Any, index: int) -> ActionError:
+        """The error for env ``index``'s refused ``action``, with the single env's message."""
         try:
-            check_action(self.space, actions[index])
+            check_action(self.space, action)
         except ActionError as error:
             return ActionError(f"env {index}: {error}")
-        return ActionError(f"env {index}: invalid action {actions[index]!r} for {self.space}")
+        return ActionError(f"env {index}: invalid action {action!r} for {self.space}")
 
     def _numpy_range_check(self) -> int:
         rows = self._target.reshape(self.num_envs, -1)

@@ -23,18 +23,15 @@ import numpy as np
 from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import concatenate, create_empty_array
 
-from modelicagym.actions import check_action
-from modelicagym.errors import ActionError, ArgumentError
+from modelicagym.errors import ArgumentError
 from modelicagym.vector.actions import ActionWriter
 from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.env_slice import EnvSlice
+from modelicagym.vector.checks import check_env_ids
 from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WaitStatus
 
 __all__ = ["PartialBatches"]
 
-#: the owner of the envs of the calling process's slice
-_LOCAL = -1
 #: how long ``recv`` blocks on one busy worker before it looks at the others again (seconds)
 _POLL_BLOCK = 0.0002
 
@@ -53,7 +50,6 @@ class PartialBatches:
 
     Args:
         handles: the pool's workers, in slot order.
-        local: the calling process's slice, if it steps one (its envs step inside :meth:`send`).
         buffers: the pool's shared memory.
         actions: the pool's action writer (actions are checked as for a whole batch).
         batch_size: how many envs :meth:`recv` returns.
@@ -64,7 +60,6 @@ class PartialBatches:
     def __init__(
         self,
         handles: list[WorkerHandle],
-        local: EnvSlice | None,
         buffers: SharedBuffers,
         actions: ActionWriter,
         batch_size: int,
@@ -72,7 +67,6 @@ class PartialBatches:
         step_timeout: float | None,
     ) -> None:
         self.handles = handles
-        self.local = local
         self.buffers = buffers
         self.actions = actions
         self.batch_size = batch_size
@@ -80,7 +74,7 @@ class PartialBatches:
         self.step_timeout = step_timeout
         n = buffers.rewards.shape[0]
         self.num_envs = n
-        self._owner = np.full(n, _LOCAL, dtype=np.int64)
+        self._owner = np.empty(n, dtype=np.int64)
         for k, handle in enumerate(handles):
             self._owner[handle.env_indices.start : handle.env_indices.stop] = k
         #: per worker: the env ids it is stepping now, and those sent while it was busy
@@ -119,34 +113,26 @@ class PartialBatches:
     def send(self, actions: Any, env_ids: Any) -> None:
         """Step envs ``env_ids`` with ``actions`` (one per id, in the same order)."""
         ids = self._check_ids(env_ids)
-        self._write_actions(actions, ids)
+        if not isinstance(self.actions.shared.read_batch(copy_out=False), np.ndarray):
+            raise ArgumentError(f"partial batches need actions of an array space (Box, Discrete, MultiDiscrete, "
+                                f"MultiBinary), not {self.actions.space}")
+        self.actions.write_rows(np.asarray(actions), ids)
         self._idle[ids] = False
         owners = self._owner[ids]
-        for k in np.unique(owners).tolist():
+        for k in range(len(self.handles)):
             mine = ids[owners == k].tolist()
-            if k == _LOCAL:
+            if not mine:
                 continue
             if self._stepping[k]:
                 self._queued[k] += mine
             else:
                 self._dispatch(k, mine)
-        if self.local is not None and (owners == _LOCAL).any():
-            self._step_local(ids[owners == _LOCAL].tolist())
 
-    def recv_envs(self, env_ids: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """The results of exactly envs ``env_ids`` (all sent), in that order, once all are in."""
-        wanted = set(env_ids.tolist())
-        while not wanted <= set(self._ready):
-            self._collect()
-        self._ready = deque(env for env in self._ready if env not in wanted)
-        self._idle[env_ids] = True
-        return self._results(env_ids)
-
-    def recv(self, count: int | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """The first ``count`` (default ``batch_size``) envs whose results are in: observations,
-        rewards, terminations, truncations and infos as a batch of that many, their ids in
+    def recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The first ``batch_size`` envs whose results are in: observations, rewards,
+        terminations, truncations and infos as a batch of that many, their ids in
         ``infos["env_id"]``."""
-        count = self.batch_size if count is None else count
+        count = self.batch_size
         outstanding = len(self._ready) + sum(map(len, self._stepping)) + sum(map(len, self._queued))
         if count > outstanding:
             raise ArgumentError(f"recv() waits for {count} envs, but only {outstanding} were sent and not yet "
@@ -158,37 +144,12 @@ class PartialBatches:
         return self._results(ids)
 
     def _check_ids(self, env_ids: Any) -> np.ndarray:
-        ids = np.asarray(env_ids)
-        if ids.ndim != 1 or ids.dtype.kind not in "iu":
-            raise ArgumentError(f"env_ids must be a 1-d array of env indices, got {env_ids!r}")
-        ids = ids.astype(np.int64)
-        if ids.size and (ids.min() < 0 or ids.max() >= self.num_envs):
-            raise ArgumentError(f"env_ids must lie in [0, {self.num_envs - 1}], got {ids.tolist()}")
-        if np.unique(ids).size != ids.size:
-            raise ArgumentError(f"env_ids must not repeat an env, got {ids.tolist()}")
+        ids = check_env_ids(env_ids, self.num_envs)
         busy = ids[~self._idle[ids]]
         if busy.size:
             raise ArgumentError(f"envs {busy.tolist()} were sent and not yet returned by recv(): each env can "
                                 "be sent again only once recv() has returned it")
         return ids
-
-    def _write_actions(self, actions: Any, ids: np.ndarray) -> None:
-        """Check each env's action as the single env would (`ActionError` naming the env), then
-        store them; nothing is stored if one is refused."""
-        shared = self.actions.shared
-        if not isinstance(shared.read_batch(copy_out=False), np.ndarray):
-            raise ArgumentError(f"partial batches need actions of an array space (Box, Discrete, MultiDiscrete, "
-                                f"MultiBinary), not {shared.space}")
-        actions = np.asarray(actions)
-        if actions.shape[:1] != ids.shape:
-            raise ArgumentError(f"expected {ids.size} actions, one per env id, got shape {actions.shape}")
-        for env, action in zip(ids.tolist(), actions):
-            try:
-                check_action(shared.space, action)
-            except ActionError as error:
-                raise ActionError(f"env {env}: {error}") from None
-        for env, action in zip(ids.tolist(), actions):
-            shared.write(env, action)
 
     def _dispatch(self, k: int, ids: list[int]) -> None:
         """Wake worker ``k`` to step envs ``ids`` of its slice (it is idle)."""
@@ -201,20 +162,6 @@ class PartialBatches:
         self._stepping[k] = ids
         self._started[k] = time.monotonic()
         handle.go.post()
-
-    def _step_local(self, ids: list[int]) -> None:
-        """Step the calling process's envs ``ids`` here and now."""
-        local, buffers = self.local, self.buffers
-        indices = local.env_indices
-        mask = buffers.step_mask[indices.start : indices.stop]
-        mask[:] = 0
-        buffers.step_mask[ids] = 1
-        try:
-            reply = local.step()
-        finally:
-            mask[:] = 1
-        self._take_reply(reply, local.index, "the calling process")
-        self._ready.extend(ids)
 
     def _take_reply(self, message: Message | None, slot: int, process: str | None) -> None:
         """The infos of a reply, or the env's error raised."""

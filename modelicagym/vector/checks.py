@@ -120,6 +120,27 @@ def check_batch_size(batch_size: Any, num_envs: int, caller_steps: Any) -> int:
     return int(batch_size)
 
 
+def check_env_ids(env_ids: Any, num_envs: int) -> np.ndarray:
+    """``env_ids`` as an int64 array of distinct env indices, else an `ArgumentError` saying why."""
+    ids = np.asarray(env_ids)
+    if ids.ndim != 1 or (ids.size and ids.dtype.kind not in "iu"):
+        raise ArgumentError(f"env_ids must be a 1-d array of env indices, got {env_ids!r}")
+    ids = ids.astype(np.int64)
+    if ids.size and (ids.min() < 0 or ids.max() >= num_envs):
+        raise ArgumentError(f"env_ids must lie in [0, {num_envs - 1}], got {ids.tolist()}")
+    seen = np.zeros(num_envs, dtype=np.bool_)
+    seen[ids] = True
+    if int(seen.sum()) != ids.size:
+        raise ArgumentError(f"env_ids must not repeat an env, got {ids.tolist()}")
+    return ids
+
+
+def select_infos(infos: dict[str, Any], env_ids: np.ndarray) -> dict[str, Any]:
+    """The vector infos of envs ``env_ids`` only (every batched array indexed by them)."""
+    return {key: select_infos(value, env_ids) if isinstance(value, dict) else value[env_ids]
+            for key, value in infos.items()}
+
+
 def check_env_fns(env_fns: list[Any]) -> None:
     """Every env fn is a callable that can be sent to a worker process (with cloudpickle)."""
     if not env_fns:

@@ -46,9 +46,11 @@ from modelicagym.vector.checks import (
     check_async_vector_env_options,
     check_batch_size,
     check_env_fns,
+    check_env_ids,
     check_pool_options,
     check_reset_mask,
     seeds_per_env,
+    select_infos,
     values_per_env,
 )
 from modelicagym.vector.dispatch import Dispatcher
@@ -347,9 +349,13 @@ class PoolVectorEnv(VectorEnv):
         the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
         self._assert_is_running()
         self._assert_idle("step_async")
-        if self._timing_enabled:
-            self._step_started_ns = time.perf_counter_ns()
+        started_ns = time.perf_counter_ns() if self._timing_enabled else 0
         self._actions.write(actions)
+        self._start_step(started_ns)
+
+    def _start_step(self, started_ns: int) -> None:
+        """Wake the parties to step with the actions written (``started_ns``: for the timing)."""
+        self._step_started_ns = started_ns
         try:
             self._dispatcher.step_all()
             self._state = AsyncState.WAITING_STEP
@@ -424,16 +430,30 @@ class PoolVectorEnv(VectorEnv):
         """Step only envs ``env_ids`` (the others keep their state) and return their results, in
         the order of ``env_ids``, as a batch of that many; ``infos["env_id"]`` repeats the ids.
 
-        For loops where some envs have no more work: a finished env costs nothing. Works on any
-        pool, with the same autoreset as :meth:`step` (see `modelicagym.vector.batches`).
+        For loops where some envs have no more work: a finished env costs nothing. It is a
+        :meth:`step` whose shared step mask leaves the other envs out (on the native path too),
+        with the same autoreset.
         """
         self._assert_is_running()
         self._assert_idle("step_envs")
-        partial = self._partial_batches(None)
-        ids = np.asarray(env_ids)
-        with self._stopped_on_interrupt():
-            partial.send(actions, ids)
-        return self._collected(lambda: partial.recv_envs(ids.astype(np.int64)))
+        ids = check_env_ids(env_ids, self.num_envs)
+        started_ns = time.perf_counter_ns() if self._timing_enabled else 0
+        self._actions.write_rows(np.asarray(actions), ids)
+        mask = self._buffers.step_mask
+        mask[:] = 0
+        mask[ids] = 1
+        try:
+            self._start_step(started_ns)
+            observations, rewards, terminations, truncations, infos = self.step_wait()
+        except (KeyboardInterrupt, SystemExit):
+            if self._state is not AsyncState.DEFAULT:
+                self._abort()
+            raise
+        finally:
+            mask[:] = 1
+        infos = select_infos(infos, ids)
+        infos["env_id"] = ids.astype(np.int32)
+        return observations[ids], rewards[ids], terminations[ids], truncations[ids], infos
 
     def _collected(self, collect: Callable[[], Any]) -> Any:
         """``collect()`` results of partial batches; a worker's failure (or Ctrl-C) while
@@ -445,12 +465,12 @@ class PoolVectorEnv(VectorEnv):
             raise
 
     def _partial_batches(self, call: str | None) -> PartialBatches:
-        """The partial batches' state; created on first use, unless ``call`` needs an ``async_reset`` first."""
+        """The partial batches' state; created by ``async_reset`` (``call=None``), which ``call`` needs first."""
         if self._partial is None:
             if call is not None:
                 raise NoPendingCallError(f"Calling `{call}` before `async_reset`.", call)
             self._partial = PartialBatches(
-                self._workers.handles, self._dispatcher.local, self._buffers, self._actions, self.batch_size,
+                self._workers.handles, self._buffers, self._actions, self.batch_size,
                 self._dispatcher.spin_time, self.step_timeout,
             )
         return self._partial
