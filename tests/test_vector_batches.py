@@ -100,11 +100,10 @@ def test_a_slow_env_does_not_hold_back_the_fast_ones(tmp_path: Path) -> None:
             pool.send(np.zeros(1, dtype=np.int64), infos["env_id"])
         assert returned.count(0) == 1 and len(returned) == 40
         gate.touch()
-        for _ in range(10):
+        while 0 not in returned[40:]:  # env 0 comes back once its step can finish (else the test times out)
             *_, infos = pool.recv()
             returned += infos["env_id"].tolist()
             pool.send(np.zeros(1, dtype=np.int64), infos["env_id"])
-        assert returned[40:].count(0) >= 1
 
 
 def test_bad_ids_and_actions_are_refused_and_the_pool_stays_usable() -> None:

@@ -15,6 +15,7 @@ the same seed and actions, whatever order the envs come back in.
 
 from __future__ import annotations
 
+import os
 import time
 from collections import deque
 from typing import Any
@@ -177,9 +178,12 @@ class PartialBatches:
         (all of them, so that no worker's results wait behind a faster worker's)."""
         busy = [k for k, ids in enumerate(self._stepping) if ids]
         deadline = time.monotonic() + self.spin_time
+        yield_cpu = any(getattr(self.handles[k].done, "yield_cpu", True) for k in busy)
         while not self._take_done(busy, 0.0):
             if time.monotonic() >= deadline:
                 break
+            if yield_cpu:  # more waiting parties than cores: let a worker have this one
+                os.sched_yield()
         else:
             return
         while not self._take_done(busy, _POLL_BLOCK / len(busy)):
