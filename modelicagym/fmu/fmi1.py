@@ -35,6 +35,7 @@ from fmpy.logging import addLoggerProxy
 from modelicagym.fmu.binding import OK, WARNING, FMIBinding
 from modelicagym.fmu.description import FMUDescription
 from modelicagym.fmu.errors import UnsupportedFeatureError
+from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.logs import FMI1_LOGGER
 
 _ALLOCATE = fmi1CallbackAllocateMemoryTYPE(calloc)
@@ -50,17 +51,9 @@ _STATUS_FUNCTIONS = {
 
 class FMI1Binding(FMIBinding):
     FMPY_CLASSES = {"cs": FMU1Slave, "me": FMU1Model}
-    TYPE_FUNCTIONS = {
-        "Real": ("Real", ctypes.c_double),
-        "Integer": ("Integer", ctypes.c_int),
-        "Enumeration": ("Integer", ctypes.c_int),
-        "Boolean": ("Boolean", ctypes.c_int8),
-        "String": ("String", ctypes.c_char_p),
-    }
-    CONTINUOUS_STATE_FUNCTIONS = {
-        "set_time": "SetTime", "get_x": "GetContinuousStates", "set_x": "SetContinuousStates",
-        "get_dx": "GetDerivatives", "get_z": "GetEventIndicators", "get_nominals": "GetNominalContinuousStates",
-    }
+    #: as FMI 2.0's, except that ``fmiBoolean`` is a ``char`` and one function has another name
+    TYPE_FUNCTIONS = {**FMI2Binding.TYPE_FUNCTIONS, "Boolean": ("Boolean", ctypes.c_int8)}
+    CONTINUOUS_STATE_FUNCTIONS = {**FMI2Binding.CONTINUOUS_STATE_FUNCTIONS, "get_nominals": "GetNominalContinuousStates"}
 
     def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None):
         super().__init__(description, mode, instance_name)
