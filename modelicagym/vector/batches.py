@@ -10,7 +10,17 @@ Workers step whole slices, so the unit of work here is the part of a worker's sl
 sent: the shared ``step_mask`` says which of its envs a ``STEP`` steps (on the native path too),
 and a worker still busy when more of its envs are sent gets them as soon as it finishes. Each env
 keeps its own autoreset (``NEXT_STEP``), so its trajectory is the one ``SyncVectorEnv`` gives for
-the same seed and actions, whatever order the envs come back in.
+the same seed and actions, whatever order the envs come back in. A worker that fails stops the
+pool, as an ordinary step does without ``restart_dead_workers`` (partial batches restart nothing).
+
+Example::
+
+    envs = modelicagym.make_vec("cartpole", n=8, batch_size=4, num_workers=2)
+    envs.async_reset(seed=0)
+    for _ in range(100):
+        observations, rewards, terminations, truncations, infos = envs.recv()
+        envs.send(np.zeros(len(infos["env_id"]), dtype=np.int64), infos["env_id"])
+    envs.close()
 """
 
 from __future__ import annotations

@@ -20,6 +20,8 @@ This module is the public API only. The path of one ``step``, and where each par
 Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.workers`
 (one :mod:`~modelicagym.vector.handle` per process); the layout of envs over workers is
 :mod:`~modelicagym.vector.plan`; where step time goes is :mod:`~modelicagym.vector.timing`.
+``step_envs`` is a ``step`` whose shared step mask leaves some envs out; EnvPool's ``send``/``recv``
+(partial batches) is :mod:`~modelicagym.vector.batches`.
 """
 
 from __future__ import annotations
