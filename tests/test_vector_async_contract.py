@@ -79,9 +79,11 @@ def test_an_envs_exception_keeps_its_type() -> None:
     assert info.value.original.code == 7
 
 
-def test_each_env_receives_its_action_as_sync_vector_env_hands_it() -> None:
-    """A ``Box(shape=())`` action reaches the env as a numpy scalar, as ``iterate`` gives it."""
-    actions = np.array([0.5, 0.25], dtype=np.float32)
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_each_env_receives_its_action_as_sync_vector_env_hands_it(dtype: type) -> None:
+    """A ``Box(shape=(), dtype=float32)`` action reaches the env as a numpy scalar of the dtype the
+    batch was given in, as ``iterate`` gives it (an env may ``time.sleep(action)``: not a float32)."""
+    actions = np.array([0.1, 0.25], dtype=dtype)
     received = []
     for envs in (SyncVectorEnv([ActionRecorder] * 2), PoolVectorEnv([ActionRecorder] * 2, num_workers=2)):
         envs.reset(seed=0)
@@ -89,7 +91,7 @@ def test_each_env_receives_its_action_as_sync_vector_env_hands_it() -> None:
         received.append(envs.get_attr("last_action"))
         envs.close()
     assert [(type(a), a) for a in received[0]] == [(type(a), a) for a in received[1]]
-    assert type(received[1][0]) is np.float32
+    assert type(received[1][0]) is dtype
 
 
 def bounded_fns() -> list:

@@ -33,10 +33,13 @@ class ActionWriter:
         library: our native library, or ``None`` (numpy then does the range checks).
     """
 
-    def __init__(self, shared: SharedBatch | PickledBatch, library: ctypes.CDLL | None) -> None:
-        self.space = space = shared.space
+    def __init__(
+        self, shared: SharedBatch | PickledBatch, space: spaces.Space, given_dtype: np.ndarray, library: ctypes.CDLL | None
+    ) -> None:
+        self.space = space
         self.shared = shared
         self.num_envs = shared.n
+        self._given_dtype = given_dtype
         self._batched = batch_space(space, shared.n)
         self._target = target = None if shared.pickled else shared.read_batch(copy_out=False)
         self._range_check = None
@@ -45,7 +48,7 @@ class ActionWriter:
             if library is not None and target.dtype == np.int64:
                 args = (target.ctypes.data, shared.n, *self._bounds)
                 self._range_check = lambda: library.mg_first_outside_int64(*args)
-        elif type(space) is spaces.Box and space.dtype == np.float64 and isinstance(target, np.ndarray):
+        elif type(space) is spaces.Box and isinstance(target, np.ndarray) and target.dtype == np.float64:
             width = int(np.prod(space.shape))
             self._bounds = tuple(
                 np.ascontiguousarray(np.broadcast_to(bound, space.shape), dtype=np.float64).ravel()
@@ -64,15 +67,30 @@ class ActionWriter:
 
     def write(self, actions: Any) -> None:
         """Check ``actions`` and write them; raise `ActionError` (naming the env) if an env would
-        refuse its action. Nothing any worker reads has changed when it raises."""
-        if self._fast and type(actions) is np.ndarray and actions.dtype == self._dtype and actions.shape == self._shape:
+        refuse its action. Nothing any worker reads has changed when it raises. Each env gets its
+        action in the dtype of the batch given (an array), as ``SyncVectorEnv`` hands it over."""
+        if self._fast and type(actions) is np.ndarray and actions.shape == self._shape and self._takes(actions.dtype):
             self._target[...] = actions
             bad = self._range_check()
             if bad >= 0:
                 raise self._refusal(actions[bad], bad)
+            self._given_dtype[0] = self._dtype_code(actions)
             return
         self._check_each(actions)
         self.shared.write_batch(actions if self._dtype is None else np.asarray(actions).astype(self._dtype))
+        self._given_dtype[0] = self._dtype_code(actions)
+
+    def _takes(self, dtype: np.dtype) -> bool:
+        """Whether an array of ``dtype`` fits the shared actions unchanged (the fast path)."""
+        return dtype == self._dtype or (dtype.kind == self._dtype.kind and np.can_cast(dtype, self._dtype, "safe"))
+
+    def _dtype_code(self, actions: Any) -> int:
+        """What `SharedBuffers.action_dtype` says for ``actions``: the array's dtype when it differs
+        from the stored one; 0 (as stored: float64 for a float ``Box``, closest to the Python floats
+        ``SyncVectorEnv`` hands over from a list) otherwise."""
+        if self._fast and type(actions) is np.ndarray and actions.dtype != self._dtype and self._takes(actions.dtype):
+            return ord(actions.dtype.char)
+        return 0
 
     def _check_each(self, actions: Any) -> None:
         """The slow path: every env's action through `check_action`."""
@@ -101,7 +119,7 @@ class ActionWriter:
         theirs); refused as by :meth:`write`, with nothing written."""
         if len(actions) != len(env_ids):
             raise ActionError(f"expected {len(env_ids)} actions, one per env id, got {len(actions)}")
-        if self._fast and type(actions) is np.ndarray and actions.dtype == self._dtype:
+        if self._fast and type(actions) is np.ndarray and self._takes(actions.dtype):
             low, high = self._bounds
             if actions.shape[1:] == self._shape[1:]:
                 rows = actions.reshape(len(env_ids), int(np.prod(self._shape[1:])))
@@ -110,6 +128,7 @@ class ActionWriter:
                     k = int(np.flatnonzero(~inside)[0])
                     raise self._refusal(actions[k], int(env_ids[k]))
                 self._target[env_ids] = actions
+                self._given_dtype[0] = self._dtype_code(actions)
                 return
         for env, action in zip(env_ids.tolist(), actions):
             try:
@@ -118,6 +137,7 @@ class ActionWriter:
                 raise ActionError(f"env {env}: {error}") from None
         for env, action in zip(env_ids.tolist(), actions):
             self.shared.write(env, action)
+        self._given_dtype[0] = self._dtype_code(actions)
 
     def _refusal(self, action: Any, index: int) -> ActionError:
         """The error for env ``index``'s refused ``action``, with the single env's message."""

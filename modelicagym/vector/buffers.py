@@ -236,6 +236,15 @@ class PickledBatch:
         self._values[first : first + len(values)] = values
 
 
+def action_storage_space(space: Space) -> Space:
+    """How actions of ``space`` are kept in shared memory: a float ``Box`` as float64, so that
+    an action given in float64 reaches its env unchanged, as ``SyncVectorEnv`` hands it over (see
+    ``SharedBuffers.action_dtype``); any other space as itself."""
+    if type(space) is Box and space.dtype.kind == "f" and space.dtype != np.float64:
+        return Box(space.low.astype(np.float64), space.high.astype(np.float64), space.shape, np.float64)
+    return space
+
+
 def _batch(space: Space, n: int, allocator: _Allocator) -> SharedBatch | PickledBatch:
     """The batch for ``space``: in shared memory when it has a layout there, else pickled."""
     return SharedBatch(space, n, allocator) if has_shared_layout(space) else PickledBatch(space, n)
@@ -262,7 +271,10 @@ class SharedBuffers:
         allocator = _Allocator(buffer)
         self.spec = spec
         self.observations = _batch(spec.observation_space, n, allocator)
-        self.actions = _batch(spec.action_space, n, allocator)
+        self.actions = _batch(action_storage_space(spec.action_space), n, allocator)
+        #: the dtype (its ``char``) of the batch of actions last given, in which each env gets its
+        #: action back as ``SyncVectorEnv`` would hand it; 0: as stored
+        self.action_dtype = allocator.array(np.uint8, (1,))
         self.rewards = allocator.array(np.float64, (n,))
         self.terminations = allocator.array(np.bool_, (n,))
         self.truncations = allocator.array(np.bool_, (n,))

@@ -171,6 +171,8 @@ class EnvSlice:
         actions, observations = buffers.actions, buffers.observations
         rewards, terminations, truncations = buffers.rewards, buffers.terminations, buffers.truncations
         current_env, step_mask = buffers.current_env, buffers.step_mask
+        given = int(buffers.action_dtype[0])
+        as_given = np.dtype(chr(given)).type if given else None
         timed = bool(buffers.timing_enabled[0])
         env_ns = fmu_ns = 0
         for offset in range(start, len(self.envs)):
@@ -180,6 +182,8 @@ class EnvSlice:
             env = self.envs[offset]
             current_env[self.slot] = index
             action = actions.read(index)
+            if as_given is not None:  # the dtype the batch was given in, as SyncVectorEnv hands it over
+                action = as_given(action) if np.ndim(action) == 0 else action.astype(as_given)
             if timed:
                 fmu_env = self._fmu_envs[offset]
                 fmu_start = 0 if fmu_env is None else fmu_env.fmu_time_ns

@@ -115,9 +115,9 @@ class PoolVectorEnv(VectorEnv):
     main guard, stdin and notebooks work; env fns must be picklable by ``cloudpickle``.
 
     Where it deliberately differs from ``AsyncVectorEnv`` (Gymnasium's own vector tests pass
-    otherwise): actions are checked against the action space in the calling process and cast to
-    its dtype, so an out-of-range action raises `ActionError` before any env sees it and each env
-    gets an action its space contains; spaces with no shared-memory layout (custom spaces,
+    otherwise): actions are checked against the action space in the calling process, so an
+    out-of-range action raises `ActionError` before any env sees it (each env still gets its
+    action as ``SyncVectorEnv`` hands it over from an array: same dtype); spaces with no shared-memory layout (custom spaces,
     ``Graph``, ``Sequence``) travel pickled whatever ``shared_memory`` says, instead of being
     refused; an env's exception is raised once, as its own type carrying the env index and the
     remote traceback, rather than also logged per worker; and while the calling process steps a
@@ -275,7 +275,9 @@ class PoolVectorEnv(VectorEnv):
             self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._buffers: SharedBuffers = self._workers.buffers
-        self._actions = ActionWriter(self._buffers.actions, futex_library())
+        self._actions = ActionWriter(
+            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library()
+        )
         self._dispatcher = Dispatcher(self._workers.handles, local, self._buffers, spin_time, step_timeout)
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
