@@ -167,6 +167,22 @@ def test_batched_agent_equals_independent_single_agents():
     np.testing.assert_array_equal(batched.epsilon, np.concatenate([s.epsilon for s in singles]))
 
 
+@pytest.mark.parametrize("bootstrap_on_truncation", [True, False])
+def test_the_native_agent_equals_the_numpy_agent_bit_for_bit(bootstrap_on_truncation):
+    """Q-tables, epsilons, actions and states: the C hot path evaluates what numpy does."""
+    config = QLearningConfig(bootstrap_on_truncation=bootstrap_on_truncation, learning_rate=0.3, discount=0.9)
+    discretizer = Discretizer([(-1.0, 1.0), (-2.0, 3.0), (0.0, 1.0)], [3, 4, 2])
+    native, plain = (QLearningAgent(discretizer, 3, n_envs=7, config=config, seeds=5, native=flag)
+                     for flag in (True, False))
+    assert native._native is not None and plain._native is None
+    np.testing.assert_array_equal(drive([native], 700, seed=4), drive([plain], 700, seed=4))
+    np.testing.assert_array_equal(native.q_table, plain.q_table)
+    np.testing.assert_array_equal(native.epsilon, plain.epsilon)
+    observations = np.random.default_rng(1).normal(size=(7, 3)) * 2
+    observations[0, 1] = np.nan
+    np.testing.assert_array_equal(native.states(observations), plain.states(observations))
+
+
 def test_wrong_number_of_seeds():
     with pytest.raises(ValueError, match="2 seeds for 3 envs"):
         QLearningAgent(unit_discretizer(2), 2, n_envs=3, seeds=[1, 2])

@@ -45,12 +45,12 @@ class Discretizer:
             np.linspace(low, high, count + 1)[1:-1]
             for low, high, count in zip(self.lows, self.highs, self.n_bins, strict=True)
         ]
-        # Edges padded with +inf to a common length, so one broadcast comparison bins all variables.
-        self._padded_edges = np.full((len(self.edges), max(len(e) for e in self.edges)), np.inf)
+        #: edges padded with +inf to a common length, so one broadcast comparison bins all variables
+        self.padded_edges = np.full((len(self.edges), max(len(e) for e in self.edges)), np.inf)
         for d, edges in enumerate(self.edges):
-            self._padded_edges[d, : len(edges)] = edges
-        # Mixed-radix place values: the first variable is the most significant digit.
-        self._strides = np.concatenate([np.cumprod(self.n_bins[::-1])[::-1][1:], [1]]).astype(np.int64)
+            self.padded_edges[d, : len(edges)] = edges
+        #: mixed-radix place values of the bins: the first variable is the most significant digit
+        self.strides = np.concatenate([np.cumprod(self.n_bins[::-1])[::-1][1:], [1]]).astype(np.int64)
         self.n_states = int(np.prod(self.n_bins))
 
     @classmethod
@@ -85,11 +85,11 @@ class Discretizer:
         if obs.shape[-1:] != (self.n_variables,):
             raise ArgumentError(f"expected observations with {self.n_variables} variables, got shape {obs.shape}")
         # The bin index is the number of edges <= x (numpy.digitize's convention), counted at once.
-        return (obs[..., None] >= self._padded_edges).sum(axis=-1)
+        return (obs[..., None] >= self.padded_edges).sum(axis=-1)
 
     def states(self, observations: np.ndarray) -> np.ndarray:
         """State index of each observation: shape ``(..., d)`` in, ``(...)`` int64 out."""
-        return self.bins(observations) @ self._strides
+        return self.bins(observations) @ self.strides
 
     def to_dict(self) -> dict[str, np.ndarray]:
         """Arrays that reconstruct this discretizer (see :meth:`from_dict`)."""

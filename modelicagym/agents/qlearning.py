@@ -26,6 +26,7 @@ from typing import BinaryIO
 import numpy as np
 
 from modelicagym.agents.discretization import Discretizer
+from modelicagym.agents.native_qlearning import NativeQLearning, native_library
 from modelicagym.errors import ArgumentError, ConfigError
 
 __all__ = ["QLearningAgent", "QLearningConfig", "SeedLike"]
@@ -100,7 +101,9 @@ class QLearningAgent:
 
     Observations are mapped to states by ``discretizer``; the Q-tables are ``q_table[env, state,
     action]``. The agent works on batches: ``states``, ``actions``, rewards and flags are arrays of
-    length ``n_envs``.
+    length ``n_envs``. With ``native=True`` (default) ``states``, ``act`` and ``learn`` are one call
+    each into our native library (`modelicagym.agents.native_qlearning`: the same results, bit for
+    bit), where it can be built; the numpy path otherwise.
     """
 
     def __init__(
@@ -111,6 +114,7 @@ class QLearningAgent:
         n_envs: int = 1,
         config: QLearningConfig | None = None,
         seeds: SeedLike | Sequence[SeedLike] = None,
+        native: bool = True,
     ) -> None:
         if n_actions < 1 or n_envs < 1:
             raise ArgumentError(f"need n_actions >= 1 and n_envs >= 1, got {n_actions}, {n_envs}")
@@ -122,9 +126,14 @@ class QLearningAgent:
         shape = (discretizer.n_states, n_actions)
         low, high = self.config.q_init_low, self.config.q_init_high
         self._q_table = np.stack([g.uniform(low, high, shape) for g in generators])
-        self.epsilon = np.full(n_envs, self.config.exploration_rate)
+        self._epsilon = np.full(n_envs, self.config.exploration_rate)
         self._draws = _UniformBlocks(generators)
         self._envs = np.arange(n_envs)
+        library = native_library() if native else None
+        self._native = None if library is None else NativeQLearning(
+            library, self._q_table, self._epsilon, discretizer, self.config.learning_rate, self.config.discount,
+            self.config.exploration_decay, self.config.bootstrap_on_truncation,
+        )
 
     @property
     def q_table(self) -> np.ndarray:
@@ -133,14 +142,28 @@ class QLearningAgent:
 
     @q_table.setter
     def q_table(self, value: np.ndarray) -> None:
-        # Kept C-contiguous: learn() updates it through flat views.
-        value = np.ascontiguousarray(value, dtype=np.float64)
+        # Copied into the array learn() updates in place (through flat views, or in C).
+        value = np.asarray(value, dtype=np.float64)
         if value.shape != self._q_table.shape:
             raise ArgumentError(f"Q-table shape {value.shape} != {self._q_table.shape}")
-        self._q_table = value
+        self._q_table[...] = value
+
+    @property
+    def epsilon(self) -> np.ndarray:
+        """The exploration rate of every env, shape ``(n_envs,)``."""
+        return self._epsilon
+
+    @epsilon.setter
+    def epsilon(self, value: np.ndarray) -> None:
+        value = np.asarray(value, dtype=np.float64)
+        if value.shape != self._epsilon.shape:
+            raise ArgumentError(f"epsilon shape {value.shape} != {self._epsilon.shape}")
+        self._epsilon[...] = value
 
     def states(self, observations: np.ndarray) -> np.ndarray:
         """State indices of a batch of observations, shape ``(n_envs, d)`` -> ``(n_envs,)``."""
+        if self._native is not None and np.shape(observations) == (self.n_envs, self.discretizer.n_variables):
+            return self._native.states(observations)
         return self.discretizer.states(observations)
 
     def act(self, states: np.ndarray, *, greedy: bool = False) -> np.ndarray:
@@ -149,6 +172,8 @@ class QLearningAgent:
         Every non-greedy call consumes one draw per env, whether or not the env uses its action.
         Ties in the greedy choice go to the lowest action index.
         """
+        if self._native is not None and not greedy:
+            return self._native.act(states, self._draws.take())
         best = self.q_table[self._envs, states].argmax(axis=1)
         if greedy:
             return best
@@ -171,6 +196,10 @@ class QLearningAgent:
 
         Envs outside ``mask`` (an autoreset step, an env that finished its episodes) are untouched.
         """
+        if self._native is not None:
+            mask = np.ones(self.n_envs, dtype=np.bool_) if mask is None else mask
+            self._native.learn(states, actions, rewards, next_states, terminated, truncated, mask)
+            return
         envs = self._envs if mask is None else np.flatnonzero(mask)
         if envs.size == 0:
             return
