@@ -33,7 +33,7 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
 from modelicagym.agents import Discretizer, QLearningAgent, train
-from modelicagym.errors import ArgumentTypeError
+from modelicagym.errors import ArgumentError, ArgumentTypeError
 from modelicagym.experiments.bounds import DEFAULT_BUDGET, MakeEnv, sweep_bounds
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.plots import plot_sweep
@@ -46,7 +46,7 @@ from modelicagym.experiments.results import (
     write_sweep,
 )
 
-__all__ = ["MakeVec", "run_sweep", "run_sweeps"]
+__all__ = ["MakeVec", "SweepPart", "assemble_sweep", "run_sweep", "run_sweep_part", "run_sweeps"]
 
 logger = logging.getLogger(__name__)
 
@@ -104,20 +104,21 @@ def _fmu_time_ns(envs: VectorEnv) -> np.ndarray | None:
 
 
 def _per_setting(
-    config: SweepConfig, lengths: np.ndarray, vector_steps: int, fmu_ns: np.ndarray | None
+    config: SweepConfig, lengths: np.ndarray, vector_steps: np.ndarray, fmu_ns: np.ndarray | None
 ) -> dict[str, dict[str, Any]]:
     """Learned steps per setting and, when measured, FMU seconds per env step of the setting.
 
-    Every env is stepped ``vector_steps`` times (autoreset steps and the steps after it finished
+    Env ``i`` is stepped ``vector_steps[i]`` times (autoreset steps and the steps after it finished
     included), so that is the denominator of its FMU time.
     """
-    per_env_steps = lengths.sum(axis=1).reshape(len(config.settings), config.repeats)
+    grid = (len(config.settings), config.repeats)
+    per_env_steps = lengths.sum(axis=1).reshape(grid)
     out = {}
     for s, setting in enumerate(config.settings):
         entry: dict[str, Any] = {"env_steps": int(per_env_steps[s].sum())}
         if fmu_ns is not None:
-            setting_ns = fmu_ns.reshape(len(config.settings), config.repeats)[s].sum()
-            entry["fmu_seconds_per_step"] = float(setting_ns) / 1e9 / (vector_steps * config.repeats)
+            setting_ns = fmu_ns.reshape(grid)[s].sum()
+            entry["fmu_seconds_per_step"] = float(setting_ns) / 1e9 / float(vector_steps.reshape(grid)[s].sum())
         out[setting.label] = entry
     return out
 
@@ -152,6 +153,69 @@ def _progress(total: int, description: str, enabled: bool) -> Iterator[Callable[
         yield bar.update
 
 
+@dataclasses.dataclass
+class SweepPart:
+    """What training some envs of a sweep produced (all of them in a local run; a group of
+    (setting, repeat) runs on a Ray task): env ``indices[j]`` is ``setting * repeats + repeat``."""
+
+    indices: np.ndarray
+    lengths: np.ndarray
+    returns: np.ndarray
+    agent: QLearningAgent
+    setup_seconds: float
+    wall_seconds: float
+    vector_steps: int
+    agent_seconds: float
+    num_workers: int | None
+    pool_timing: dict[str, Any] | None
+    fmu_ns: np.ndarray | None
+
+
+def run_sweep_part(
+    config: SweepConfig,
+    indices: Sequence[int],
+    *,
+    make_vec: MakeVec | None = None,
+    num_workers: int | None = None,
+    progress: bool = True,
+    **vector_options: Any,
+) -> SweepPart:
+    """Train the agents of envs ``indices`` of ``config`` side by side in one vector env.
+
+    Env ``i`` gets the options and seeds it has in the whole sweep, so any split of a sweep into
+    parts gives the same episodes as running it whole. ``vector_options`` go to ``make_vec``.
+    """
+    make_vec = make_vec or _default_make_vec()
+    indices = np.asarray(indices, dtype=np.int64)
+    all_options = [dict(setting.options) for setting in config.settings for _ in range(config.repeats)]
+    options_per_env = [all_options[i] for i in indices]
+    extra = {} if num_workers is None else {"num_workers": num_workers}
+    all_agent_seeds, all_env_seeds = _seeds(config)
+    agent_seeds, env_seeds = [all_agent_seeds[i] for i in indices], [all_env_seeds[i] for i in indices]
+    clock = time.perf_counter()
+    envs = make_vec(
+        config.env, len(indices), options_per_env=options_per_env, **extra, **vector_options, **config.base_options
+    )
+    try:
+        agent = _make_agent(config, envs, agent_seeds)
+        setup_seconds = time.perf_counter() - clock
+        _start_pool_timing(envs)
+        fmu_before = _fmu_time_ns(envs)
+        clock = time.perf_counter()
+        with _progress(len(indices) * config.episodes, config.name, progress) as on_episodes:
+            log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
+        wall_seconds = time.perf_counter() - clock
+        pool_timing = _pool_timing(envs)
+        fmu_after = _fmu_time_ns(envs)
+    finally:
+        envs.close()
+    return SweepPart(
+        indices, log.lengths, log.returns, agent, setup_seconds, wall_seconds, log.vector_steps, log.agent_seconds,
+        getattr(envs, "num_workers", num_workers), pool_timing,
+        None if fmu_before is None else fmu_after - fmu_before,
+    )
+
+
 def run_sweep(
     config: SweepConfig,
     *,
@@ -160,52 +224,59 @@ def run_sweep(
     progress: bool = True,
 ) -> SweepResult:
     """Train one agent per (setting, repeat) of ``config`` side by side and collect the episodes."""
-    make_vec = make_vec or _default_make_vec()
     n_envs = len(config.settings) * config.repeats
-    options_per_env = [dict(setting.options) for setting in config.settings for _ in range(config.repeats)]
-    extra = {} if num_workers is None else {"num_workers": num_workers}
-    agent_seeds, env_seeds = _seeds(config)
     started = datetime.datetime.now(datetime.timezone.utc)
-    clock = time.perf_counter()
-    envs = make_vec(config.env, n_envs, options_per_env=options_per_env, **extra, **config.base_options)
-    try:
-        agent = _make_agent(config, envs, agent_seeds)
-        setup_seconds = time.perf_counter() - clock
-        logger.info(
-            "sweep %r: %d envs (%d settings x %d repeats), %d episodes each",
-            config.name,
-            n_envs,
-            len(config.settings),
-            config.repeats,
-            config.episodes,
-        )
-        _start_pool_timing(envs)
-        fmu_before = _fmu_time_ns(envs)
-        clock = time.perf_counter()
-        with _progress(n_envs * config.episodes, config.name, progress) as on_episodes:
-            log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
-        wall_seconds = time.perf_counter() - clock
-        pool_timing = _pool_timing(envs)
-        fmu_after = _fmu_time_ns(envs)
-    finally:
-        envs.close()
+    logger.info(
+        "sweep %r: %d envs (%d settings x %d repeats), %d episodes each",
+        config.name,
+        n_envs,
+        len(config.settings),
+        config.repeats,
+        config.episodes,
+    )
+    part = run_sweep_part(config, range(n_envs), make_vec=make_vec, num_workers=num_workers, progress=progress)
+    return assemble_sweep(config, [part], started, part.wall_seconds, part.num_workers)
 
+
+def assemble_sweep(
+    config: SweepConfig,
+    parts: Sequence[SweepPart],
+    started: datetime.datetime,
+    wall_seconds: float,
+    num_workers: int | None,
+) -> SweepResult:
+    """The `SweepResult` of ``parts`` that together cover every env of ``config`` once.
+
+    ``timing`` has the same fields however the sweep was split: ``setup_seconds`` is the slowest
+    part's, ``vector_steps`` and ``agent_seconds`` add up over the parts, ``pool_timing`` is the
+    pool's own report for a sweep run in one part (``None`` otherwise).
+    """
+    n_envs = len(config.settings) * config.repeats
+    order = np.concatenate([part.indices for part in parts])
+    if sorted(order.tolist()) != list(range(n_envs)):
+        raise ArgumentError(f"the parts of sweep {config.name!r} cover envs {sorted(order.tolist())}, not 0-{n_envs - 1}")
+    position = np.argsort(order)
+    lengths = np.concatenate([part.lengths for part in parts])[position]
+    returns = np.concatenate([part.returns for part in parts])[position]
+    env_vector_steps = np.concatenate([np.full(len(part.indices), part.vector_steps) for part in parts])[position]
+    fmu_ns = None
+    if all(part.fmu_ns is not None for part in parts):
+        fmu_ns = np.concatenate([part.fmu_ns for part in parts])[position]
+    agent = parts[0].agent if len(parts) == 1 else _joined_agent(parts, position)
     shape = (len(config.settings), config.repeats, config.episodes)
-    env_steps = int(log.env_steps.sum())
+    env_steps = int(lengths.sum())
     timing = {
         "started": started.isoformat(timespec="seconds"),
-        "setup_seconds": setup_seconds,
+        "setup_seconds": max(part.setup_seconds for part in parts),
         "wall_seconds": wall_seconds,
         "env_steps": env_steps,
-        "vector_steps": log.vector_steps,
+        "vector_steps": sum(part.vector_steps for part in parts),
         "seconds_per_step": wall_seconds / env_steps,
-        "agent_seconds": log.agent_seconds,
+        "agent_seconds": sum(part.agent_seconds for part in parts),
         "num_envs": n_envs,
-        "num_workers": getattr(envs, "num_workers", num_workers),
-        "pool_timing": pool_timing,
-        "per_setting": _per_setting(
-            config, log.lengths, log.vector_steps, None if fmu_before is None else fmu_after - fmu_before
-        ),
+        "num_workers": num_workers,
+        "pool_timing": parts[0].pool_timing if len(parts) == 1 else None,
+        "per_setting": _per_setting(config, lengths, env_vector_steps, fmu_ns),
     }
     logger.info(
         "sweep %r: %d env steps in %.1f s (%.1f us per env step)",
@@ -214,7 +285,16 @@ def run_sweep(
         wall_seconds,
         1e6 * wall_seconds / env_steps,
     )
-    return SweepResult(config, log.lengths.reshape(shape), log.returns.reshape(shape), timing, _machine(), agent=agent)
+    return SweepResult(config, lengths.reshape(shape), returns.reshape(shape), timing, _machine(), agent=agent)
+
+
+def _joined_agent(parts: Sequence[SweepPart], position: np.ndarray) -> QLearningAgent:
+    """One agent holding the Q-tables and epsilons of every part's agent, in env order."""
+    first = parts[0].agent
+    agent = QLearningAgent(first.discretizer, first.n_actions, n_envs=len(position), config=first.config, seeds=0)
+    agent.q_table = np.concatenate([part.agent.q_table for part in parts])[position]
+    agent.epsilon = np.concatenate([part.agent.epsilon for part in parts])[position]
+    return agent
 
 
 def run_sweeps(
