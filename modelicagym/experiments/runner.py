@@ -138,7 +138,7 @@ def _machine() -> dict[str, Any]:
 
 
 @contextlib.contextmanager
-def _progress(total: int, description: str, enabled: bool) -> Iterator[Callable[[int], None] | None]:
+def progress_bar(total: int, description: str, enabled: bool) -> Iterator[Callable[[int], None] | None]:
     """A tqdm bar's ``update``, or ``None`` when disabled or tqdm is missing."""
     if not enabled:
         yield None
@@ -202,7 +202,7 @@ def run_sweep_part(
         _start_pool_timing(envs)
         fmu_before = _fmu_time_ns(envs)
         clock = time.perf_counter()
-        with _progress(len(indices) * config.episodes, config.name, progress) as on_episodes:
+        with progress_bar(len(indices) * config.episodes, config.name, progress) as on_episodes:
             log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
         wall_seconds = time.perf_counter() - clock
         pool_timing = _pool_timing(envs)
@@ -307,8 +307,16 @@ def run_sweeps(
     progress: bool = True,
     make: MakeEnv | None = None,
     bounds_budget: int = DEFAULT_BUDGET,
+    ray: str | bool | None = None,
+    ray_options: dict[str, Any] | None = None,
 ) -> list[SweepResult | None]:
     """Run ``configs`` one after the other, writing each sweep's results as soon as it completes.
+
+    With ``ray`` (``True``, or a cluster address: see `~modelicagym.distributed.connect`) each
+    sweep's (setting, repeat) groups run as Ray tasks across the cluster
+    (`~modelicagym.distributed.sweeps.run_sweep_on_ray`, which ``ray_options`` configure:
+    ``groups``, ``cpus_per_group``, ``max_retries``); the results come back to this process and are
+    written exactly as a local run writes them, with the same episodes.
 
     With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
     (``None`` in the returned list). An interruption loses only the sweep that was running. The
@@ -323,7 +331,14 @@ def run_sweeps(
             logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
             outcomes.append(None)
             continue
-        result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
+        if ray is None or ray is False:
+            result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
+        else:
+            from modelicagym.distributed.sweeps import run_sweep_on_ray
+
+            address = None if ray is True else ray
+            result = run_sweep_on_ray(config, address=address, make_vec=make_vec, progress=progress,
+                                      **(ray_options or {}))
         if bounds_budget > 0:
             result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)
