@@ -57,11 +57,13 @@ def write_json(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
 
 
 def add_arguments(parser: Any) -> None:
-    """``modelicagym bench {fmi-calls,throughput,solver-accuracy}``: the arguments of each benchmark."""
-    from modelicagym.bench import fmi_calls, solver_accuracy, throughput
+    """``modelicagym bench {fmi-calls,throughput,solver-accuracy,ray}``: the arguments of each benchmark."""
+    from modelicagym.bench import fmi_calls, ray, solver_accuracy, throughput
 
     which = parser.add_subparsers(dest="benchmark", required=True)
-    for name, module in (("fmi-calls", fmi_calls), ("throughput", throughput), ("solver-accuracy", solver_accuracy)):
+    benchmarks = (("fmi-calls", fmi_calls), ("throughput", throughput), ("solver-accuracy", solver_accuracy),
+                  ("ray", ray))
+    for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
         module.add_arguments(sub)
         sub.set_defaults(benchmark_run=module.run)
