@@ -21,9 +21,11 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     │   └── NativeBuildError                our native library (modelicagym.native)
     ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
     │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, ...)
-    └── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
-        (EnvError, WorkerDiedError, WorkerTimeoutError, ...; misuse errors are also
-        Gymnasium's AlreadyPendingCallError, NoAsyncCallError, ClosedEnvironmentError)
+    ├── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
+    │   (EnvError, WorkerDiedError, WorkerTimeoutError, ...; misuse errors are also
+    │   Gymnasium's AlreadyPendingCallError, NoAsyncCallError, ClosedEnvironmentError)
+    └── ClusterError (RuntimeError)         Ray: modelicagym.distributed.errors
+        (RayNotInstalledError (ImportError), ActorDiedError, SweepGroupError)
 
 The command line prints any of them as one line and exits with status 1 (``--debug`` shows the
 traceback).
@@ -37,6 +39,7 @@ __all__ = [
     "ArgumentError",
     "ArgumentTypeError",
     "BuildError",
+    "ClusterError",
     "ConfigError",
     "ConfigTypeError",
     "DataError",
@@ -88,3 +91,7 @@ class BuildError(ModelicaGymError, RuntimeError):
 
 class NativeBuildError(BuildError):
     """Our native library (``modelicagym/native/csrc``) could not be compiled."""
+
+
+class ClusterError(ModelicaGymError, RuntimeError):
+    """Running on a Ray cluster failed: Ray missing, an actor or a task lost with its node."""

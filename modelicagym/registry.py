@@ -26,6 +26,10 @@ ENVIRONMENTS: dict[str, tuple[str, str]] = {
 }
 
 
+#: the vector envs ``make_vec`` can make
+BACKENDS = ("pool", "sync", "ray")
+
+
 def _entry_point(name: str) -> str:
     key = name.lower()
     for short, (gym_id, entry_point) in ENVIRONMENTS.items():
@@ -77,9 +81,11 @@ def make_vec(
     options_per_env: Sequence[dict[str, Any]] | None = None,
     env_options: Mapping[str, Any] | None = None,
     pool_options: Mapping[str, Any] | None = None,
+    backend: str = "pool",
+    ray_options: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> gym.vector.VectorEnv:
-    """Create ``n`` environments stepped in parallel by the multi-process pool.
+    """Create ``n`` environments stepped in parallel by the multi-process pool (or on Ray).
 
     ``name`` is a short name or Gymnasium id, or an `FMUEnv` config dict (``{"fmu": ..., ...}``):
     any FMU can be pooled. Options go to every environment; ``options_per_env[i]`` (a list of ``n``
@@ -88,6 +94,12 @@ def make_vec(
     ``autoreset_mode``, ``step_timeout``, ``restart_dead_workers``, ``caller_steps``, ... see
     `PoolVectorEnv`) configures the pool instead. A name both accept is an error: say which you
     mean with ``env_options={...}`` or ``pool_options={...}``, which go only where they say.
+
+    ``backend``: ``"pool"`` (default, `~modelicagym.vector.PoolVectorEnv`), ``"sync"``
+    (Gymnasium's ``SyncVectorEnv`` over the same env fns; only ``autoreset_mode`` applies) or
+    ``"ray"`` (`~modelicagym.distributed.RayVectorEnv`: the envs in Ray actors, each stepping its
+    slice on a local pool that the pool options configure; `RAY_OPTIONS` such as ``num_actors``,
+    ``cpus_per_actor``, ``address`` go to it, as does ``ray_options={...}``).
 
     Example::
 
@@ -98,14 +110,23 @@ def make_vec(
         observations, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
         envs.close()
     """
-    from modelicagym.vector import PoolVectorEnv
     from modelicagym.vector.pool import POOL_OPTIONS
 
     if n < 1:
         raise ArgumentError(f"n must be at least 1, got {n}")
     if options_per_env is not None and len(options_per_env) != n:
         raise ArgumentError(f"options_per_env has {len(options_per_env)} entries for n={n} environments")
+    if backend not in BACKENDS:
+        raise ArgumentError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     _check_names(pool_options or {}, POOL_OPTIONS, "pool option")
+    ray_options = dict(ray_options or {})
+    if backend == "ray":
+        from modelicagym.distributed.vector_env import RAY_OPTIONS
+
+        _check_names(ray_options, RAY_OPTIONS, "Ray option")
+        ray_options.update({key: options.pop(key) for key in [k for k in options if k in RAY_OPTIONS]})
+    elif ray_options:
+        raise ArgumentError(f"ray_options apply to backend='ray' only, not {backend!r}")
     limit = None
     if isinstance(name, Mapping):
         entry_point, options = "modelicagym.env:FMUEnv", {**name, **options}
@@ -128,7 +149,25 @@ def make_vec(
                    limit)
         for i in range(n)
     ]
-    return PoolVectorEnv(env_fns, **to_pool, **(pool_options or {}))
+    return _vector_env(backend, env_fns, {**to_pool, **(pool_options or {})}, ray_options)
+
+
+def _vector_env(
+    backend: str, env_fns: list[EnvFactory], pool_options: dict[str, Any], ray_options: dict[str, Any]
+) -> gym.vector.VectorEnv:
+    """The vector env of ``backend`` over ``env_fns``."""
+    from modelicagym.vector import PoolVectorEnv
+
+    if backend == "pool":
+        return PoolVectorEnv(env_fns, **pool_options)
+    autoreset_mode = pool_options.pop("autoreset_mode", gym.vector.AutoresetMode.NEXT_STEP)
+    if backend == "sync":
+        if pool_options:
+            raise ArgumentError(f"backend='sync' takes no pool options, got {sorted(pool_options)}")
+        return gym.vector.SyncVectorEnv(env_fns, autoreset_mode=autoreset_mode)
+    from modelicagym.distributed import RayVectorEnv
+
+    return RayVectorEnv(env_fns, autoreset_mode=autoreset_mode, pool_options=pool_options, **ray_options)
 
 
 def _env_option_names(env_class: Any) -> set[str] | None:
@@ -155,7 +194,7 @@ def _check_names(given: Mapping[str, Any], known: Sequence[str], what: str, only
         close = difflib.get_close_matches(key, known, n=2)
         if close or not only_if_close:
             hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
-            raise ArgumentError(f"unknown {what} {key!r}.{hint} Pool options: {', '.join(known)}")
+            raise ArgumentError(f"unknown {what} {key!r}.{hint} {what.capitalize()}s: {', '.join(known)}")
 
 
 def _vector_entry_point(name: str, num_envs: int = 1, **kwargs: Any) -> gym.vector.VectorEnv:

@@ -49,3 +49,21 @@ def test_an_option_both_accept_must_be_placed(monkeypatch: pytest.MonkeyPatch) -
     monkeypatch.setitem(registry.ENVIRONMENTS, "colliding", ("ModelicaGym/Colliding-v0", f"{__name__}:CollidingEnv"))
     with pytest.raises(ArgumentError, match="'copy' is an option of both the env and the pool.*env_options"):
         modelicagym.make_vec("colliding", n=2, copy=False)
+
+
+def test_backends_are_checked_before_anything_starts() -> None:
+    with pytest.raises(ValueError, match="unknown backend 'rey'; choose one of pool, sync, ray"):
+        modelicagym.make_vec("cartpole", n=2, backend="rey")
+    with pytest.raises(ValueError, match="ray_options apply to backend='ray' only"):
+        modelicagym.make_vec("cartpole", n=2, ray_options={"num_actors": 1})
+    with pytest.raises(ValueError, match="backend='sync' takes no pool options"):
+        modelicagym.make_vec("cartpole", n=2, backend="sync", num_workers=1)
+
+
+def test_the_sync_backend_is_gymnasiums_sync_vector_env() -> None:
+    envs = modelicagym.make_vec("cartpole", n=2, backend="sync", autoreset_mode="SameStep", force=7.0)
+    try:
+        assert isinstance(envs, gym.vector.SyncVectorEnv) and envs.get_attr("force") == (7.0, 7.0)
+        assert envs.metadata["autoreset_mode"] == gym.vector.AutoresetMode.SAME_STEP
+    finally:
+        envs.close()

@@ -129,11 +129,27 @@ class QLearningAgent:
         self._epsilon = np.full(n_envs, self.config.exploration_rate)
         self._draws = _UniformBlocks(generators)
         self._envs = np.arange(n_envs)
+        self._native = self._native_path(native)
+
+    def _native_path(self, native: bool) -> NativeQLearning | None:
+        """The C hot path over this agent's arrays, if ``native`` and our library can be built."""
         library = native_library() if native else None
-        self._native = None if library is None else NativeQLearning(
-            library, self._q_table, self._epsilon, discretizer, self.config.learning_rate, self.config.discount,
-            self.config.exploration_decay, self.config.bootstrap_on_truncation,
+        if library is None:
+            return None
+        config = self.config
+        return NativeQLearning(
+            library, self._q_table, self._epsilon, self.discretizer, config.learning_rate, config.discount,
+            config.exploration_decay, config.bootstrap_on_truncation,
         )
+
+    def __getstate__(self) -> dict:
+        """Pickled (e.g. back from a Ray task) without the C bindings, which are made anew."""
+        return {**self.__dict__, "_native": self._native is not None}
+
+    def __setstate__(self, state: dict) -> None:
+        native = state.pop("_native")
+        self.__dict__.update(state)
+        self._native = self._native_path(native)
 
     @property
     def q_table(self) -> np.ndarray:

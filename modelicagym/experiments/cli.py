@@ -57,6 +57,8 @@ def _reproduce(args: argparse.Namespace) -> int:
         num_workers=args.num_workers,
         progress=not args.no_progress,
         bounds_budget=args.bounds_budget,
+        ray=args.ray,
+        ray_options={} if args.ray_groups is None else {"groups": args.ray_groups},
     )
     print(console_summary(args.out, [c.name for c in configs]))
     if args.report:
@@ -96,6 +98,16 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
     )
     reproduce.add_argument("--num-workers", type=int, help="worker processes of the pool (default: the pool's)")
     reproduce.add_argument("--no-progress", action="store_true", help="no progress bar")
+    reproduce.add_argument(
+        "--ray",
+        nargs="?",
+        const=True,
+        metavar="ADDRESS",
+        help="run each sweep's (setting, repeat) groups as Ray tasks: on the cluster at ADDRESS (HOST:PORT of "
+        "the head node, or 'auto' for the one on this machine); without ADDRESS, ray.init()'s default "
+        "($RAY_ADDRESS, else a new Ray on this machine). Needs pip install 'modelicagym[ray]'",
+    )
+    reproduce.add_argument("--ray-groups", type=int, metavar="N", help="Ray tasks per sweep (default: the cluster's CPUs)")
     reproduce.add_argument(
         "--bounds-budget",
         type=int,

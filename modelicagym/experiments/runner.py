@@ -33,7 +33,7 @@ from gymnasium import spaces
 from gymnasium.vector import VectorEnv
 
 from modelicagym.agents import Discretizer, QLearningAgent, train
-from modelicagym.errors import ArgumentTypeError
+from modelicagym.errors import ArgumentError, ArgumentTypeError
 from modelicagym.experiments.bounds import DEFAULT_BUDGET, MakeEnv, sweep_bounds
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.plots import plot_sweep
@@ -46,7 +46,7 @@ from modelicagym.experiments.results import (
     write_sweep,
 )
 
-__all__ = ["MakeVec", "run_sweep", "run_sweeps"]
+__all__ = ["MakeVec", "SweepPart", "assemble_sweep", "run_sweep", "run_sweep_part", "run_sweeps"]
 
 logger = logging.getLogger(__name__)
 
@@ -137,7 +137,7 @@ def _machine() -> dict[str, Any]:
 
 
 @contextlib.contextmanager
-def _progress(total: int, description: str, enabled: bool) -> Iterator[Callable[[int], None] | None]:
+def progress_bar(total: int, description: str, enabled: bool) -> Iterator[Callable[[int], None] | None]:
     """A tqdm bar's ``update``, or ``None`` when disabled or tqdm is missing."""
     if not enabled:
         yield None
@@ -152,6 +152,72 @@ def _progress(total: int, description: str, enabled: bool) -> Iterator[Callable[
         yield bar.update
 
 
+@dataclasses.dataclass
+class SweepPart:
+    """What training some envs of a sweep produced (all of them in a local run; a group of
+    (setting, repeat) runs on a Ray task): env ``indices[j]`` is ``setting * repeats + repeat``."""
+
+    indices: np.ndarray
+    lengths: np.ndarray
+    returns: np.ndarray
+    agent: QLearningAgent
+    #: per env of ``indices``, the steps it took (learned ones, autoresets, and any after its last episode)
+    stepped: np.ndarray
+    setup_seconds: float
+    wall_seconds: float
+    vector_steps: int
+    agent_seconds: float
+    num_workers: int | None
+    pool_timing: dict[str, Any] | None
+    fmu_ns: np.ndarray | None
+
+
+def run_sweep_part(
+    config: SweepConfig,
+    indices: Sequence[int],
+    *,
+    make_vec: MakeVec | None = None,
+    num_workers: int | None = None,
+    progress: bool = True,
+    **vector_options: Any,
+) -> SweepPart:
+    """Train the agents of envs ``indices`` of ``config`` side by side in one vector env.
+
+    Env ``i`` gets the options and seeds it has in the whole sweep, so any split of a sweep into
+    parts gives the same episodes as running it whole. ``vector_options`` go to ``make_vec``.
+    """
+    make_vec = make_vec or _default_make_vec()
+    indices = np.asarray(indices, dtype=np.int64)
+    all_options = [dict(setting.options) for setting in config.settings for _ in range(config.repeats)]
+    options_per_env = [all_options[i] for i in indices]
+    extra = {} if num_workers is None else {"num_workers": num_workers}
+    all_agent_seeds, all_env_seeds = _seeds(config)
+    agent_seeds, env_seeds = [all_agent_seeds[i] for i in indices], [all_env_seeds[i] for i in indices]
+    clock = time.perf_counter()
+    envs = make_vec(
+        config.env, len(indices), options_per_env=options_per_env, **extra, **vector_options, **config.base_options
+    )
+    try:
+        agent = _make_agent(config, envs, agent_seeds)
+        setup_seconds = time.perf_counter() - clock
+        _start_pool_timing(envs)
+        fmu_before = _fmu_time_ns(envs)
+        clock = time.perf_counter()
+        with progress_bar(len(indices) * config.episodes, config.name, progress) as on_episodes:
+            log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
+        wall_seconds = time.perf_counter() - clock
+        pool_timing = _pool_timing(envs)
+        fmu_after = _fmu_time_ns(envs)
+    finally:
+        envs.close()
+    return SweepPart(
+        indices, log.lengths, log.returns, agent, log.env_steps_stepped, setup_seconds, wall_seconds, log.vector_steps,
+        log.agent_seconds,
+        getattr(envs, "num_workers", num_workers), pool_timing,
+        None if fmu_before is None else fmu_after - fmu_before,
+    )
+
+
 def run_sweep(
     config: SweepConfig,
     *,
@@ -160,53 +226,60 @@ def run_sweep(
     progress: bool = True,
 ) -> SweepResult:
     """Train one agent per (setting, repeat) of ``config`` side by side and collect the episodes."""
-    make_vec = make_vec or _default_make_vec()
     n_envs = len(config.settings) * config.repeats
-    options_per_env = [dict(setting.options) for setting in config.settings for _ in range(config.repeats)]
-    extra = {} if num_workers is None else {"num_workers": num_workers}
-    agent_seeds, env_seeds = _seeds(config)
     started = datetime.datetime.now(datetime.timezone.utc)
-    clock = time.perf_counter()
-    envs = make_vec(config.env, n_envs, options_per_env=options_per_env, **extra, **config.base_options)
-    try:
-        agent = _make_agent(config, envs, agent_seeds)
-        setup_seconds = time.perf_counter() - clock
-        logger.info(
-            "sweep %r: %d envs (%d settings x %d repeats), %d episodes each",
-            config.name,
-            n_envs,
-            len(config.settings),
-            config.repeats,
-            config.episodes,
-        )
-        _start_pool_timing(envs)
-        fmu_before = _fmu_time_ns(envs)
-        clock = time.perf_counter()
-        with _progress(n_envs * config.episodes, config.name, progress) as on_episodes:
-            log = train(envs, agent, config.episodes, seed=env_seeds, on_episodes=on_episodes)
-        wall_seconds = time.perf_counter() - clock
-        pool_timing = _pool_timing(envs)
-        fmu_after = _fmu_time_ns(envs)
-    finally:
-        envs.close()
+    logger.info(
+        "sweep %r: %d envs (%d settings x %d repeats), %d episodes each",
+        config.name,
+        n_envs,
+        len(config.settings),
+        config.repeats,
+        config.episodes,
+    )
+    part = run_sweep_part(config, range(n_envs), make_vec=make_vec, num_workers=num_workers, progress=progress)
+    return assemble_sweep(config, [part], started, part.wall_seconds, part.num_workers)
 
+
+def assemble_sweep(
+    config: SweepConfig,
+    parts: Sequence[SweepPart],
+    started: datetime.datetime,
+    wall_seconds: float,
+    num_workers: int | None,
+) -> SweepResult:
+    """The `SweepResult` of ``parts`` that together cover every env of ``config`` once.
+
+    ``timing`` has the same fields however the sweep was split: ``setup_seconds`` is the slowest
+    part's, ``vector_steps`` and ``agent_seconds`` add up over the parts, ``pool_timing`` is the
+    pool's own report for a sweep run in one part (``None`` otherwise).
+    """
+    n_envs = len(config.settings) * config.repeats
+    order = np.concatenate([part.indices for part in parts])
+    if sorted(order.tolist()) != list(range(n_envs)):
+        raise ArgumentError(f"the parts of sweep {config.name!r} cover envs {sorted(order.tolist())}, not 0-{n_envs - 1}")
+    position = np.argsort(order)
+    lengths = np.concatenate([part.lengths for part in parts])[position]
+    returns = np.concatenate([part.returns for part in parts])[position]
+    stepped = np.concatenate([part.stepped for part in parts])[position]
+    fmu_ns = None
+    if all(part.fmu_ns is not None for part in parts):
+        fmu_ns = np.concatenate([part.fmu_ns for part in parts])[position]
+    agent = parts[0].agent if len(parts) == 1 else _joined_agent(parts, position)
     shape = (len(config.settings), config.repeats, config.episodes)
-    env_steps = int(log.env_steps.sum())
+    env_steps = int(lengths.sum())
     timing = {
         "started": started.isoformat(timespec="seconds"),
-        "setup_seconds": setup_seconds,
+        "setup_seconds": max(part.setup_seconds for part in parts),
         "wall_seconds": wall_seconds,
         "env_steps": env_steps,
-        "env_steps_stepped": int(log.env_steps_stepped.sum()),
-        "vector_steps": log.vector_steps,
+        "env_steps_stepped": int(stepped.sum()),
+        "vector_steps": sum(part.vector_steps for part in parts),
         "seconds_per_step": wall_seconds / env_steps,
-        "agent_seconds": log.agent_seconds,
+        "agent_seconds": sum(part.agent_seconds for part in parts),
         "num_envs": n_envs,
-        "num_workers": getattr(envs, "num_workers", num_workers),
-        "pool_timing": pool_timing,
-        "per_setting": _per_setting(
-            config, log.lengths, log.env_steps_stepped, None if fmu_before is None else fmu_after - fmu_before
-        ),
+        "num_workers": num_workers,
+        "pool_timing": parts[0].pool_timing if len(parts) == 1 else None,
+        "per_setting": _per_setting(config, lengths, stepped, fmu_ns),
     }
     logger.info(
         "sweep %r: %d env steps in %.1f s (%.1f us per env step)",
@@ -215,7 +288,16 @@ def run_sweep(
         wall_seconds,
         1e6 * wall_seconds / env_steps,
     )
-    return SweepResult(config, log.lengths.reshape(shape), log.returns.reshape(shape), timing, _machine(), agent=agent)
+    return SweepResult(config, lengths.reshape(shape), returns.reshape(shape), timing, _machine(), agent=agent)
+
+
+def _joined_agent(parts: Sequence[SweepPart], position: np.ndarray) -> QLearningAgent:
+    """One agent holding the Q-tables and epsilons of every part's agent, in env order."""
+    first = parts[0].agent
+    agent = QLearningAgent(first.discretizer, first.n_actions, n_envs=len(position), config=first.config, seeds=0)
+    agent.q_table = np.concatenate([part.agent.q_table for part in parts])[position]
+    agent.epsilon = np.concatenate([part.agent.epsilon for part in parts])[position]
+    return agent
 
 
 def run_sweeps(
@@ -228,8 +310,16 @@ def run_sweeps(
     progress: bool = True,
     make: MakeEnv | None = None,
     bounds_budget: int = DEFAULT_BUDGET,
+    ray: str | bool | None = None,
+    ray_options: dict[str, Any] | None = None,
 ) -> list[SweepResult | None]:
     """Run ``configs`` one after the other, writing each sweep's results as soon as it completes.
+
+    With ``ray`` (``True``, or a cluster address: see `~modelicagym.distributed.connect`) each
+    sweep's (setting, repeat) groups run as Ray tasks across the cluster
+    (`~modelicagym.distributed.sweeps.run_sweep_on_ray`, which ``ray_options`` configure:
+    ``groups``, ``cpus_per_group``, ``max_retries``); the results come back to this process and are
+    written exactly as a local run writes them, with the same episodes.
 
     With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
     (``None`` in the returned list). An interruption loses only the sweep that was running. The
@@ -244,7 +334,14 @@ def run_sweeps(
             logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
             outcomes.append(None)
             continue
-        result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
+        if ray is None or ray is False:
+            result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
+        else:
+            from modelicagym.distributed.sweeps import run_sweep_on_ray
+
+            address = None if ray is True else ray
+            result = run_sweep_on_ray(config, address=address, make_vec=make_vec, progress=progress,
+                                      **(ray_options or {}))
         if bounds_budget > 0:
             result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)

@@ -1,0 +1,292 @@
+"""`RayVectorEnv`: a Gymnasium vector env whose envs live in Ray actors across a cluster.
+
+The envs are split into contiguous slices, one per actor (`~modelicagym.distributed.host`); each
+actor steps its slice in a local vector env on its node (the pool, or ``SyncVectorEnv`` for one
+CPU or one env). ``step`` sends each actor its actions and gathers the batches in env order: the
+same results, step by step, as ``SyncVectorEnv`` over the same env fns and seeds. One remote call
+costs far more than a light env step, so for sampling at scale use :meth:`RayVectorEnv.rollout`:
+the policy travels once, each actor steps ``T`` times locally and returns arrays.
+
+An actor that dies (its process or node lost) raises `ActorDiedError` naming its envs; the vector
+env stays usable once :meth:`RayVectorEnv.restart_actors` has started it again and ``reset`` has
+been called.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
+
+from modelicagym.distributed.cluster import connect, format_env_range
+from modelicagym.distributed.errors import ActorDiedError
+from modelicagym.distributed.host import EnvHost, Policy, Rollout
+from modelicagym.errors import ArgumentError, ConfigError
+from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.errors import PoolClosedError
+from modelicagym.vector.plan import plan_workers
+
+__all__ = ["RAY_OPTIONS", "RayVectorEnv"]
+
+logger = logging.getLogger(__name__)
+
+#: the keyword options of `RayVectorEnv` that ``make_vec(..., backend="ray")`` routes to it
+RAY_OPTIONS = ("num_actors", "cpus_per_actor", "address", "actor_options")
+
+
+class RayVectorEnv(VectorEnv):
+    """Runs ``len(env_fns)`` envs in ``num_actors`` Ray actors, each stepping a contiguous slice.
+
+    Example::
+
+        import modelicagym
+
+        envs = modelicagym.make_vec("cartpole", n=64, backend="ray", num_actors=4)
+        observations, infos = envs.reset(seed=0)
+        batches = envs.rollout(lambda obs: (obs[:, 3] > 0).astype(int), steps=256)   # one per actor
+        envs.close()
+    """
+
+    def __init__(
+        self,
+        env_fns: Sequence[Callable[[], gym.Env]],
+        *,
+        num_actors: int | None = None,
+        cpus_per_actor: int = 1,
+        address: str | None = None,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+        pool_options: Mapping[str, Any] | None = None,
+        actor_options: Mapping[str, Any] | None = None,
+    ) -> None:
+        """Connect to Ray (see `~modelicagym.distributed.connect`) and start the actors.
+
+        Args:
+            env_fns: functions creating the envs; they travel to the actors with cloudpickle.
+            num_actors: actors (default: as many as the cluster's CPUs hold at ``cpus_per_actor``
+                each, never more than envs).
+            cpus_per_actor: CPUs each actor reserves and uses: with more than one, its envs step in
+                a local pool of that many processes.
+            address: the cluster to connect to when this process is not connected yet.
+            autoreset_mode: Gymnasium's autoreset mode, for every actor.
+            pool_options: `~modelicagym.vector.PoolVectorEnv` options of the actors' pools.
+            actor_options: more Ray actor options (``resources``, ``scheduling_strategy``, ...).
+        """
+        self.env_fns = list(env_fns)
+        if not self.env_fns:
+            raise ConfigError("a RayVectorEnv needs at least one env fn")
+        if not isinstance(cpus_per_actor, int) or cpus_per_actor < 1:
+            raise ConfigError(f"cpus_per_actor must be an integer >= 1, got {cpus_per_actor!r}")
+        try:
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ConfigError(f"autoreset_mode must be one of {[m.value for m in AutoresetMode]}, "
+                              f"got {autoreset_mode!r}") from None
+        self._ray = connect(address)
+        self.num_envs = len(self.env_fns)
+        if num_actors is None:
+            cpus = int(self._ray.cluster_resources().get("CPU", 1))
+            num_actors = max(1, min(self.num_envs, cpus // cpus_per_actor))
+        self.slices = plan_workers(self.num_envs, num_actors, None)
+        self.num_actors = len(self.slices)
+        self.cpus_per_actor = cpus_per_actor
+        self._host_class = self._ray.remote(EnvHost).options(
+            num_cpus=cpus_per_actor, max_restarts=0, max_concurrency=1, **(actor_options or {})
+        )
+        self._pool_options = dict(pool_options or {})
+        self._policy: tuple[Policy, Any] | None = None
+        self._actors: list[Any] = [None] * self.num_actors
+        self.dead_actors: set[int] = set()
+        self.closed = False
+        self._start(range(self.num_actors))
+        first = self._get([self._actors[0].describe.remote()], [0])[0]
+        self.single_observation_space = first["single_observation_space"]
+        self.single_action_space = first["single_action_space"]
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.metadata = {**first["metadata"], "autoreset_mode": self.autoreset_mode}
+        self.render_mode = first["render_mode"]
+        self.spec = first["spec"]
+
+    def __repr__(self) -> str:
+        return f"RayVectorEnv(num_envs={self.num_envs}, num_actors={self.num_actors})"
+
+    # ------------------------------------------------------------------ the vector API
+
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset every env (or those in ``options["reset_mask"]``); seeds as ``SyncVectorEnv``'s."""
+        self._check_open()
+        seeds = seeds_per_env(seed, self.num_envs)
+        mask = None
+        if options is not None and "reset_mask" in options:
+            options = dict(options)
+            mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
+        refs = []
+        for k, envs in enumerate(self.slices):
+            actor_options = options if mask is None else {**(options or {}), "reset_mask": mask[envs.start:envs.stop]}
+            refs.append(self._actors[k].reset.remote(seeds[envs.start:envs.stop], actor_options))
+        return self._batch_reset(refs)
+
+    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every env with its action; one remote call per actor, in parallel."""
+        self._check_open()
+        actions = np.asarray(actions)
+        if actions.ndim == 0 or len(actions) != self.num_envs:
+            raise ArgumentError(f"expected a batch of {self.num_envs} actions, got {actions!r}")
+        refs = [self._actors[k].step.remote(actions[envs.start:envs.stop]) for k, envs in enumerate(self.slices)]
+        parts = self._get(refs, range(self.num_actors))
+        observations = self._observations([p[0] for p in parts])
+        rewards, terminations, truncations = (np.concatenate([p[i] for p in parts]) for i in (1, 2, 3))
+        return observations, rewards, terminations, truncations, self._infos([p[4] for p in parts])
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Call method ``name`` of every env (or read attribute ``name``); one result per env."""
+        self._check_open()
+        refs = [actor.call.remote(name, args, kwargs) for actor in self._actors]
+        return tuple(value for part in self._get(refs, range(self.num_actors)) for value in part)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Attribute ``name`` of every env."""
+        return self.call(name)
+
+    def set_attr(self, name: str, values: list[Any] | tuple[Any, ...] | Any) -> None:
+        """Set attribute ``name`` of every env (a list/tuple: one value per env)."""
+        self._check_open()
+        values = values_per_env(values, self.num_envs)
+        refs = [self._actors[k].set_attr.remote(name, values[envs.start:envs.stop]) for k, envs in enumerate(self.slices)]
+        self._get(refs, range(self.num_actors))
+
+    def render(self) -> tuple[Any, ...] | None:
+        """The rendered frames of the envs."""
+        return self.call("render")
+
+    # ------------------------------------------------------------------ rollouts
+
+    def rollout(self, policy: Policy, steps: int) -> list[Rollout]:
+        """Step every env ``steps`` times on its actor, with ``policy(observations) -> actions``
+        applied to each actor's batch; returns one `Rollout` per actor (``Rollout.concatenate``
+        joins them in env order).
+
+        The policy is serialised once (``ray.put``, cloudpickle) and sent to the actors only when
+        it is a different object than the last one; the envs continue from where they are (reset
+        them first), and ``step`` may follow.
+        """
+        self._check_open()
+        if not isinstance(steps, int) or steps < 1:
+            raise ArgumentError(f"steps must be an integer >= 1, got {steps!r}")
+        if self._policy is None or self._policy[0] is not policy:
+            reference = self._ray.put(policy)
+            self._get([actor.set_policy.remote(reference) for actor in self._actors], range(self.num_actors))
+            self._policy = (policy, reference)
+        return self._get([actor.rollout.remote(steps) for actor in self._actors], range(self.num_actors))
+
+    # ------------------------------------------------------------------ actors
+
+    def restart_actors(self, actors: Sequence[int] | None = None) -> list[int]:
+        """Start again the actors that died (or those in ``actors``), with fresh envs; returns
+        their indices. Call ``reset`` before stepping again."""
+        self._check_open()
+        which = sorted(self.dead_actors if actors is None else set(actors))
+        for k in which:
+            if self._actors[k] is not None:
+                self._ray.kill(self._actors[k], no_restart=True)
+        self._start(which)
+        self._get([self._actors[k].describe.remote() for k in which], which)
+        if self._policy is not None:
+            self._get([self._actors[k].set_policy.remote(self._policy[1]) for k in which], which)
+        return which
+
+    def actor_pids(self) -> tuple[int, ...]:
+        """The process id of every actor (on its node)."""
+        return tuple(d["pid"] for d in self._get([a.describe.remote() for a in self._actors], range(self.num_actors)))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Close every actor's envs and end the actors (Ray itself stays connected)."""
+        if all(actor is None for actor in self._actors):
+            return
+        live = [k for k in range(self.num_actors) if k not in self.dead_actors]
+        for k, ref in zip(live, [self._actors[k].close.remote() for k in live], strict=True):
+            try:
+                self._ray.get(ref)
+            except self._ray.exceptions.RayError as error:
+                logger.warning("actor %d could not close its envs: %s", k, error)
+        for actor in self._actors:
+            self._ray.kill(actor, no_restart=True)
+        self._actors = [None] * self.num_actors
+        self._policy = None
+
+    # ------------------------------------------------------------------ internals
+
+    def _start(self, which: Sequence[int]) -> None:
+        for k in which:
+            envs = self.slices[k]
+            self._actors[k] = self._host_class.remote(
+                self.env_fns[envs.start:envs.stop], list(envs), self.cpus_per_actor, self.autoreset_mode,
+                self._pool_options,
+            )
+            self.dead_actors.discard(k)
+
+    def _get(self, refs: Sequence[Any], actors: Sequence[int]) -> list[Any]:
+        """The results of ``refs`` (one per actor in ``actors``); an actor lost raises
+        `ActorDiedError` naming its envs, after every result has been waited for."""
+        ray = self._ray
+        results, died = [], []
+        for k, ref in zip(actors, refs, strict=True):
+            try:
+                results.append(ray.get(ref))
+            except ray.exceptions.RayActorError as error:
+                self.dead_actors.add(k)
+                died.append((k, error))
+                results.append(None)
+        if died:
+            k, error = died[0]
+            others = f" (and actors {[d[0] for d in died[1:]]})" if len(died) > 1 else ""
+            raise ActorDiedError(
+                f"Ray actor {k} hosting {format_env_range(self.slices[k])} died{others}: "
+                f"{str(error).splitlines()[0].rstrip('.')}. Call restart_actors() and reset() to go on.",
+                k, list(self.slices[k]),
+            ) from error
+        return results
+
+    def _batch_reset(self, refs: list[Any]) -> tuple[Any, dict[str, Any]]:
+        parts = self._get(refs, range(self.num_actors))
+        return self._observations([p[0] for p in parts]), self._infos([p[1] for p in parts])
+
+    def _observations(self, parts: list[Any]) -> Any:
+        items = [item for part, envs in zip(parts, self.slices, strict=True)
+                 for item in gym.vector.utils.iterate(
+                     batch_space(self.single_observation_space, len(envs)), part)]
+        return concatenate(self.single_observation_space, items,
+                           create_empty_array(self.single_observation_space, self.num_envs))
+
+    def _infos(self, parts: list[dict[str, Any]]) -> dict[str, Any]:
+        infos: dict[str, Any] = {}
+        for part, envs in zip(parts, self.slices, strict=True):
+            for j, index in enumerate(envs):
+                info = _env_info(part, j)
+                if info:
+                    infos = self._add_info(infos, info, index)
+        return infos
+
+    def _check_open(self) -> None:
+        if self.closed:
+            raise PoolClosedError("Trying to operate on `RayVectorEnv`, after a call to `close()`.")
+
+
+def _env_info(batched: dict[str, Any], j: int) -> dict[str, Any]:
+    """Env ``j``'s own info from a vector env's batched infos (the inverse of ``_add_info``)."""
+    info = {}
+    for key, value in batched.items():
+        if key.startswith("_"):
+            continue
+        mask = batched.get(f"_{key}")
+        if mask is not None and not mask[j]:
+            continue
+        info[key] = _env_info(value, j) if isinstance(value, dict) else value[j]
+    return info

@@ -1,0 +1,148 @@
+"""`RayVectorEnv` on a real local Ray (2 CPUs, 127.0.0.1, token authentication on): the same
+results as ``SyncVectorEnv``, rollouts, dead actors, ``make_vec(backend="ray")``."""
+
+from __future__ import annotations
+
+import os
+import signal
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from ray_cluster import local_ray, ray
+
+import modelicagym
+from modelicagym.distributed import ActorDiedError, RayVectorEnv, Rollout
+from modelicagym.registry import EnvFactory
+
+N = 5
+CARTPOLE = "modelicagym.envs.cartpole:CartPoleEnv"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def ray_instance():
+    with local_ray(__name__, num_cpus=2) as temp_dir:
+        yield temp_dir
+
+
+def env_fns(n=N, **options):
+    return [EnvFactory(CARTPOLE, {"max_episode_steps": 25, "force": 5.0 + i, **options}) for i in range(n)]
+
+
+def push_by_velocity(observations):
+    return (observations[:, 3] > 0).astype(np.int64)
+
+
+def assert_same_infos(left, right):
+    assert left.keys() == right.keys()
+    for key in left:
+        if isinstance(left[key], dict):
+            assert_same_infos(left[key], right[key])
+        elif left[key].dtype == object:
+            for a, b in zip(left[key], right[key], strict=True):
+                assert (a is None and b is None) or np.array_equal(a, b)
+        else:
+            np.testing.assert_array_equal(left[key], right[key])
+
+
+@pytest.mark.parametrize(
+    "layout, autoreset_mode",
+    [({"num_actors": 2}, "NextStep"), ({"num_actors": 2}, "SameStep"), ({"num_actors": 1, "cpus_per_actor": 2}, "NextStep")],
+    ids=["2-actors", "2-actors-same-step", "1-actor-pool"],
+)
+def test_same_results_as_sync_vector_env(layout, autoreset_mode):
+    """Step by step, through autoresets, with the same seeds; one actor with 2 CPUs hosts a pool."""
+    envs = RayVectorEnv(env_fns(), autoreset_mode=autoreset_mode, **layout)
+    sync = gym.vector.SyncVectorEnv(env_fns(), autoreset_mode=autoreset_mode)
+    try:
+        assert envs.num_actors == layout["num_actors"]
+        assert envs.single_observation_space == sync.single_observation_space
+        assert envs.action_space == sync.action_space
+        for left, right in zip(envs.reset(seed=7), sync.reset(seed=7), strict=True):
+            assert_same_infos({"x": left}, {"x": right}) if isinstance(left, np.ndarray) else assert_same_infos(left, right)
+        actions = np.random.default_rng(0).integers(0, 2, size=(80, N))
+        ended = 0
+        for batch in actions:
+            ours, theirs = envs.step(batch), sync.step(batch)
+            for a, b in zip(ours[:4], theirs[:4], strict=True):
+                np.testing.assert_array_equal(a, b)
+            assert_same_infos(ours[4], theirs[4])
+            ended += int(ours[2].sum() + ours[3].sum())
+        assert ended > N, "the run should cover autoresets"
+        assert envs.get_attr("force") == sync.get_attr("force")
+    finally:
+        envs.close()
+        sync.close()
+
+
+def test_rollout_ships_the_policy_once_and_matches_a_local_loop():
+    envs = modelicagym.make_vec("cartpole", n=N, backend="ray", num_actors=2, max_episode_steps=25)
+    local = modelicagym.make_vec("cartpole", n=N, backend="sync", max_episode_steps=25)
+    try:
+        assert isinstance(envs, RayVectorEnv)
+        envs.reset(seed=3)
+        observations, _ = local.reset(seed=3)
+        rollouts = envs.rollout(push_by_velocity, steps=40)
+        assert [list(r.env_indices) for r in rollouts] == [list(s) for s in envs.slices]
+        joined = Rollout.concatenate(rollouts)
+        assert joined.observations.shape == (40, N, 4) and joined.actions.shape == (40, N)
+        for t in range(40):
+            np.testing.assert_array_equal(joined.observations[t], observations)
+            actions = np.concatenate([push_by_velocity(observations[s.start:s.stop]) for s in envs.slices])
+            np.testing.assert_array_equal(joined.actions[t], actions)
+            observations, rewards, terminations, truncations, _ = local.step(actions)
+            np.testing.assert_array_equal(joined.rewards[t], rewards)
+            np.testing.assert_array_equal(joined.terminations[t], terminations)
+            np.testing.assert_array_equal(joined.truncations[t], truncations)
+        np.testing.assert_array_equal(joined.last_observations, observations)
+        assert joined.terminations.any() or joined.truncations.any()
+        shipped = envs._policy[1]
+        again = Rollout.concatenate(envs.rollout(push_by_velocity, steps=3))
+        assert envs._policy[1] is shipped, "the same policy is not shipped again"
+        np.testing.assert_array_equal(again.observations[0], observations)
+    finally:
+        envs.close()
+        local.close()
+
+
+def test_a_dead_actor_is_named_with_its_envs_and_can_be_restarted():
+    envs = RayVectorEnv(env_fns(), num_actors=2)
+    try:
+        envs.reset(seed=1)
+        first = envs.actor_pids()
+        os.kill(first[1], signal.SIGKILL)
+        with pytest.raises(ActorDiedError, match=r"actor 1 hosting envs 3-4 died") as caught:
+            envs.step(np.zeros(N, dtype=np.int64))
+        assert caught.value.env_indices == (3, 4) and caught.value.actor_index == 1
+        assert envs.dead_actors == {1}
+        assert envs.restart_actors() == [1]
+        pids = envs.actor_pids()
+        assert pids[0] == first[0] and pids[1] != first[1]
+        observations, _ = envs.reset(seed=1)
+        fresh = gym.vector.SyncVectorEnv(env_fns())
+        try:  # the actors hold both CPUs: compare with a local vector env
+            np.testing.assert_array_equal(observations, fresh.reset(seed=1)[0])
+            np.testing.assert_array_equal(envs.step(np.ones(N, int))[0], fresh.step(np.ones(N, int))[0])
+        finally:
+            fresh.close()
+    finally:
+        envs.close()
+
+
+def test_make_vec_routes_ray_and_pool_options():
+    envs = modelicagym.make_vec("cartpole", n=3, backend="ray", num_actors=1, cpus_per_actor=2, force=7.0,
+                                pool_options={"spin_time": 0.0})
+    try:
+        assert envs.num_actors == 1 and envs.get_attr("force") == (7.0, 7.0, 7.0)
+    finally:
+        envs.close()
+    with pytest.raises(ValueError, match="unknown Ray option 'num_actor'"):
+        modelicagym.make_vec("cartpole", n=2, backend="ray", ray_options={"num_actor": 1})
+
+
+def test_ray_is_connected_with_token_authentication():
+    from ray._raylet import AuthenticationMode, get_authentication_mode
+
+    assert ray.is_initialized()
+    assert get_authentication_mode() == AuthenticationMode.TOKEN
+    assert {node["NodeManagerAddress"] for node in ray.nodes()} == {"127.0.0.1"}
