@@ -12,6 +12,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import logging
+from functools import partial
 
 import numpy as np
 
@@ -84,26 +85,37 @@ class NativeQLearning:
             epsilon.ctypes.data, self._edges.ctypes.data, self._strides.ctypes.data, learning_rate, discount,
             exploration_decay, int(bootstrap_on_truncation),
         )
-        self._ref = ctypes.byref(self.state)
-        self._states, self._act, self._learn = library.mg_q_states, library.mg_q_act, library.mg_q_learn
         self.n_envs = n_envs
+        # Inputs are copied into these (tens of nanoseconds), whose addresses are taken once: taking
+        # an arbitrary array's address through ctypes costs about a microsecond each time.
+        self._observations = np.zeros((n_envs, self._edges.shape[0]), dtype=np.float64)
+        self._draws = np.zeros((n_envs, 2), dtype=np.float64)
+        self._states, self._next_states, self._actions = (np.zeros(n_envs, dtype=np.int64) for _ in range(3))
+        self._rewards = np.zeros(n_envs, dtype=np.float64)
+        self._terminated, self._truncated, self._mask = (np.zeros(n_envs, dtype=np.bool_) for _ in range(3))
+        self._out = np.zeros(n_envs, dtype=np.int64)
+        ref = ctypes.byref(self.state)
+        self._states_call = partial(library.mg_q_states, ref, self._observations.ctypes.data, self._out.ctypes.data)
+        self._act_call = partial(
+            library.mg_q_act, ref, self._states.ctypes.data, self._draws.ctypes.data, 2, self._out.ctypes.data
+        )
+        self._learn_call = partial(library.mg_q_learn, ref, *(array.ctypes.data for array in (
+            self._states, self._actions, self._rewards, self._next_states, self._terminated, self._truncated,
+            self._mask,
+        )))
 
     def states(self, observations: np.ndarray) -> np.ndarray:
         """State index of each env's observation (``(n_envs, n_vars)`` in)."""
-        observations = np.ascontiguousarray(observations, dtype=np.float64)
-        states = np.empty(self.n_envs, dtype=np.int64)
-        self._states(self._ref, observations.ctypes.data, states.ctypes.data)
-        return states
+        self._observations[...] = observations
+        self._states_call()
+        return self._out.copy()
 
     def act(self, states: np.ndarray, draws: np.ndarray) -> np.ndarray:
-        """Epsilon-greedy actions from ``draws`` (``(n_envs, 2)``, rows any stride apart)."""
-        states = np.ascontiguousarray(states, dtype=np.int64)
-        actions = np.empty(self.n_envs, dtype=np.int64)
-        if draws.strides[1] != draws.itemsize:
-            draws = np.ascontiguousarray(draws)
-        self._act(self._ref, states.ctypes.data, draws.ctypes.data, draws.strides[0] // draws.itemsize,
-                  actions.ctypes.data)
-        return actions
+        """Epsilon-greedy actions from ``draws`` (``(n_envs, 2)`` uniforms)."""
+        self._states[...] = states
+        self._draws[...] = draws
+        self._act_call()
+        return self._out.copy()
 
     def learn(
         self,
@@ -116,10 +128,11 @@ class NativeQLearning:
         mask: np.ndarray,
     ) -> None:
         """The Q-learning update of the envs in ``mask``, then the decay of their epsilon."""
-        arrays = (
-            np.ascontiguousarray(states, dtype=np.int64), np.ascontiguousarray(actions, dtype=np.int64),
-            np.ascontiguousarray(rewards, dtype=np.float64), np.ascontiguousarray(next_states, dtype=np.int64),
-            np.ascontiguousarray(terminated, dtype=np.bool_), np.ascontiguousarray(truncated, dtype=np.bool_),
-            np.ascontiguousarray(mask, dtype=np.bool_),
-        )
-        self._learn(self._ref, *(array.ctypes.data for array in arrays))
+        self._states[...] = states
+        self._actions[...] = actions
+        self._rewards[...] = rewards
+        self._next_states[...] = next_states
+        self._terminated[...] = terminated
+        self._truncated[...] = truncated
+        self._mask[...] = mask
+        self._learn_call()
