@@ -122,10 +122,10 @@ class ActionWriter:
         if self._fast and type(actions) is np.ndarray and self._takes(actions.dtype):
             low, high = self._bounds
             if actions.shape[1:] == self._shape[1:]:
-                rows = actions.reshape(len(env_ids), int(np.prod(self._shape[1:])))
-                inside = ((rows >= low) & (rows <= high)).all(axis=1)
+                rows = actions.reshape(len(env_ids), -1) if actions.size else actions
+                inside = (rows >= low) & (rows <= high)
                 if not inside.all():
-                    k = int(np.flatnonzero(~inside)[0])
+                    k = int(np.flatnonzero(~inside.reshape(len(env_ids), -1).all(axis=1))[0])
                     raise self._refusal(actions[k], int(env_ids[k]))
                 self._target[env_ids] = actions
                 self._given_dtype[0] = self._dtype_code(actions)
