@@ -13,6 +13,8 @@ import numpy as np
 
 __all__ = ["EpisodeTracker"]
 
+_NO_LENGTHS, _NO_RETURNS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float64)
+
 
 class EpisodeTracker:
     """Per env of a batch: the running episode's length and return, and whether its next step is
@@ -45,9 +47,11 @@ class EpisodeTracker:
         with those episodes' lengths and returns (their counters start again at zero)."""
         self.length += live
         self.episode_return += np.where(live, rewards, 0.0)
-        ended = np.flatnonzero(live & (terminated | truncated))
-        lengths, returns = self.length[ended].copy(), self.episode_return[ended].copy()
+        self._resetting = ends = terminated | truncated
+        ended = np.flatnonzero(live & ends)
+        if not ended.size:  # most steps: nothing to take out
+            return ended, _NO_LENGTHS, _NO_RETURNS
+        lengths, returns = self.length[ended], self.episode_return[ended]
         self.length[ended] = 0
         self.episode_return[ended] = 0.0
-        self._resetting = terminated | truncated
         return ended, lengths, returns
