@@ -180,7 +180,8 @@ def test_step_envs_steps_only_those_envs(layout: dict, native: bool) -> None:
         for t in range(60):
             ids = np.flatnonzero(rng.random(5) < 0.6)
             actions = np.array([action_of(i, t, space) for i in ids.tolist()], dtype=np.int64)
-            observations, rewards, terminations, truncations, infos = pool.step_envs(actions, ids)
+            selection = ids if t % 2 else np.isin(np.arange(5), ids)  # indices, or a boolean mask
+            observations, rewards, terminations, truncations, infos = pool.step_envs(actions, selection)
             assert infos["env_id"].tolist() == ids.tolist()
             for k, i in enumerate(ids.tolist()):
                 expected = singles[i].step(actions[k : k + 1])

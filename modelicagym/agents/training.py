@@ -88,10 +88,11 @@ def train(
     observations, _ = envs.reset(seed=seed)
     clock = time.perf_counter()
     states = agent.states(observations)
-    while np.any(wanted := finished < n_episodes):
+    wanted, everyone = np.ones(n, dtype=bool), True  # the envs with episodes to go
+    while True:
         actions = agent.act(states)
         agent_seconds += time.perf_counter() - clock
-        if step_envs is None or wanted.all():
+        if everyone or step_envs is None:
             observations, rewards, terminated, truncated, _ = envs.step(actions)
             stepped += 1
         else:
@@ -109,6 +110,10 @@ def train(
             finished[ended] += 1
             if on_episodes is not None:
                 on_episodes(int(ended.size))
+            wanted = finished < n_episodes
+            everyone = bool(wanted.all())
+            if not wanted.any():
+                break
         states = next_states
     agent_seconds += time.perf_counter() - clock
     return TrainingLog(lengths, returns, lengths.sum(axis=1), stepped, vector_steps, agent_seconds)
@@ -119,7 +124,7 @@ def _step_subset(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Step only the ``wanted`` envs; the others keep their observation, with reward 0 and no end."""
     ids = np.flatnonzero(wanted)
-    sub_observations, sub_rewards, sub_terminated, sub_truncated, _ = step_envs(actions[ids], ids)
+    sub_observations, sub_rewards, sub_terminated, sub_truncated, _ = step_envs(actions[ids], wanted)
     observations = observations.copy()
     observations[ids] = sub_observations
     rewards = np.zeros(len(wanted), dtype=np.float64)

@@ -121,8 +121,11 @@ def check_batch_size(batch_size: Any, num_envs: int, caller_steps: Any) -> int:
 
 
 def check_env_ids(env_ids: Any, num_envs: int) -> np.ndarray:
-    """``env_ids`` as an int64 array of distinct env indices, else an `ArgumentError` saying why."""
+    """``env_ids`` (indices, or a boolean mask over all envs) as an int64 array of distinct env
+    indices in increasing order for a mask, else an `ArgumentError` saying why."""
     ids = np.asarray(env_ids)
+    if ids.dtype == np.bool_ and ids.shape == (num_envs,):
+        return np.flatnonzero(ids)
     if ids.ndim != 1 or (ids.size and ids.dtype.kind not in "iu"):
         raise ArgumentError(f"env_ids must be a 1-d array of env indices, got {env_ids!r}")
     ids = ids.astype(np.int64)

@@ -433,6 +433,7 @@ class PoolVectorEnv(VectorEnv):
     def step_envs(self, actions: Any, env_ids: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step only envs ``env_ids`` (the others keep their state) and return their results, in
         the order of ``env_ids``, as a batch of that many; ``infos["env_id"]`` repeats the ids.
+        ``env_ids`` may also be a boolean mask over all envs (the ids are then in increasing order).
 
         For loops where some envs have no more work: a finished env costs nothing. It is a
         :meth:`step` whose shared step mask leaves the other envs out (on the native path too),
