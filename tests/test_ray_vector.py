@@ -140,6 +140,12 @@ def test_make_vec_routes_ray_and_pool_options():
         modelicagym.make_vec("cartpole", n=2, backend="ray", ray_options={"num_actor": 1})
 
 
+def test_more_actors_than_the_cluster_has_cpus_is_refused_at_once():
+    """Ray would wait forever for CPUs the cluster does not have: say so instead."""
+    with pytest.raises(ValueError, match="3 actors of 1 CPU\\(s\\) need 3 CPUs, the cluster has 2"):
+        RayVectorEnv(env_fns(), num_actors=3)
+
+
 def test_ray_is_connected_with_token_authentication():
     from ray._raylet import AuthenticationMode, get_authentication_mode
 

@@ -88,9 +88,15 @@ class RayVectorEnv(VectorEnv):
                               f"got {autoreset_mode!r}") from None
         self._ray = connect(address)
         self.num_envs = len(self.env_fns)
+        cpus = int(self._ray.cluster_resources().get("CPU", 1))
         if num_actors is None:
-            cpus = int(self._ray.cluster_resources().get("CPU", 1))
             num_actors = max(1, min(self.num_envs, cpus // cpus_per_actor))
+        elif num_actors * cpus_per_actor > cpus:
+            raise ConfigError(
+                f"{num_actors} actors of {cpus_per_actor} CPU(s) need {num_actors * cpus_per_actor} CPUs, the cluster "
+                f"has {cpus}: Ray would wait for them forever. Ask for fewer actors (num_actors) or CPUs per actor, "
+                "or add nodes first"
+            )
         self.slices = plan_workers(self.num_envs, num_actors, None)
         self.num_actors = len(self.slices)
         self.cpus_per_actor = cpus_per_actor
