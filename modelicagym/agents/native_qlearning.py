@@ -97,7 +97,7 @@ class NativeQLearning:
         ref = ctypes.byref(self.state)
         self._states_call = partial(library.mg_q_states, ref, self._observations.ctypes.data, self._out.ctypes.data)
         self._act_call = partial(
-            library.mg_q_act, ref, self._states.ctypes.data, self._draws.ctypes.data, 2, self._out.ctypes.data
+            library.mg_q_act, ref, self._states.ctypes.data, self._draws.ctypes.data, self._out.ctypes.data
         )
         self._learn_call = partial(library.mg_q_learn, ref, *(array.ctypes.data for array in (
             self._states, self._actions, self._rewards, self._next_states, self._terminated, self._truncated,

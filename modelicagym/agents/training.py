@@ -123,14 +123,13 @@ def _step_subset(
     step_envs: Callable[..., tuple], observations: np.ndarray, actions: np.ndarray, wanted: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Step only the ``wanted`` envs; the others keep their observation, with reward 0 and no end."""
-    ids = np.flatnonzero(wanted)
-    sub_observations, sub_rewards, sub_terminated, sub_truncated, _ = step_envs(actions[ids], wanted)
+    sub_observations, sub_rewards, sub_terminated, sub_truncated, _ = step_envs(actions[wanted], wanted)
     observations = observations.copy()
-    observations[ids] = sub_observations
+    observations[wanted] = sub_observations
     rewards = np.zeros(len(wanted), dtype=np.float64)
-    rewards[ids] = sub_rewards
+    rewards[wanted] = sub_rewards
     terminated = np.zeros(len(wanted), dtype=bool)
-    terminated[ids] = sub_terminated
+    terminated[wanted] = sub_terminated
     truncated = np.zeros(len(wanted), dtype=bool)
-    truncated[ids] = sub_truncated
+    truncated[wanted] = sub_truncated
     return observations, rewards, terminated, truncated

@@ -69,7 +69,7 @@ SIGNATURES = {
     ),
     "mg_loop": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),
     "mg_q_states": (None, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
-    "mg_q_act": (None, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),
+    "mg_q_act": (None, (ctypes.c_void_p,) * 4),
     "mg_q_learn": (None, (ctypes.c_void_p,) * 8),
 }
 

@@ -39,7 +39,7 @@ from modelicagym.vector.actions import ActionWriter
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import check_env_ids
 from modelicagym.vector.handle import WorkerHandle
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WaitStatus
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Reply, WaitStatus
 
 __all__ = ["PartialBatches"]
 
@@ -174,15 +174,6 @@ class PartialBatches:
         self._started[k] = time.monotonic()
         handle.go.post()
 
-    def _take_reply(self, message: Message | None, slot: int, process: str | None) -> None:
-        """The infos of a reply, or the env's error raised."""
-        if message is None:
-            return
-        if message.kind is Kind.ERROR:
-            raise message.data.to_env_error(slot, "step", process)
-        if message.kind is Kind.INFOS:
-            self._infos.update(message.data)
-
     def _collect(self) -> None:
         """Wait until at least one busy worker is done; take in the results of every done one
         (all of them, so that no worker's results wait behind a faster worker's)."""
@@ -228,7 +219,11 @@ class PartialBatches:
         indices = handle.env_indices
         buffers.step_mask[indices.start : indices.stop] = 1
         if buffers.reply[handle.index] == Reply.MESSAGE:
-            self._take_reply(handle.receive(None, ids[0], "step"), handle.index, None)
+            message = handle.receive(None, ids[0], "step")
+            if message.kind is Kind.ERROR:
+                raise message.data.to_env_error(handle.index, "step", None)
+            if message.kind is Kind.INFOS:
+                self._infos.update(message.data)
         self._ready.extend(ids)
         if self._queued[k]:
             queued, self._queued[k] = self._queued[k], []

@@ -24,11 +24,10 @@ static int64_t greedy(const double *row, int64_t n_actions) {
     return best;
 }
 
-void mg_q_act(const mg_qlearner *a, const int64_t *states, const double *draws, int64_t draws_stride,
-              int64_t *actions) {
+void mg_q_act(const mg_qlearner *a, const int64_t *states, const double *draws, int64_t *actions) {
     for (int64_t i = 0; i < a->n_envs; i++) {
-        if (draws[i * draws_stride] < a->epsilon[i]) {
-            int64_t random = (int64_t)(draws[i * draws_stride + 1] * (double)a->n_actions);
+        if (draws[2 * i] < a->epsilon[i]) {
+            int64_t random = (int64_t)(draws[2 * i + 1] * (double)a->n_actions);
             actions[i] = random < a->n_actions - 1 ? random : a->n_actions - 1;
         } else {
             actions[i] = greedy(a->q + (i * a->n_states + states[i]) * a->n_actions, a->n_actions);

@@ -20,9 +20,8 @@ typedef struct {
 /* State index of each env's observation (row i of the n_envs x n_vars obs). */
 void mg_q_states(const mg_qlearner *a, const double *obs, int64_t *states);
 
-/* Epsilon-greedy action of each env from its two uniform draws, draws[i * draws_stride + {0, 1}]. */
-void mg_q_act(const mg_qlearner *a, const int64_t *states, const double *draws, int64_t draws_stride,
-              int64_t *actions);
+/* Epsilon-greedy action of each env from its two uniform draws (row i of n_envs x 2). */
+void mg_q_act(const mg_qlearner *a, const int64_t *states, const double *draws, int64_t *actions);
 
 /* The Q-learning update for every env whose mask is set, then the decay of its epsilon. */
 void mg_q_learn(const mg_qlearner *a, const int64_t *states, const int64_t *actions, const double *rewards,
