@@ -1,6 +1,6 @@
 """The family of test FMUs in ``tests/fmus/``: what each member is and how it is built.
 
-Two C models (see each folder's ``config.h``), compiled with the framework in
+Four C models (see each folder's ``config.h``), compiled with the framework in
 ``modelicagym/models/csrc`` by `modelicagym.fmu.build.build_source_fmu` (cached on disk by content
 hash, so only the first session pays for compilation), each for FMI 2.0 and 3.0 (the ball also
 for FMI 1.0 model exchange, ``modelDescription_fmi1_me.xml``, built directly in ``test_fmi1.py``):
@@ -15,6 +15,12 @@ for FMI 1.0 model exchange, ``modelDescription_fmi1_me.xml``, built directly in 
     by `derive_description`.
 ``ball``
     a bouncing ball with a state event and a time event, model exchange and co-simulation.
+``staircase``
+    a discrete staircase of time events (every third needing two event-iteration passes, an event
+    at ``t_stop`` ending the simulation) driving a continuous state, with a Float64 input.
+``stiff``
+    a stiff linear model without events (eigenvalues ``-lambda = -1e4`` and -1), with a Float64
+    input; its co-simulation RK4 runs at ``cs_step_size = 1e-5`` to stay stable.
 
 Tests get built members through the ``family_fmu(name, fmi_version)`` fixture of ``conftest.py``.
 """
@@ -35,6 +41,8 @@ from modelicagym.fmu.build import build_source_fmu, cache_dir
 FMUS_DIR = Path(__file__).resolve().parent / "fmus"
 PROBE_DIR = FMUS_DIR / "probe"
 BALL_DIR = FMUS_DIR / "ball"
+STAIRCASE_DIR = FMUS_DIR / "staircase"
+STIFF_DIR = FMUS_DIR / "stiff"
 FMI_VERSIONS = (2, 3)
 
 # Names of the models' variables (the probe's per FMI version).
@@ -43,6 +51,8 @@ PROBE_OUTPUTS = ("position", "clock", "speed", "mode_out", "moving", "steps")
 PROBE3_INPUTS = (*PROBE_INPUTS, "u", "trim", "tag")
 PROBE3_OUTPUTS = (*PROBE_OUTPUTS, "y", "positive", "ticks", "thrust", "level", "tag_out")
 BALL_OUTPUTS = ("h", "v", "bounces", "t_bounce", "t_switched", "e_now")
+STAIRCASE_OUTPUTS = ("x", "level", "steps_taken", "t_last_event", "iterations", "stopped")
+STIFF_OUTPUTS = ("x1", "x2")
 FAULTS = {"none": 0, "terminate": 1, "error": 2, "crash": 3, "hang": 4}
 MODES = {"off": 1, "heat": 2, "cool": 3}
 
@@ -75,6 +85,10 @@ VARIANTS: dict[str, Variant] = {
     "probe_inexact": _probe("INEXACT_SNAPSHOTS"),
     # bouncing ball, model exchange + co-simulation
     "ball": Variant(BALL_DIR),
+    # time events with event iteration and termination, model exchange + co-simulation
+    "staircase": Variant(STAIRCASE_DIR),
+    # stiff linear model, no events, model exchange + co-simulation
+    "stiff": Variant(STIFF_DIR),
 }
 
 
