@@ -93,6 +93,7 @@ class FMUEnv(gym.Env):
             solver=cfg.solver,
             tolerance=cfg.tolerance,
             solver_step=cfg.solver_step,
+            integrator="python" if cfg.step_path == "python" else "auto",
             validate=cfg.validate,
             logging_on=cfg.logging_on,
         )

@@ -1,5 +1,6 @@
-"""Model exchange through the Python solver path on two family members made for it, each against
-its analytic solution and against co-simulation:
+"""Model exchange (the default integrator, whose solver loop runs in C; `test_native_integrator.py`
+holds it against the Python loop) on two family members made for it, each against its analytic
+solution and against co-simulation:
 
 ``staircase``
     time events announced with ``nextEventTime`` (the solver must stop exactly on them), two

@@ -41,6 +41,7 @@ from modelicagym.fmu.fmi1 import FMI1Binding
 from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.fmi3 import FMI3Binding
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
+from modelicagym.native.integrator import NativeIntegrator, python_integrator_reason
 
 logger = logging.getLogger(__name__)
 
@@ -78,6 +79,9 @@ class FMUInstance:
         start_time: default: the model's ``defaultExperiment startTime``.
         reset_rung: ``"auto"``, or the best rung to use (``"snapshot"``, ``"reset"``, ``"reinstantiate"``).
         solver, tolerance, solver_step: model exchange only (see `ModelExchangeIntegrator`).
+        integrator: model exchange only: ``"auto"`` runs the solver loop in C when it can
+            (`NativeIntegrator`), ``"python"`` keeps it in Python (the reference path).
+            ``integrator_path`` says which one runs, ``integrator_path_reason`` why.
         validate: validate ``modelDescription.xml`` against the schema.
         logging_on: ask the FMU for debug logging (routed to Python ``logging``).
     """
@@ -106,6 +110,7 @@ class FMUInstance:
         solver: str = "cvode",
         tolerance: float | None = None,
         solver_step: float | None = None,
+        integrator: str = "auto",
         instance_name: str | None = None,
         validate: bool = True,
         logging_on: bool = False,
@@ -126,13 +131,16 @@ class FMUInstance:
         self.inputs = ValueBuffer(self.binding, self.input_variables)
         self.outputs = ValueBuffer(self.binding, self.output_variables)
         self._integrator: ModelExchangeIntegrator | None = None
+        self.integrator_path: str | None = None
+        self.integrator_path_reason: str | None = None
         # Model exchange sets discrete inputs (any non-float type, or variability "discrete")
         # in event mode only: continuous-time mode accepts continuous Real inputs alone.
         self._event_mode_inputs = self.mode == "me" and any(
             v.variability != "continuous" for v in self.input_variables
         )
         if self.mode == "me":
-            self._integrator = ModelExchangeIntegrator(
+            integrator_class = self._choose_integrator(integrator, solver)
+            self._integrator = integrator_class(
                 self.binding,
                 description.number_of_states,
                 description.number_of_event_indicators,
@@ -156,6 +164,17 @@ class FMUInstance:
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
         self._instantiate()
+
+    def _choose_integrator(self, requested: str, solver: str) -> type[ModelExchangeIntegrator]:
+        """The integrator class for ``requested`` (``"auto"`` or ``"python"``); records which and why."""
+        if requested not in ("auto", "python"):
+            raise ConfigError(f"integrator must be 'auto' or 'python', got {requested!r}")
+        reason = "integrator='python' was asked for" if requested == "python" else python_integrator_reason(self.description.fmi_version, solver)
+        if reason is None:
+            self.integrator_path, self.integrator_path_reason = "native", "the solver loop runs in C"
+            return NativeIntegrator
+        self.integrator_path, self.integrator_path_reason = "python", reason
+        return ModelExchangeIntegrator
 
     # -- public API ------------------------------------------------------------------------------
 
@@ -239,20 +258,30 @@ class FMUInstance:
         """The address of the FMU state that `reset(values)` would simply restore, or ``None``.
 
         That is the case on the ``"snapshot"`` rung once it is verified, for the values the
-        snapshot was taken with, on a healthy co-simulation instance: the native step path then
-        resets by restoring it itself.
+        snapshot was taken with, on a healthy instance (in model exchange, one whose solver loop
+        is native): the native step path then resets by restoring it itself.
         """
         if (
             self.reset_rung != "snapshot"
             or "snapshot" not in self._verified
             or self.broken
             or not self.initialized
-            or self._integrator is not None
+            or (self._integrator is not None and self.native_integrator is None)
             or self._snapshot is None
             or _freeze(dict(values)) != self._snapshot_key
         ):
             return None
         return self._snapshot.value
+
+    @property
+    def snapshot_next_event_time(self) -> float | None:
+        """Model exchange: the time event pending in the snapshot's state (FMUs announce it only in event mode)."""
+        return self._snapshot_next_event if self._snapshot is not None else None
+
+    @property
+    def native_integrator(self) -> NativeIntegrator | None:
+        """Model exchange: the integrator when its solver loop runs in C (the native step path drives it)."""
+        return self._integrator if isinstance(self._integrator, NativeIntegrator) else None
 
     def read_outputs(self) -> None:
         """Refresh ``self.outputs`` (after a reset, for the first observation)."""
@@ -281,6 +310,8 @@ class FMUInstance:
         if binding is None:
             return
         self._free_snapshot()
+        if self._integrator is not None:
+            self._integrator.close()
         self._integrator = None
         binding.close()
         self.binding = None  # type: ignore[assignment]

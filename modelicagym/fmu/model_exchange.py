@@ -22,7 +22,7 @@ from modelicagym.errors import ConfigError
 from modelicagym.fmu.binding import FMIBinding
 from modelicagym.fmu.errors import FMUError
 
-SOLVERS = ("cvode", "euler")
+SOLVERS = ("cvode", "cvode-bdf", "euler")
 
 
 class _NoInput:
@@ -39,8 +39,9 @@ def _close(a: float, b: float) -> bool:
 class ModelExchangeIntegrator:
     """Integrates one model-exchange instance between communication points.
 
-    ``solver="cvode"`` (default) uses relative tolerance ``tolerance``; ``solver="euler"`` takes
-    fixed steps of ``step_size``.
+    ``solver="cvode"`` (default) and ``"cvode-bdf"`` use fmpy's CVode (BDF) with relative tolerance
+    ``tolerance``; ``solver="euler"`` takes fixed steps of ``step_size``. (The native integrator,
+    `modelicagym.native.integrator`, runs ``"cvode"`` as Adams until the model proves stiff.)
     """
 
     def __init__(
@@ -91,7 +92,7 @@ class ModelExchangeIntegrator:
             nx=self.n_states, nz=self.n_indicators, get_x=f["get_x"], set_x=f["set_x"],
             get_dx=f["get_dx"], get_z=f["get_z"], input=_NoInput(),
         )
-        if self.solver_name == "cvode":
+        if self.solver_name.startswith("cvode"):
             from fmpy.sundials import CVodeSolver
 
             self._solver = CVodeSolver(
@@ -109,8 +110,8 @@ class ModelExchangeIntegrator:
             target = stop
             if self.next_event_time is not None and time < self.next_event_time < target:
                 target = self.next_event_time
-            if self.step_size:
-                target = min(target, time + self.step_size)
+            if self.step_size and time + self.step_size < target and not _close(time + self.step_size, target):
+                target = time + self.step_size  # a step that lands within rounding of the target takes the target
             try:
                 state_event, _, time = solver.step(time, target)
             except RuntimeError as error:
@@ -141,6 +142,10 @@ class ModelExchangeIntegrator:
             return True
         self.binding.enter_continuous_time_mode()
         return False
+
+    def close(self) -> None:
+        """Release the solver."""
+        self._solver = None
 
     def _event_iteration(self) -> bool:
         """Update discrete states until they settle; True if the model asked to terminate."""

@@ -48,7 +48,7 @@ class Flags:
 
 
 #: ``failed_call`` codes -> how the Python path names the failing call
-_FAILED_CALLS = {1: "set inputs", 2: "fmiDoStep", 3: "get outputs", 4: "set FMU state"}
+_FAILED_CALLS = {1: "set inputs", 2: "fmiDoStep", 3: "get outputs", 4: "set FMU state", 5: "integrate"}
 
 
 class MgEnv(ctypes.Structure):
@@ -64,6 +64,9 @@ class MgEnv(ctypes.Structure):
         ("get_boolean_status", ctypes.c_void_p),
         ("set_state", ctypes.c_void_p),
         ("snapshot", ctypes.c_void_p),
+        ("integrator", ctypes.c_void_p),
+        ("snapshot_has_next_event", ctypes.c_int32),
+        ("snapshot_next_event_time", ctypes.c_double),
         ("input_refs", ctypes.c_void_p),
         ("inputs", ctypes.c_void_p),
         ("input_starts", ctypes.c_void_p),
@@ -99,8 +102,12 @@ def python_path_reason(env: FMUEnv) -> str | None:
         return "the config asks for step_path='python'"
     if fmu.description.fmi_version == 1:
         return "FMI 1.0: the native step library calls FMI 2.0/3.0 functions only"
-    if fmu.mode != "cs":
-        return "model exchange runs on the Python path (its solver loop is in Python)"
+    if fmu.mode == "me":
+        if fmu.integrator_path != "native":
+            return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
+        for v in fmu.input_variables:
+            if v.variability != "continuous":
+                return f"input {v.name!r} is {v.variability}: model exchange sets it in event mode (Python)"
     for name in _OVERRIDABLE:
         if getattr(cls, name) is not getattr(_fmu_env_class(), name):
             return f"{name} is overridden by {cls.__name__}"
@@ -200,8 +207,11 @@ class NativeStep:
         state.component = binding.component
         state.set_real = binding.function_address(prefix + self._names[0])
         state.get_real = binding.function_address(prefix + self._names[1])
-        state.do_step = binding.function_address(prefix + "DoStep")
-        state.get_boolean_status = binding.function_address("fmi2GetBooleanStatus") if prefix == "fmi2" else None
+        integrator = fmu.native_integrator
+        if integrator is None:
+            state.do_step = binding.function_address(prefix + "DoStep")
+            state.get_boolean_status = binding.function_address("fmi2GetBooleanStatus") if prefix == "fmi2" else None
+        state.integrator = None if integrator is None else ctypes.addressof(integrator.state)
         state.set_state = binding.function_address(prefix + ("SetFMUstate" if prefix == "fmi2" else "SetFMUState"))
         state.input_refs, state.inputs = fmu.inputs.addresses()
         state.output_refs, state.outputs = fmu.outputs.addresses()
@@ -209,6 +219,9 @@ class NativeStep:
         snapshot = None if self._random_parameters else fmu.restorable_snapshot(self.env.config.parameters)
         state.snapshot = snapshot
         state.native_reset = snapshot is not None
+        next_event = fmu.snapshot_next_event_time
+        state.snapshot_has_next_event = next_event is not None
+        state.snapshot_next_event_time = next_event or 0.0
 
     def step(self, action: Any) -> int:
         """One step with a checked action; returns the flags (the reward is in :attr:`reward`)."""
@@ -227,6 +240,8 @@ class NativeStep:
         """The error of a step that returned ``Flags.FMU_ERROR``, as the Python path raises it."""
         state = self.state
         call = _FAILED_CALLS[state.failed_call]
+        if call == "integrate":
+            return self.env.fmu.native_integrator.error()
         if call == "fmiDoStep" and state.fmi_status == DISCARD:
             call = "fmiDoStep (discard without termination)"
         return self.env.fmu.binding.fail(call, state.fmi_status)

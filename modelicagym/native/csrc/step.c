@@ -73,21 +73,26 @@ static int32_t fail(mg_env *env, int call, int status) {
     return MG_FMU_ERROR;
 }
 
-/* Copy the action's input values; false (nothing written) if it is outside the action space. */
+/* Copy the action's input values; false (nothing written) if it is outside the action space.
+ * In model exchange, new input values end the solver's continuous run. */
 static bool write_action(mg_env *env, const void *action) {
+    const double *values;
     if (env->discrete) {
         int64_t index = *(const int64_t *)action;
         if (index < 0 || index >= env->n_actions)
             return false;
-        memcpy(env->inputs, env->action_table + index * env->n_inputs, sizeof(double) * (size_t)env->n_inputs);
-        return true;
+        values = env->action_table + index * env->n_inputs;
+    } else {
+        values = action;
+        if (env->action_low)
+            for (int64_t k = 0; k < env->n_inputs; k++)
+                if (!(env->action_low[k] <= values[k] && values[k] <= env->action_high[k]))
+                    return false; /* also NaN */
     }
-    const double *values = action;
-    if (env->action_low)
-        for (int64_t k = 0; k < env->n_inputs; k++)
-            if (!(env->action_low[k] <= values[k] && values[k] <= env->action_high[k]))
-                return false; /* also NaN */
-    memcpy(env->inputs, values, sizeof(double) * (size_t)env->n_inputs);
+    size_t bytes = sizeof(double) * (size_t)env->n_inputs;
+    if (env->integrator && memcmp(env->inputs, values, bytes) != 0)
+        env->integrator->continuous = 0;
+    memcpy(env->inputs, values, bytes);
     return true;
 }
 
@@ -107,9 +112,16 @@ static int32_t advance(mg_env *env) {
     if (status > WARNING)
         return fail(env, MG_CALL_SET_INPUTS, status);
     bool ended;
-    status = do_step(env, now, target - now, &ended);
-    if (status != OK)
-        return fail(env, MG_CALL_DO_STEP, status);
+    if (env->integrator) {
+        int32_t outcome = mg_integrator_advance(env->integrator, now, target);
+        if (outcome == MG_INTEGRATOR_FAILED)
+            return fail(env, MG_CALL_INTEGRATE, 0);
+        ended = outcome == MG_INTEGRATOR_TERMINATE;
+    } else {
+        status = do_step(env, now, target - now, &ended);
+        if (status != OK)
+            return fail(env, MG_CALL_DO_STEP, status);
+    }
     if (ended)
         clock->terminated = 1;
     clock->steps += 1;
@@ -161,6 +173,13 @@ int32_t mg_env_reset(mg_env *env) {
         return MG_FMU_ERROR;
     }
     memcpy(env->inputs, env->input_starts, sizeof(double) * (size_t)env->n_inputs);
+    mg_integrator *integrator = env->integrator;
+    if (integrator) { /* as ModelExchangeIntegrator.restart */
+        integrator->has_next_event = env->snapshot_has_next_event;
+        integrator->next_event_time = env->snapshot_next_event_time;
+        if (mg_integrator_open(integrator, clock->start_time) != MG_INTEGRATOR_OK)
+            return fail(env, MG_CALL_INTEGRATE, 0);
+    }
     clock->time = clock->origin = clock->start_time;
     clock->dt = 0.0;
     clock->steps = 0;

@@ -1,7 +1,8 @@
 /* The native step path: config-defined FMU envs stepped in C through the FMU's own functions.
  *
  * An mg_env describes one env of `FMUEnv` whose step is fully defined by its config (see
- * modelicagym/native/step.py for when that holds): co-simulation, Float64 scalar inputs and
+ * modelicagym/native/step.py for when that holds): co-simulation, or model exchange with the
+ * native integrator (integrator.h) and continuous inputs; Float64 scalar inputs and
  * outputs, the action copied to the inputs (a Box) or looked up in a table (a Discrete), bound
  * termination, the paper's positive/negative reward, truncation after max_episode_steps.
  * Python fills it in (pointers into the FMU instance's own value buffers and its clock), so the
@@ -15,6 +16,8 @@
 #define MG_STEP_H
 
 #include <stdint.h>
+
+#include "integrator.h"
 
 /* FMUInstance's time bookkeeping (modelicagym/fmu/clock.py): time = origin + steps * dt. */
 typedef struct {
@@ -31,6 +34,9 @@ typedef struct {
     void *component;
     void *set_real, *get_real, *do_step, *get_boolean_status, *set_state;
     void *snapshot; /* FMU state taken after initialization (NULL: no native reset) */
+    mg_integrator *integrator;       /* model exchange: the solver loop; NULL: co-simulation (doStep) */
+    int32_t snapshot_has_next_event; /* model exchange: the time event pending when the snapshot was taken */
+    double snapshot_next_event_time;
     const uint32_t *input_refs;
     double *inputs;
     const double *input_starts;
@@ -64,7 +70,7 @@ enum {
     MG_PYTHON_RESET = 32,  /* batch: the env needs an autoreset that only Python can do */
     MG_BAD_ACTION = 64,    /* the action is outside the action space: nothing was stepped */
 };
-enum { MG_CALL_SET_INPUTS = 1, MG_CALL_DO_STEP = 2, MG_CALL_GET_OUTPUTS = 3, MG_CALL_SET_STATE = 4 };
+enum { MG_CALL_SET_INPUTS = 1, MG_CALL_DO_STEP = 2, MG_CALL_GET_OUTPUTS = 3, MG_CALL_SET_STATE = 4, MG_CALL_INTEGRATE = 5 };
 enum { MG_AUTORESET_NEXT_STEP = 0, MG_AUTORESET_SAME_STEP = 1, MG_AUTORESET_DISABLED = 2 };
 
 /* One step of one env. `action` points to an int64 (discrete) or n_inputs doubles. Returns the

@@ -1,0 +1,232 @@
+"""Model exchange with the solver loop in C (``csrc/integrator.c``): no Python inside a step.
+
+`NativeIntegrator` is a `ModelExchangeIntegrator` whose ``advance`` is one C call: CVode (the
+SUNDIALS 7 libraries fmpy ships, the same binaries the Python path drives) or forward Euler,
+with right-hand-side and root functions that call the FMU's own functions, and the event
+iteration in C. Initialization events, ``event`` and snapshots stay with the parent class: they
+happen once per episode or on a user's call, not inside the hot loop.
+
+:func:`python_integrator_reason` says when an instance must keep the Python loop.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from modelicagym.fmu.binding import FMIBinding
+from modelicagym.fmu.errors import FMUError
+from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
+from modelicagym.native.library import NativeBuildError, load_library
+
+__all__ = ["MgIntegrator", "NativeIntegrator", "python_integrator_reason"]
+
+#: ``mg_sundials`` of ``csrc/integrator.h`` (in its field order): the library that exports each function
+_SUNDIALS_FUNCTIONS = {
+    "SUNContext_Create": "sundials_core",
+    "SUNContext_Free": "sundials_core",
+    "SUNContext_PushErrHandler": "sundials_core",
+    "N_VNew_Serial": "sundials_nvecserial",
+    "N_VDestroy": "sundials_core",
+    "N_VGetArrayPointer": "sundials_core",
+    "SUNDenseMatrix": "sundials_sunmatrixdense",
+    "SUNMatDestroy": "sundials_core",
+    "SUNLinSol_Dense": "sundials_sunlinsoldense",
+    "SUNLinSolFree": "sundials_core",
+    "SUNNonlinSol_FixedPoint": "sundials_cvode",
+    "SUNNonlinSolFree": "sundials_core",
+    **dict.fromkeys((
+        "CVodeCreate", "CVodeInit", "CVodeReInit", "CVodeSVtolerances", "CVodeRootInit",
+        "CVodeSetLinearSolver", "CVodeSetNonlinearSolver", "CVodeSetMaxNumSteps", "CVodeSetNoInactiveRootWarn",
+        "CVodeSetUserData", "CVode", "CVodeGetRootInfo", "CVodeGetNumNonlinSolvConvFails", "CVodeFree",
+    ), "sundials_cvode"),
+}
+
+
+class MgSundials(ctypes.Structure):
+    """``mg_sundials`` of ``csrc/integrator.h``."""
+
+    _fields_ = [(name, ctypes.c_void_p) for name in _SUNDIALS_FUNCTIONS]
+
+
+class MgIntegrator(ctypes.Structure):
+    """``mg_integrator`` of ``csrc/integrator.h``."""
+
+    _fields_ = [
+        ("fmi_version", ctypes.c_int32),
+        ("solver", ctypes.c_int32),
+        ("method", ctypes.c_int32),
+        ("stiff", ctypes.c_int32),
+        ("component", ctypes.c_void_p),
+        *((name, ctypes.c_void_p) for name in (
+            "set_time", "set_x", "get_x", "get_dx", "get_z", "get_nominals",
+            "completed_integrator_step", "enter_event_mode", "update_discrete_states", "enter_continuous_time_mode",
+        )),
+        ("nx", ctypes.c_int64),
+        ("nz", ctypes.c_int64),
+        ("needs_completed_integrator_step", ctypes.c_int32),
+        ("tolerance", ctypes.c_double),
+        ("step_size", ctypes.c_double),
+        ("continuous", ctypes.c_int32),
+        ("has_next_event", ctypes.c_int32),
+        ("next_event_time", ctypes.c_double),
+        ("x", ctypes.c_void_p),
+        ("dx", ctypes.c_void_p),
+        ("z", ctypes.c_void_p),
+        ("previous_z", ctypes.c_void_p),
+        ("roots", ctypes.c_void_p),
+        ("sundials", ctypes.POINTER(MgSundials)),
+        *((name, ctypes.c_void_p) for name in (
+            "context", "cvode", "y", "abstol", "matrix", "linear_solver", "nonlinear_solver",
+        )),
+        ("failed_call", ctypes.c_int32),
+        ("fmi_status", ctypes.c_int32),
+        ("failed_at", ctypes.c_double),
+        ("message", ctypes.c_char * 256),
+    ]
+
+
+#: ``mg_integrator_*`` outcomes
+OK, TERMINATE, FAILED = 0, 1, 2
+#: MG_FMU_CALL_SOLVER: the solver failed, not an FMU call
+_SOLVER_CALL = 11
+#: solver name -> (MG_SOLVER_*, MG_CVODE_*)
+_SOLVERS = {"cvode": (0, 2), "cvode-bdf": (0, 0), "euler": (1, 0)}
+
+#: FMU functions the integrator calls, by field: the suffix per FMI version (2, 3)
+_FUNCTIONS = {
+    "set_time": ("SetTime", "SetTime"),
+    "set_x": ("SetContinuousStates", "SetContinuousStates"),
+    "get_x": ("GetContinuousStates", "GetContinuousStates"),
+    "get_dx": ("GetDerivatives", "GetContinuousStateDerivatives"),
+    "get_z": ("GetEventIndicators", "GetEventIndicators"),
+    "get_nominals": ("GetNominalsOfContinuousStates", "GetNominalsOfContinuousStates"),
+    "completed_integrator_step": ("CompletedIntegratorStep", "CompletedIntegratorStep"),
+    "enter_event_mode": ("EnterEventMode", "EnterEventMode"),
+    "update_discrete_states": ("NewDiscreteStates", "UpdateDiscreteStates"),
+    "enter_continuous_time_mode": ("EnterContinuousTimeMode", "EnterContinuousTimeMode"),
+}
+#: ``failed_call`` codes (1, 2, ...) in the order of ``_FUNCTIONS``
+_CALLS = list(_FUNCTIONS)
+
+
+@functools.cache
+def sundials() -> MgSundials:
+    """The SUNDIALS functions of fmpy's bundled libraries (loaded by fmpy, as the Python path does)."""
+    from fmpy.sundials import libraries
+
+    table = MgSundials()
+    for name, library in _SUNDIALS_FUNCTIONS.items():
+        setattr(table, name, ctypes.cast(getattr(getattr(libraries, library), name), ctypes.c_void_p).value)
+    return table
+
+
+def python_integrator_reason(fmi_version: int, solver: str) -> str | None:
+    """Why a model-exchange instance must integrate in Python, or ``None`` when C can."""
+    if fmi_version == 1:
+        return "FMI 1.0: the native integrator calls FMI 2.0/3.0 functions only"
+    if solver not in _SOLVERS:
+        return f"the solver {solver!r} has no native implementation"
+    try:
+        load_library()
+        if solver.startswith("cvode"):
+            sundials()
+    except NativeBuildError as error:
+        return f"the native library is not available: {error}"
+    except (ImportError, OSError, AttributeError) as error:
+        return f"fmpy's SUNDIALS libraries cannot be loaded: {error}"
+    return None
+
+
+class NativeIntegrator(ModelExchangeIntegrator):
+    """A `ModelExchangeIntegrator` whose solver loop runs in C (same arguments, same answers)."""
+
+    def __init__(self, binding: FMIBinding, n_states: int, n_indicators: int, *args: Any, **kwargs: Any) -> None:
+        self.state = state = MgIntegrator()
+        super().__init__(binding, n_states, n_indicators, *args, **kwargs)
+        self.library = load_library()
+        version = binding.description.fmi_version
+        state.fmi_version = version
+        state.solver, state.method = _SOLVERS[self.solver_name]
+        state.nx, state.nz = n_states, n_indicators
+        state.needs_completed_integrator_step = self.needs_completed_integrator_step
+        state.tolerance = self.tolerance
+        state.step_size = self.step_size or 0.0
+        self._buffers = {name: np.zeros(max(n, 1)) for name, n in
+                         (("x", n_states), ("dx", n_states), ("z", n_indicators), ("previous_z", n_indicators))}
+        self._buffers["roots"] = np.zeros(max(n_indicators, 1), dtype=np.int32)
+        for name, array in self._buffers.items():
+            setattr(state, name, array.ctypes.data)
+        if self.solver_name.startswith("cvode"):
+            self._sundials = sundials()
+            state.sundials = ctypes.pointer(self._sundials)
+        self._advance = self.library.mg_integrator_advance
+        self._ref = ctypes.byref(state)
+
+    @property
+    def next_event_time(self) -> float | None:  # type: ignore[override]
+        return self.state.next_event_time if self.state.has_next_event else None
+
+    @next_event_time.setter
+    def next_event_time(self, value: float | None) -> None:
+        self.state.has_next_event = value is not None
+        self.state.next_event_time = 0.0 if value is None else value
+
+    @property
+    def method(self) -> str | None:
+        """CVode's current method, ``"adams"`` or ``"bdf"`` (``solver="cvode"`` switches to BDF
+        once the model proves stiff); ``None`` for Euler."""
+        if self.solver_name == "euler":
+            return None
+        return "adams" if self.state.method == 2 and not self.state.stiff else "bdf"
+
+    def _make_solver(self, time: float) -> None:
+        """Point the struct at the instance as it is now (it may have been re-instantiated), and
+        set the solver up at ``time``."""
+        state, binding = self.state, self.binding
+        state.component = binding.component
+        suffix = 0 if state.fmi_version == 2 else 1
+        for field, names in _FUNCTIONS.items():
+            setattr(state, field, binding.function_address(binding.PREFIX + names[suffix]))
+        self._set_time = binding.continuous_state_functions()["set_time"]
+        self._check(self.library.mg_integrator_open(self._ref, time))
+
+    def advance(self, time: float, stop: float) -> bool:
+        """Integrate from ``time`` to ``stop``; returns True if the model asked to terminate.
+
+        The solver restarts, as on the Python path: this caller may have changed the inputs (the
+        native step path, which knows, lets CVode go on when they did not change)."""
+        self.state.continuous = 0
+        return self._check(self._advance(self._ref, time, stop))
+
+    def event(self, time: float, apply: Callable[[], None]) -> bool:
+        self.state.continuous = 0
+        return super().event(time, apply)
+
+    def _check(self, outcome: int) -> bool:
+        if outcome == FAILED:
+            raise self.error()
+        return outcome == TERMINATE
+
+    def error(self) -> FMUError:
+        """The error of the last call that failed, as the Python path raises it."""
+        state, binding = self.state, self.binding
+        if state.failed_call == _SOLVER_CALL:
+            message = state.message.decode(errors="replace") or f"CVode returned {state.fmi_status}"
+            return FMUError(f"{binding.fmu_name}: the {self.solver_name} solver failed at t={state.failed_at}: {message}")
+        names = _FUNCTIONS[_CALLS[state.failed_call - 1]]
+        return binding.fail(binding.PREFIX + names[0 if state.fmi_version == 2 else 1], state.fmi_status)
+
+    def close(self) -> None:
+        """Free CVode's memory."""
+        self.library.mg_integrator_close(self._ref)
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # never raise from a finalizer
+            pass
