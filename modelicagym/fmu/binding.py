@@ -91,6 +91,7 @@ class FMIBinding:
         except Exception as error:
             raise FMUError(f"{self.fmu_name}: cannot load {library}: {error}") from error
         self.raw = FunctionTable(self._fmu.dll, self.fmu_name)
+        self._addresses: dict[str, int] = {}
         self.component: Any = None
         self.log = FMULog(description.model_name, self.instance_name)
 
@@ -111,8 +112,12 @@ class FMIBinding:
             raise FMUError(f"{self.fmu_name}: {function} failed{': ' + messages if messages else ''}")
 
     def function_address(self, name: str) -> int:
-        """The address of the FMU's C function ``name`` (e.g. ``"fmi2DoStep"``), for native callers."""
-        return ctypes.cast(self.raw[name], ctypes.c_void_p).value
+        """The address of the FMU's C function ``name`` (e.g. ``"fmi2DoStep"``), for native callers
+        (looked up once: native paths re-bind after every reset)."""
+        address = self._addresses.get(name)
+        if address is None:
+            address = self._addresses[name] = ctypes.cast(self.raw[name], ctypes.c_void_p).value
+        return address
 
     # -- status handling -------------------------------------------------------------------------
 

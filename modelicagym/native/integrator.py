@@ -188,11 +188,12 @@ class NativeIntegrator(ModelExchangeIntegrator):
         """Point the struct at the instance as it is now (it may have been re-instantiated), and
         set the solver up at ``time``."""
         state, binding = self.state, self.binding
-        state.component = binding.component
-        suffix = 0 if state.fmi_version == 2 else 1
-        for field, names in _FUNCTIONS.items():
-            setattr(state, field, binding.function_address(binding.PREFIX + names[suffix]))
-        self._set_time = binding.continuous_state_functions()["set_time"]
+        if state.component != binding.component:
+            state.component = binding.component
+            suffix = 0 if state.fmi_version == 2 else 1
+            for field, names in _FUNCTIONS.items():
+                setattr(state, field, binding.function_address(binding.PREFIX + names[suffix]))
+            self._set_time = binding.continuous_state_functions()["set_time"]
         self._check(self.library.mg_integrator_open(self._ref, time))
 
     def advance(self, time: float, stop: float) -> bool:
