@@ -280,12 +280,10 @@ static int32_t cvode_reset(mg_integrator *integrator, double time) {
     return MG_INTEGRATOR_OK;
 }
 
-/* One CVode call towards `target`, writing the states it reached back to the FMU. */
+/* One CVode call towards `target`, writing the states it reached back to the FMU. (`y` is only
+ * CVode's output here: it copied the initial states at its last (re)initialisation.) */
 static int32_t cvode_step(mg_integrator *integrator, double time, double target, bool *state_event, double *reached) {
     double *y = SUN(N_VGetArrayPointer)(integrator->y);
-    int32_t outcome = read_states(integrator, y, time);
-    if (outcome)
-        return outcome;
     integrator->failed_call = 0;
     int flag = SUN(CVode)(integrator->cvode, target, integrator->y, reached, CV_NORMAL);
     if (flag < 0) {
