@@ -76,6 +76,10 @@ class ValueBuffer:
         _, refs, values, _ = self._groups[0]
         return ctypes.addressof(refs), ctypes.addressof(values)
 
+    def snapshot(self) -> bytes:
+        """The values as they are now, to tell later whether any changed (bit for bit)."""
+        return b"".join(bytes(values) for _, _, values, _ in self._groups)
+
     def check(self, status: int, what: str) -> None:
         if status > WARNING:
             names = ", ".join(v.name for v in self.variables)

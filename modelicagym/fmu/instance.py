@@ -160,6 +160,7 @@ class FMUInstance:
         self._snapshot: Any = None
         self._snapshot_key: tuple | None = None
         self._snapshot_next_event: float | None = None
+        self._written_inputs = b""  # model exchange: the input values of the last step
         self._fresh: tuple[tuple, np.ndarray, dict[str, Any]] | None = None
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
@@ -225,6 +226,10 @@ class FMUInstance:
             if status:
                 self._step_status(status)
         else:
+            written = self.inputs.snapshot()
+            if written != self._written_inputs:  # the solver restarts after new input values
+                self._integrator.continuous = False
+                self._written_inputs = written
             try:
                 clock.terminated = self._integrator.advance(now, target)
             except Exception:
@@ -282,6 +287,12 @@ class FMUInstance:
     def native_integrator(self) -> NativeIntegrator | None:
         """Model exchange: the integrator when its solver loop runs in C (the native step path drives it)."""
         return self._integrator if isinstance(self._integrator, NativeIntegrator) else None
+
+    @property
+    def solver_method(self) -> str | None:
+        """Model exchange with CVode: its method now, ``"adams"`` or ``"bdf"`` (``solver="cvode"``
+        switches to BDF for good once the model proves stiff); ``None`` otherwise."""
+        return self._integrator.method if self._integrator is not None else None
 
     def read_outputs(self) -> None:
         """Refresh ``self.outputs`` (after a reset, for the first observation)."""

@@ -1,8 +1,8 @@
 """Advance a model-exchange FMU from t to t + dt, with a real solver and event handling.
 
 A model-exchange FMU only evaluates derivatives; the importer integrates. This follows the loop
-of ``fmpy.simulation.simulateME``: integrate with fmpy's CVode (variable step, root finding on
-the event indicators) or fmpy's forward Euler at a fixed step, stop at time events
+of ``fmpy.simulation.simulateME``: integrate with CVode (variable step, root finding on the event
+indicators; `modelicagym.fmu.cvode`) or fmpy's forward Euler at a fixed step, stop at time events
 (``nextEventTime``), state events (event-indicator roots) and step events
 (``fmiCompletedIntegratorStep``), run the event iteration, and carry on.
 
@@ -20,9 +20,14 @@ from fmpy.simulation import ForwardEuler
 
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.binding import FMIBinding
+from modelicagym.fmu.cvode import CVodeSolver
 from modelicagym.fmu.errors import FMUError
 
 SOLVERS = ("cvode", "cvode-bdf", "euler")
+#: ``solver="cvode"``: this many fixed-point convergence failures between two restarts mark the
+#: model stiff. A non-stiff model has none (the cart-pole: 0 in 300 steps), a stiff one has them at
+#: once (eigenvalue -1e4, steps of 0.01 s: 15-30 per step). ``native/csrc/integrator.c`` agrees.
+STIFF_CONVERGENCE_FAILURES = 10
 
 
 class _NoInput:
@@ -39,9 +44,10 @@ def _close(a: float, b: float) -> bool:
 class ModelExchangeIntegrator:
     """Integrates one model-exchange instance between communication points.
 
-    ``solver="cvode"`` (default) and ``"cvode-bdf"`` use fmpy's CVode (BDF) with relative tolerance
-    ``tolerance``; ``solver="euler"`` takes fixed steps of ``step_size``. (The native integrator,
-    `modelicagym.native.integrator`, runs ``"cvode"`` as Adams until the model proves stiff.)
+    ``solver="cvode"`` (default) runs CVode's Adams method until the model proves stiff, then BDF
+    (from the next `advance` on); ``"cvode-bdf"`` runs BDF throughout, as fmpy does; both with
+    relative tolerance ``tolerance``. ``solver="euler"`` takes fixed steps of ``step_size``.
+    The native integrator (`modelicagym.native.integrator`) runs the same algorithms in C.
     """
 
     def __init__(
@@ -66,6 +72,10 @@ class ModelExchangeIntegrator:
         self.tolerance = tolerance
         self.step_size = step_size
         self.next_event_time: float | None = None
+        self.stiff = False
+        #: CVode may go on where the last advance left off: nothing changed the model since. The
+        #: caller clears it when it writes new input values; `event` and failures clear it too.
+        self.continuous = False
         self._solver: Any = None
 
     def start(self, time: float) -> bool:
@@ -85,27 +95,34 @@ class ModelExchangeIntegrator:
         self.next_event_time = next_event_time
         self._make_solver(time)
 
+    @property
+    def method(self) -> str | None:
+        """CVode's method, ``"adams"`` or ``"bdf"``; ``None`` for Euler."""
+        if self.solver_name == "euler":
+            return None
+        return "adams" if self.solver_name == "cvode" and not self.stiff else "bdf"
+
     def _make_solver(self, time: float) -> None:
+        self.close()
         f = self.binding.continuous_state_functions()
         self._set_time = f["set_time"]
-        args = dict(
-            nx=self.n_states, nz=self.n_indicators, get_x=f["get_x"], set_x=f["set_x"],
-            get_dx=f["get_dx"], get_z=f["get_z"], input=_NoInput(),
-        )
-        if self.solver_name.startswith("cvode"):
-            from fmpy.sundials import CVodeSolver
-
-            self._solver = CVodeSolver(
-                get_nominals=f["get_nominals"], set_time=self._set_time, startTime=time,
-                relativeTolerance=self.tolerance, maxNumSteps=100_000, **args,
-            )
+        args = dict(nx=self.n_states, nz=self.n_indicators, get_x=f["get_x"], set_x=f["set_x"],
+                    get_dx=f["get_dx"], get_z=f["get_z"])
+        if self.method is None:
+            self._solver = ForwardEuler(input=_NoInput(), **args)
         else:
-            self._solver = ForwardEuler(**args)
+            self._solver = CVodeSolver(get_nominals=f["get_nominals"], set_time=self._set_time, start_time=time,
+                                       tolerance=self.tolerance, method=self.method, **args)
+            self.continuous = True
 
     def advance(self, time: float, stop: float) -> bool:
         """Integrate from ``time`` to ``stop``; returns True if the model asked to terminate."""
+        if self.method is not None and self._solver.method != self.method:
+            self._make_solver(time)  # the model proved stiff: BDF from here on
+        elif not (self.continuous and self.method is not None):
+            self._solver.reset(time)
+        self.continuous = False
         solver = self._solver
-        solver.reset(time)
         while time < stop and not _close(time, stop):
             target = stop
             if self.next_event_time is not None and time < self.next_event_time < target:
@@ -116,6 +133,8 @@ class ModelExchangeIntegrator:
                 state_event, _, time = solver.step(time, target)
             except RuntimeError as error:
                 raise FMUError(f"{self.binding.fmu_name}: the {self.solver_name} solver failed at t={time}: {error}") from error
+            if self.method == "adams" and solver.convergence_failures() >= STIFF_CONVERGENCE_FAILURES:
+                self.stiff = True
             self._set_time(time)
             step_event = False
             if self.needs_completed_integrator_step:
@@ -129,12 +148,14 @@ class ModelExchangeIntegrator:
                     return True
                 self.binding.enter_continuous_time_mode()
                 solver.reset(time)
+        self.continuous = self.method is not None
         return False
 
     def event(self, time: float, apply: Callable[[], None]) -> bool:
         """Enter event mode at ``time``, call ``apply()`` (which sets discrete inputs or tunable
         parameters: FMI allows those in event mode only), settle the event iteration and return to
         continuous-time mode. Returns True if the model asked to terminate."""
+        self.continuous = False
         self._set_time(time)
         self.binding.enter_event_mode()
         apply()
@@ -145,6 +166,8 @@ class ModelExchangeIntegrator:
 
     def close(self) -> None:
         """Release the solver."""
+        if self._solver is not None and self.method is not None:
+            self._solver.close()
         self._solver = None
 
     def _event_iteration(self) -> bool:

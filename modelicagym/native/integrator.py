@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import ctypes
 import functools
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -176,13 +175,21 @@ class NativeIntegrator(ModelExchangeIntegrator):
         self.state.has_next_event = value is not None
         self.state.next_event_time = 0.0 if value is None else value
 
-    @property
-    def method(self) -> str | None:
-        """CVode's current method, ``"adams"`` or ``"bdf"`` (``solver="cvode"`` switches to BDF
-        once the model proves stiff); ``None`` for Euler."""
-        if self.solver_name == "euler":
-            return None
-        return "adams" if self.state.method == 2 and not self.state.stiff else "bdf"
+    @property  # type: ignore[override]
+    def continuous(self) -> bool:
+        return bool(self.state.continuous)
+
+    @continuous.setter
+    def continuous(self, value: bool) -> None:
+        self.state.continuous = value
+
+    @property  # type: ignore[override]
+    def stiff(self) -> bool:
+        return bool(self.state.stiff)
+
+    @stiff.setter
+    def stiff(self, value: bool) -> None:
+        self.state.stiff = value
 
     def _make_solver(self, time: float) -> None:
         """Point the struct at the instance as it is now (it may have been re-instantiated), and
@@ -197,16 +204,8 @@ class NativeIntegrator(ModelExchangeIntegrator):
         self._check(self.library.mg_integrator_open(self._ref, time))
 
     def advance(self, time: float, stop: float) -> bool:
-        """Integrate from ``time`` to ``stop``; returns True if the model asked to terminate.
-
-        The solver restarts, as on the Python path: this caller may have changed the inputs (the
-        native step path, which knows, lets CVode go on when they did not change)."""
-        self.state.continuous = 0
+        """Integrate from ``time`` to ``stop``; returns True if the model asked to terminate."""
         return self._check(self._advance(self._ref, time, stop))
-
-    def event(self, time: float, apply: Callable[[], None]) -> bool:
-        self.state.continuous = 0
-        return super().event(time, apply)
 
     def _check(self, outcome: int) -> bool:
         if outcome == FAILED:

@@ -57,8 +57,7 @@ enum { CV_ADAMS = 1, CV_BDF = 2, CV_NORMAL = 1, CV_SUCCESS = 0 };
 enum { WARNING = 1 };
 #define MAX_NUM_STEPS 100000L /* the Python path's maxNumSteps */
 /* MG_CVODE_AUTO: this many fixed-point convergence failures between two restarts mark the model
- * stiff. A non-stiff model has none (the cart-pole: 0 in 300 steps); a stiff one has them at once
- * (eigenvalue -1e4, steps of 0.01 s: 15-30 per step). */
+ * stiff, as STIFF_CONVERGENCE_FAILURES of fmu/model_exchange.py. */
 #define STIFF_CONVERGENCE_FAILURES 10
 
 #define SUN(name) ((name##_t)integrator->sundials->name)
@@ -328,12 +327,21 @@ static int32_t euler_step(mg_integrator *integrator, double time, double target,
 
 /* -- the loop -------------------------------------------------------------------------------------- */
 
+/* CVode's objects are missing, or they run Adams on a model that proved stiff (BDF from now on). */
+static bool needs_new_cvode(const mg_integrator *integrator) {
+    return !integrator->cvode || (integrator->nonlinear_solver && !uses_adams(integrator));
+}
+
 int32_t mg_integrator_open(mg_integrator *integrator, double time) {
     if (integrator->solver == MG_SOLVER_EULER) {
         CALL(MG_FMU_CALL_GET_Z, time, get_z(integrator, integrator->z));
         return MG_INTEGRATOR_OK;
     }
-    int32_t outcome = integrator->cvode ? MG_INTEGRATOR_OK : cvode_create(integrator, time);
+    int32_t outcome = MG_INTEGRATOR_OK;
+    if (needs_new_cvode(integrator)) {
+        mg_integrator_close(integrator);
+        outcome = cvode_create(integrator, time);
+    }
     if (!outcome)
         outcome = set_tolerances(integrator, time);
     if (!outcome)
@@ -363,10 +371,9 @@ void mg_integrator_close(mg_integrator *integrator) {
 
 int32_t mg_integrator_advance(mg_integrator *integrator, double time, double stop) {
     bool cvode = integrator->solver == MG_SOLVER_CVODE;
-    bool adams = cvode && uses_adams(integrator);
     int32_t outcome = MG_INTEGRATOR_OK;
-    if (cvode && !integrator->cvode)
-        outcome = mg_integrator_open(integrator, time); /* after a switch to BDF */
+    if (cvode && needs_new_cvode(integrator))
+        outcome = mg_integrator_open(integrator, time); /* the model proved stiff */
     else if (cvode && !integrator->continuous)
         outcome = cvode_reset(integrator, time);
     integrator->continuous = 0;
@@ -399,7 +406,5 @@ int32_t mg_integrator_advance(mg_integrator *integrator, double time, double sto
         }
     }
     integrator->continuous = cvode && outcome == MG_INTEGRATOR_OK;
-    if (adams && !uses_adams(integrator)) /* the model proved stiff: BDF from the next advance on */
-        mg_integrator_close(integrator);
     return outcome;
 }
