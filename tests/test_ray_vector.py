@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import signal
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -12,7 +13,7 @@ import pytest
 from ray_cluster import local_ray, ray
 
 import modelicagym
-from modelicagym.distributed import ActorDiedError, RayVectorEnv, Rollout
+from modelicagym.distributed import ActorDiedError, ClusterError, RayVectorEnv, Rollout
 from modelicagym.registry import EnvFactory
 
 N = 5
@@ -47,15 +48,16 @@ def assert_same_infos(left, right):
 
 @pytest.mark.parametrize(
     "layout, autoreset_mode",
-    [({"num_actors": 2}, "NextStep"), ({"num_actors": 2}, "SameStep"), ({"num_actors": 1, "cpus_per_actor": 2}, "NextStep")],
-    ids=["2-actors", "2-actors-same-step", "1-actor-pool"],
+    [({"num_actors": 2}, "NextStep"), ({"num_actors": 2}, "SameStep"), ({}, "NextStep")],
+    ids=["2-actors", "2-actors-same-step", "default-1-actor-pool"],
 )
 def test_same_results_as_sync_vector_env(layout, autoreset_mode):
-    """Step by step, through autoresets, with the same seeds; one actor with 2 CPUs hosts a pool."""
+    """Step by step, through autoresets, with the same seeds; by default the node's one actor
+    reserves its 2 CPUs and hosts a pool."""
     envs = RayVectorEnv(env_fns(), autoreset_mode=autoreset_mode, **layout)
     sync = gym.vector.SyncVectorEnv(env_fns(), autoreset_mode=autoreset_mode)
     try:
-        assert envs.num_actors == layout["num_actors"]
+        assert [plan.cpus for plan in envs.plans] == ([1, 1] if layout else [2])
         assert envs.single_observation_space == sync.single_observation_space
         assert envs.action_space == sync.action_space
         for left, right in zip(envs.reset(seed=7), sync.reset(seed=7), strict=True):
@@ -144,6 +146,26 @@ def test_more_actors_than_the_cluster_has_cpus_is_refused_at_once():
     """Ray would wait forever for CPUs the cluster does not have: say so instead."""
     with pytest.raises(ValueError, match="3 actors of 1 CPU\\(s\\) need 3 CPUs, the cluster has 2"):
         RayVectorEnv(env_fns(), num_actors=3)
+
+
+def test_an_actor_ray_cannot_place_is_an_error_not_a_hang():
+    """The first vector env holds both CPUs; the second's actor would wait for them forever."""
+    holder = RayVectorEnv(env_fns(2))
+    try:
+        assert ray.available_resources().get("CPU", 0) == 0
+        with pytest.raises(ClusterError, match=r"Ray could not place actor 0 \(envs 0-2, 2 CPU\(s\)\) within 1.5 s"):
+            RayVectorEnv(env_fns(3), num_actors=1, cpus_per_actor=2, placement_timeout=1.5)
+    finally:
+        holder.close()
+    deadline = time.monotonic() + 20
+    while ray.available_resources().get("CPU", 0) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert ray.available_resources().get("CPU", 0) == 2, "the actor that was never placed holds no CPU"
+    envs = RayVectorEnv(env_fns(3), num_actors=1, cpus_per_actor=2)
+    try:
+        assert envs.reset(seed=0)[0].shape == (3, 4)
+    finally:
+        envs.close()
 
 
 def test_ray_is_connected_with_token_authentication():

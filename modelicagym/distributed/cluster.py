@@ -12,11 +12,12 @@ node).
 from __future__ import annotations
 
 import logging
+import time
 from types import ModuleType
 
 from modelicagym.distributed.errors import RayNotInstalledError
 
-__all__ = ["connect", "format_env_range", "require_ray"]
+__all__ = ["connect", "format_env_range", "require_ray", "wait_for_free_cpus"]
 
 logger = logging.getLogger(__name__)
 
@@ -50,6 +51,18 @@ def connect(address: str | None = None) -> ModuleType:
     ray.init(address=address or None, logging_level=logging.WARNING, log_to_driver=True)
     logger.info("connected to Ray: %s CPUs on %d node(s)", ray.cluster_resources().get("CPU", 0), len(ray.nodes()))
     return ray
+
+
+def wait_for_free_cpus(cpus: float, timeout: float) -> bool:
+    """Wait up to ``timeout`` seconds until the connected cluster has ``cpus`` CPUs free (Ray
+    releases a killed actor's CPUs asynchronously); True if it has."""
+    ray = require_ray()
+    deadline = time.monotonic() + timeout
+    while ray.available_resources().get("CPU", 0.0) < cpus:
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.02)
+    return True
 
 
 def format_env_range(indices: range | list[int] | tuple[int, ...]) -> str:

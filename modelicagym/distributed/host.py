@@ -1,6 +1,8 @@
 """The Ray actor of `RayVectorEnv`: a slice of envs in a local vector env on its node.
 
-An `EnvHost` creates its envs itself (FMU instances cannot travel) in a local vector env: a
+An `EnvHost` creates its envs itself (FMU instances cannot travel), in `EnvHost.start` (its
+constructor is light, so that the driver can tell an actor Ray has placed from one still waiting
+for CPUs), in a local vector env: a
 `~modelicagym.vector.PoolVectorEnv` when it has more than one CPU and more than one env (the
 actor's process steps a slice itself, ``cpus - 1`` workers the rest, so the actor uses exactly
 the CPUs Ray reserved for it), else Gymnasium's single-process ``SyncVectorEnv``. Both give the
@@ -80,9 +82,20 @@ class EnvHost:
         pool_options: Mapping[str, Any] | None = None,
     ) -> None:
         self.env_indices = np.asarray(env_indices, dtype=np.int64)
-        self.envs = local_vector_env(env_fns, cpus, autoreset_mode, pool_options)
+        self._recipe = (list(env_fns), cpus, autoreset_mode, pool_options)
+        self.envs: VectorEnv | None = None
         self.observations: Any = None
         self.policy: Policy | None = None
+
+    def pid(self) -> int:
+        """The actor's process id: answered as soon as Ray has placed the actor."""
+        return os.getpid()
+
+    def start(self) -> dict[str, Any]:
+        """Create the envs (a first use may build FMUs); returns `describe`."""
+        if self.envs is None:
+            self.envs = local_vector_env(*self._recipe)
+        return self.describe()
 
     def describe(self) -> dict[str, Any]:
         """Spaces, metadata and where it runs: what the driver's vector env needs to know."""
@@ -141,4 +154,5 @@ class EnvHost:
 
     def close(self) -> None:
         """Close the local vector env (its pool's processes end with it)."""
-        self.envs.close()
+        if self.envs is not None:
+            self.envs.close()

@@ -2,7 +2,8 @@
 
 The envs are split into contiguous slices, one per actor (`~modelicagym.distributed.host`); each
 actor steps its slice in a local vector env on its node (the pool, or ``SyncVectorEnv`` for one
-CPU or one env). ``step`` sends each actor its actions and gathers the batches in env order: the
+CPU or one env). By default there is one actor per node, reserving its CPUs
+(`~modelicagym.distributed.layout`). ``step`` sends each actor its actions and gathers the batches in env order: the
 same results, step by step, as ``SyncVectorEnv`` over the same env fns and seeds. One remote call
 costs far more than a light env step, so for sampling at scale use :meth:`RayVectorEnv.rollout`:
 the policy travels once, each actor steps ``T`` times locally and returns arrays.
@@ -23,20 +24,20 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
-from modelicagym.distributed.cluster import connect, format_env_range
+from modelicagym.distributed.cluster import connect, format_env_range, wait_for_free_cpus
 from modelicagym.distributed.errors import ActorDiedError
 from modelicagym.distributed.host import EnvHost, Policy, Rollout
-from modelicagym.errors import ArgumentError, ConfigError
+from modelicagym.distributed.layout import plan_actors
+from modelicagym.errors import ArgumentError, ClusterError, ConfigError
 from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
 from modelicagym.vector.errors import PoolClosedError
-from modelicagym.vector.plan import plan_workers
 
 __all__ = ["RAY_OPTIONS", "RayVectorEnv"]
 
 logger = logging.getLogger(__name__)
 
 #: the keyword options of `RayVectorEnv` that ``make_vec(..., backend="ray")`` routes to it
-RAY_OPTIONS = ("num_actors", "cpus_per_actor", "address", "actor_options")
+RAY_OPTIONS = ("num_actors", "cpus_per_actor", "address", "actor_options", "placement_timeout")
 
 
 class RayVectorEnv(VectorEnv):
@@ -57,30 +58,32 @@ class RayVectorEnv(VectorEnv):
         env_fns: Sequence[Callable[[], gym.Env]],
         *,
         num_actors: int | None = None,
-        cpus_per_actor: int = 1,
+        cpus_per_actor: int | None = None,
         address: str | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         pool_options: Mapping[str, Any] | None = None,
         actor_options: Mapping[str, Any] | None = None,
+        placement_timeout: float = 60.0,
     ) -> None:
         """Connect to Ray (see `~modelicagym.distributed.connect`) and start the actors.
 
         Args:
             env_fns: functions creating the envs; they travel to the actors with cloudpickle.
-            num_actors: actors (default: as many as the cluster's CPUs hold at ``cpus_per_actor``
-                each, never more than envs).
+            num_actors: actors (default: one per node, or with ``cpus_per_actor`` given as many as
+                the nodes hold; never more than envs).
             cpus_per_actor: CPUs each actor reserves and uses: with more than one, its envs step in
-                a local pool of that many processes.
+                a local pool of that many processes (default: its node's CPUs, with ``num_actors``
+                given 1).
             address: the cluster to connect to when this process is not connected yet.
             autoreset_mode: Gymnasium's autoreset mode, for every actor.
             pool_options: `~modelicagym.vector.PoolVectorEnv` options of the actors' pools.
             actor_options: more Ray actor options (``resources``, ``scheduling_strategy``, ...).
+            placement_timeout: seconds to wait for Ray to place an actor (find it the CPUs) before
+                giving up with a `ClusterError`; creating its envs afterwards may take longer.
         """
         self.env_fns = list(env_fns)
         if not self.env_fns:
             raise ConfigError("a RayVectorEnv needs at least one env fn")
-        if not isinstance(cpus_per_actor, int) or cpus_per_actor < 1:
-            raise ConfigError(f"cpus_per_actor must be an integer >= 1, got {cpus_per_actor!r}")
         try:
             self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -88,28 +91,23 @@ class RayVectorEnv(VectorEnv):
                               f"got {autoreset_mode!r}") from None
         self._ray = connect(address)
         self.num_envs = len(self.env_fns)
-        cpus = int(self._ray.cluster_resources().get("CPU", 1))
-        if num_actors is None:
-            num_actors = max(1, min(self.num_envs, cpus // cpus_per_actor))
-        elif num_actors * cpus_per_actor > cpus:
-            raise ConfigError(
-                f"{num_actors} actors of {cpus_per_actor} CPU(s) need {num_actors * cpus_per_actor} CPUs, the cluster "
-                f"has {cpus}: Ray would wait for them forever. Ask for fewer actors (num_actors) or CPUs per actor, "
-                "or add nodes first"
-            )
-        self.slices = plan_workers(self.num_envs, num_actors, None)
-        self.num_actors = len(self.slices)
-        self.cpus_per_actor = cpus_per_actor
-        self._host_class = self._ray.remote(EnvHost).options(
-            num_cpus=cpus_per_actor, max_restarts=0, max_concurrency=1, **(actor_options or {})
-        )
+        self.plans = plan_actors(self._ray.nodes(), self._ray.available_resources().get("CPU", 0.0), self.num_envs,
+                                 num_actors, cpus_per_actor)
+        self.slices = [plan.envs for plan in self.plans]
+        self.num_actors = len(self.plans)
+        self._host_class = self._ray.remote(EnvHost)
+        self._actor_options = {"max_restarts": 0, "max_concurrency": 1, **(actor_options or {})}
         self._pool_options = dict(pool_options or {})
+        self.placement_timeout = placement_timeout
         self._policy: tuple[Policy, Any] | None = None
         self._actors: list[Any] = [None] * self.num_actors
         self.dead_actors: set[int] = set()
         self.closed = False
-        self._start(range(self.num_actors))
-        first = self._get([self._actors[0].describe.remote()], [0])[0]
+        try:
+            first = self._start(range(self.num_actors))[0]
+        except BaseException:
+            self.close_extras()
+            raise
         self.single_observation_space = first["single_observation_space"]
         self.single_action_space = first["single_action_space"]
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -203,7 +201,6 @@ class RayVectorEnv(VectorEnv):
             if self._actors[k] is not None:
                 self._ray.kill(self._actors[k], no_restart=True)
         self._start(which)
-        self._get([self._actors[k].describe.remote() for k in which], which)
         if self._policy is not None:
             self._get([self._actors[k].set_policy.remote(self._policy[1]) for k in which], which)
         return which
@@ -214,29 +211,61 @@ class RayVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         """Close every actor's envs and end the actors (Ray itself stays connected)."""
-        if all(actor is None for actor in self._actors):
-            return
-        live = [k for k in range(self.num_actors) if k not in self.dead_actors]
+        live = [k for k, actor in enumerate(self._actors) if actor is not None and k not in self.dead_actors]
         for k, ref in zip(live, [self._actors[k].close.remote() for k in live], strict=True):
             try:
                 self._ray.get(ref)
             except self._ray.exceptions.RayError as error:
                 logger.warning("actor %d could not close its envs: %s", k, error)
+        free = self._ray.available_resources().get("CPU", 0.0)
         for actor in self._actors:
-            self._ray.kill(actor, no_restart=True)
+            if actor is not None:
+                self._ray.kill(actor, no_restart=True)
+        # Ray frees the CPUs a moment later: wait, so that the next vector env finds them free
+        total = self._ray.cluster_resources().get("CPU", 0.0)
+        wait_for_free_cpus(min(total, free + sum(self.plans[k].cpus for k in live)), timeout=10.0)
         self._actors = [None] * self.num_actors
         self._policy = None
 
     # ------------------------------------------------------------------ internals
 
-    def _start(self, which: Sequence[int]) -> None:
+    def _start(self, which: Sequence[int]) -> list[dict[str, Any]]:
+        """Start the actors in ``which`` and their envs; their `EnvHost.describe`."""
         for k in which:
-            envs = self.slices[k]
-            self._actors[k] = self._host_class.remote(
-                self.env_fns[envs.start:envs.stop], list(envs), self.cpus_per_actor, self.autoreset_mode,
+            plan = self.plans[k]
+            options = {"num_cpus": plan.cpus, **self._actor_options}
+            if plan.node_id is not None and "scheduling_strategy" not in options:
+                from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+                options["scheduling_strategy"] = NodeAffinitySchedulingStrategy(plan.node_id, soft=False)
+            self._actors[k] = self._host_class.options(**options).remote(
+                self.env_fns[plan.envs.start:plan.envs.stop], list(plan.envs), plan.cpus, self.autoreset_mode,
                 self._pool_options,
             )
             self.dead_actors.discard(k)
+        self._wait_for_placement(which)
+        return self._get([self._actors[k].start.remote() for k in which], which)
+
+    def _wait_for_placement(self, which: Sequence[int]) -> None:
+        """Wait until Ray has placed the actors in ``which``; a `ClusterError` (and no actor left
+        behind) after ``placement_timeout`` seconds, since Ray itself would wait forever."""
+        ray = self._ray
+        refs = [self._actors[k].pid.remote() for k in which]
+        _, pending = ray.wait(refs, num_returns=len(refs), timeout=self.placement_timeout)
+        if not pending:
+            return
+        waiting = [k for k, ref in zip(which, refs, strict=True) if ref in pending]
+        for k in which:
+            ray.kill(self._actors[k], no_restart=True)
+            self._actors[k] = None
+        k = waiting[0]
+        raise ClusterError(
+            f"Ray could not place actor {k} ({format_env_range(self.slices[k])}, {self.plans[k].cpus} CPU(s)"
+            f"{' on node ' + self.plans[k].node_id if self.plans[k].node_id else ''}) within {self.placement_timeout} s"
+            f" ({len(waiting)} of {len(which)} actors waiting; free CPUs now: "
+            f"{ray.available_resources().get('CPU', 0):g}): other actors or tasks may hold the CPUs. Close them, "
+            "ask for fewer actors or CPUs per actor (num_actors, cpus_per_actor), or raise placement_timeout"
+        )
 
     def _get(self, refs: Sequence[Any], actors: Sequence[int]) -> list[Any]:
         """The results of ``refs`` (one per actor in ``actors``); an actor lost raises
