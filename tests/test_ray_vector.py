@@ -14,6 +14,7 @@ from ray_cluster import local_ray, ray
 
 import modelicagym
 from modelicagym.distributed import ActorDiedError, ClusterError, RayVectorEnv, Rollout
+from modelicagym.distributed.host import env_info
 from modelicagym.registry import EnvFactory
 
 N = 5
@@ -102,6 +103,29 @@ def test_rollout_ships_the_policy_once_and_matches_a_local_loop():
         again = Rollout.concatenate(envs.rollout(push_by_velocity, steps=3))
         assert envs._policy[1] is shipped, "the same policy is not shipped again"
         np.testing.assert_array_equal(again.observations[0], observations)
+    finally:
+        envs.close()
+        local.close()
+
+
+def test_a_rollout_keeps_the_infos_each_env_reported(family_fmu):
+    """The staircase ends at t_stop = 1.3 s: its 13th step reports ``fmu_terminated``."""
+    options = {"fmu": str(family_fmu("staircase", 2)), "mode": "me", "inputs": ["u"], "outputs": ["x", "level"],
+               "parameters": {"period": 0.25, "t_stop": 1.3}, "time_step": 0.1}
+    fns = [EnvFactory("modelicagym.env:FMUEnv", options) for _ in range(3)]
+    half = lambda observations: np.full((len(observations), 1), 0.5)  # noqa: E731
+    envs = RayVectorEnv(fns, num_actors=2)
+    local = gym.vector.SyncVectorEnv(fns)
+    try:
+        envs.reset(seed=0)
+        local.reset(seed=0)
+        joined = Rollout.concatenate(envs.rollout(half, steps=20))
+        expected = {}
+        for t in range(20):
+            infos = local.step(half(np.zeros(3)))[4]
+            expected.update({(t, j): info for j in range(3) if (info := env_info(infos, j))})
+        assert joined.infos == expected
+        assert joined.infos[12, 2] == {"fmu_terminated": True}
     finally:
         envs.close()
         local.close()

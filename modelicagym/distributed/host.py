@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -23,7 +23,7 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv, VectorEnv
 
 from modelicagym.errors import ArgumentError
 
-__all__ = ["EnvHost", "Policy", "Rollout", "local_vector_env"]
+__all__ = ["EnvHost", "Policy", "Rollout", "env_info", "local_vector_env"]
 
 #: ``policy(observations) -> actions`` for a batch of one actor's envs
 Policy = Callable[[np.ndarray], Any]
@@ -50,7 +50,8 @@ class Rollout:
     """``steps`` steps of one actor's envs: ``observations[t]`` is what the policy saw at step
     ``t`` and ``actions[t]`` what it chose; ``rewards``, ``terminations`` and ``truncations[t]``
     what the step returned; ``last_observations`` the observations after the last step. Axis 1 is
-    the env, in the order of ``env_indices`` (indices in the whole vector env)."""
+    the env, in the order of ``env_indices`` (indices in the whole vector env). ``infos`` holds the
+    non-empty infos only: ``infos[t, env_index]`` is what that env's step ``t`` reported."""
 
     env_indices: np.ndarray
     observations: np.ndarray
@@ -59,6 +60,7 @@ class Rollout:
     terminations: np.ndarray
     truncations: np.ndarray
     last_observations: np.ndarray
+    infos: dict[tuple[int, int], dict[str, Any]] = field(default_factory=dict)
 
     @classmethod
     def concatenate(cls, rollouts: Sequence[Rollout]) -> Rollout:
@@ -67,7 +69,8 @@ class Rollout:
             return np.concatenate([getattr(r, name) for r in rollouts], axis=axis)
 
         return cls(joined("env_indices", 0), joined("observations", 1), joined("actions", 1), joined("rewards", 1),
-                   joined("terminations", 1), joined("truncations", 1), joined("last_observations", 0))
+                   joined("terminations", 1), joined("truncations", 1), joined("last_observations", 0),
+                   {key: info for r in rollouts for key, info in r.infos.items()})
 
 
 class EnvHost:
@@ -142,17 +145,35 @@ class EnvHost:
         rewards = np.empty((steps, n), dtype=np.float64)
         terminations = np.empty((steps, n), dtype=np.bool_)
         truncations = np.empty((steps, n), dtype=np.bool_)
+        infos: dict[tuple[int, int], dict[str, Any]] = {}
         for t in range(steps):
             observations[t] = self.observations
             action = np.asarray(self.policy(observations[t]))
             if actions is None:
                 actions = np.empty((steps, *action.shape), dtype=action.dtype)
             actions[t] = action
-            self.observations, rewards[t], terminations[t], truncations[t], _ = self.envs.step(action)
+            self.observations, rewards[t], terminations[t], truncations[t], step_infos = self.envs.step(action)
+            if step_infos:
+                for j, index in enumerate(self.env_indices.tolist()):
+                    if info := env_info(step_infos, j):
+                        infos[t, index] = info
         return Rollout(self.env_indices, observations, actions, rewards, terminations, truncations,
-                       np.asarray(self.observations).copy())
+                       np.asarray(self.observations).copy(), infos)
 
     def close(self) -> None:
         """Close the local vector env (its pool's processes end with it)."""
         if self.envs is not None:
             self.envs.close()
+
+
+def env_info(batched: dict[str, Any], j: int) -> dict[str, Any]:
+    """Env ``j``'s own info from a vector env's batched infos (the inverse of ``VectorEnv._add_info``)."""
+    info = {}
+    for key, value in batched.items():
+        if key.startswith("_"):
+            continue
+        mask = batched.get(f"_{key}")
+        if mask is not None and not mask[j]:
+            continue
+        info[key] = env_info(value, j) if isinstance(value, dict) else value[j]
+    return info

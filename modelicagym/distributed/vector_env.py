@@ -26,7 +26,7 @@ from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
 from modelicagym.distributed.cluster import connect, format_env_range, wait_for_free_cpus
 from modelicagym.distributed.errors import ActorDiedError
-from modelicagym.distributed.host import EnvHost, Policy, Rollout
+from modelicagym.distributed.host import EnvHost, Policy, Rollout, env_info
 from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
 from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
@@ -304,7 +304,7 @@ class RayVectorEnv(VectorEnv):
         infos: dict[str, Any] = {}
         for part, envs in zip(parts, self.slices, strict=True):
             for j, index in enumerate(envs):
-                info = _env_info(part, j)
+                info = env_info(part, j)
                 if info:
                     infos = self._add_info(infos, info, index)
         return infos
@@ -312,16 +312,3 @@ class RayVectorEnv(VectorEnv):
     def _check_open(self) -> None:
         if self.closed:
             raise PoolClosedError("Trying to operate on `RayVectorEnv`, after a call to `close()`.")
-
-
-def _env_info(batched: dict[str, Any], j: int) -> dict[str, Any]:
-    """Env ``j``'s own info from a vector env's batched infos (the inverse of ``_add_info``)."""
-    info = {}
-    for key, value in batched.items():
-        if key.startswith("_"):
-            continue
-        mask = batched.get(f"_{key}")
-        if mask is not None and not mask[j]:
-            continue
-        info[key] = _env_info(value, j) if isinstance(value, dict) else value[j]
-    return info
