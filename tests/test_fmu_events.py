@@ -105,3 +105,17 @@ def test_every_episode_sees_the_time_event(family_fmu, fmi_version, rung, t_swit
     for rows, _, _ in episodes[1:]:
         assert rows[-1]["t_switched"] == t_switch
         assert rows == first
+
+
+@pytest.mark.parametrize("offset", [5e-10, -5e-10, 0.0])
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_a_time_event_within_rounding_of_a_communication_point_happens_at_its_time(family_fmu, fmi_version, offset):
+    """The internal RK4 steps to a time event a hair after (or before) a communication point and
+    handles it there, instead of asking the model too early (which then failed the step)."""
+    t_switch = 0.1 + offset
+    with FMUInstance(family_fmu("ball", fmi_version), mode="cs", outputs=["t_switched", "e_now"]) as fmu:
+        fmu.reset({**PARAMETERS, "t_switch": t_switch})
+        for _ in range(4):
+            fmu.step(DT)
+        assert fmu.outputs.views["t_switched"] == t_switch
+        assert fmu.outputs.views["e_now"] == PARAMETERS["e_late"]

@@ -140,7 +140,18 @@ static Status integrate(ModelInstance *comp, double t_start, double t_end, doubl
     long k = 0;
     comp->s.time = t_start;
     for (;;) {
-        if (indicators_crossed(comp) || time_event_due(comp, t, eps)) {
+        bool time_event = time_event_due(comp, t, eps);
+        if (time_event && comp->s.event.next_event_time > t) {
+            /* a time event within rounding ahead: step to it exactly (the model decides at its
+             * own time whether it has come), or leave it to the next doStep if it lies beyond */
+            if (comp->s.event.next_event_time > t_end) {
+                time_event = false;
+            } else {
+                rk4_substep(comp, t, comp->s.event.next_event_time);
+                t = comp->s.event.next_event_time;
+            }
+        }
+        if (indicators_crossed(comp) || time_event) {
             Status status = fmu_cs_event_iteration(comp);
             if (status > StatusWarning) {
                 return status;
@@ -150,7 +161,7 @@ static Status integrate(ModelInstance *comp, double t_start, double t_end, doubl
                 comp->s.last_successful_time = t;
                 return StatusDiscard;
             }
-            if (time_event_due(comp, t, eps)) {
+            if (time_event_due(comp, t, 0.0)) {
                 return fmu_fail(comp, "next_event_time %.17g does not lie after t=%.17g",
                                 comp->s.event.next_event_time, t);
             }
