@@ -141,6 +141,20 @@ def python_integrator_reason(fmi_version: int, solver: str) -> str | None:
     return None
 
 
+class _StateFlag:
+    """A flag of `ModelExchangeIntegrator` kept in the ``mg_integrator`` struct, where C reads and
+    writes it (same name)."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, instance: Any, owner: type | None = None) -> bool:
+        return bool(getattr(instance.state, self.name))
+
+    def __set__(self, instance: Any, value: bool) -> None:
+        setattr(instance.state, self.name, value)
+
+
 class NativeIntegrator(ModelExchangeIntegrator):
     """A `ModelExchangeIntegrator` whose solver loop runs in C (same arguments, same answers)."""
 
@@ -175,21 +189,8 @@ class NativeIntegrator(ModelExchangeIntegrator):
         self.state.has_next_event = value is not None
         self.state.next_event_time = 0.0 if value is None else value
 
-    @property  # type: ignore[override]
-    def continuous(self) -> bool:
-        return bool(self.state.continuous)
-
-    @continuous.setter
-    def continuous(self, value: bool) -> None:
-        self.state.continuous = value
-
-    @property  # type: ignore[override]
-    def stiff(self) -> bool:
-        return bool(self.state.stiff)
-
-    @stiff.setter
-    def stiff(self, value: bool) -> None:
-        self.state.stiff = value
+    continuous = _StateFlag()
+    stiff = _StateFlag()
 
     def _make_solver(self, time: float) -> None:
         """Point the struct at the instance as it is now (it may have been re-instantiated), and
