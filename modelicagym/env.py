@@ -121,6 +121,9 @@ class FMUEnv(gym.Env):
         super().reset(seed=seed)
         options = options or {}
         overrides = options.get("parameters") or {}
+        if not overrides and self._native is not None and self._native.reset():
+            self.episode_parameters = dict(self.config.parameters)  # a native reset: no random ones
+            return self.observation(), {}
         parameters = {**self.config.parameters, **overrides}
         self.episode_parameters = {
             name: value(self.np_random) if callable(value) else value for name, value in parameters.items()

@@ -51,6 +51,22 @@ def test_cartpole_native_steps_equal_python_steps(fmi_version: int, reset_rung: 
     assert assert_same_steps(native, python, actions) > 20
 
 
+def test_a_reset_with_the_configs_parameters_restores_the_snapshot_in_c(monkeypatch: pytest.MonkeyPatch) -> None:
+    env = modelicagym.make("cartpole", mode="me", max_episode_steps=5)
+    first, _ = env.reset(seed=0)
+    env.step(1)
+    env.reset()  # the snapshot rung is verified against a fresh instance here
+    python_resets = []
+    monkeypatch.setattr(env.fmu, "reset", lambda values: python_resets.append(values))
+    for _ in range(3):
+        env.step(0)
+        observation, _ = env.reset()
+        assert np.array_equal(observation, first) and env.fmu.time == 0.0 and env.elapsed_steps == 0
+    assert python_resets == [] and env.episode_parameters == dict(env.config.parameters)
+    env.reset(options={"parameters": {"force": 3.0}})  # other parameters: the Python reset ladder
+    assert python_resets == [{**env.config.parameters, "force": 3.0}]
+
+
 def test_box_actions_native_equal_python(family_fmu: Callable[[str, int], Path], fmi_version: int) -> None:
     path = family_fmu("probe", fmi_version)
     native, python = probe_env(path, max_episode_steps=30), probe_env(path, step_path="python")

@@ -193,6 +193,7 @@ class NativeStep:
         self._reward = ctypes.c_double(0.0)
         self._random_parameters = any(callable(value) for value in config.parameters.values())
         self._step = self.library.mg_env_step
+        self._reset = self.library.mg_env_reset
         self._state_ref = ctypes.byref(state)
         self._reward_ref = ctypes.byref(self._reward)
         self._index_ref = ctypes.byref(self._action_index)
@@ -222,6 +223,12 @@ class NativeStep:
         next_event = fmu.snapshot_next_event_time
         state.snapshot_has_next_event = next_event is not None
         state.snapshot_next_event_time = next_event or 0.0
+
+    def reset(self) -> bool:
+        """Start an episode with the config's parameters in C, by restoring the instance's verified
+        snapshot (as `FMUInstance.reset` would); False (nothing done) when only Python can, or the
+        restore failed (the Python reset then takes over)."""
+        return bool(self.state.native_reset) and self._reset(self._state_ref) == 0
 
     def step(self, action: Any) -> int:
         """One step with a checked action; returns the flags (the reward is in :attr:`reward`)."""
