@@ -1,0 +1,54 @@
+"""The example scripts, run as a reader runs them (a fresh process, small arguments): they finish
+and produce what they say. Examples nobody runs rot; these cannot."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def run_example(name: str, *args: str, env: dict[str, str] | None = None, timeout: float = 300) -> str:
+    """Run ``examples/name`` with ``args``; its output (it must exit 0)."""
+    result = subprocess.run([sys.executable, str(EXAMPLES / name), *args], capture_output=True, text=True,
+                            timeout=timeout, env=env)
+    assert result.returncode == 0, f"{name} failed:\n{result.stdout}\n{result.stderr}"
+    return result.stdout
+
+
+def test_rollout_runs_episodes_with_both_policies():
+    out = run_example("rollout.py", "--episodes", "2", "--max-steps", "50")
+    assert "native step path" in out
+    assert "random: 2 episodes" in out and "lean controller: 2 episodes" in out
+
+
+def test_a_trained_agent_drives_the_batch_rollout(tmp_path):
+    agent, trajectories = tmp_path / "agent.npz", tmp_path / "rollout.npz"
+    out = run_example("train_qlearning.py", "--episodes", "20", "--repeats", "2", "--out", str(agent))
+    assert f"saved the agent to {agent}" in out
+    out = run_example("batch_rollout.py", "--episodes", "6", "--envs", "2", "--max-steps", "50",
+                      "--q-table", str(agent), "--out", str(trajectories))
+    assert out.startswith("6 episodes") or "\n6 episodes" in out
+    with np.load(trajectories) as data:
+        assert data["observation"].shape == (len(data["reward"]), 4)
+        assert len(set(zip(data["env"].tolist(), data["episode"].tolist()))) >= 6
+
+
+def test_ray_rollouts_sample_on_a_local_ray():
+    ray_cluster = pytest.importorskip("ray_cluster", reason="Ray is not installed: pip install 'modelicagym[ray]'")
+    before = ray_cluster.ray_processes()
+    # the environment ray_cluster set up: a session token, Ray on 127.0.0.1
+    out = run_example("ray_rollouts.py", "--envs", "3", "--steps", "40", "--rounds", "3", "--max-steps", "30",
+                      env=dict(os.environ))
+    assert re.search(r"3 envs in 1 actor\(s\): envs 0-2 on \d+ CPU\(s\)", out), out
+    assert out.count("env steps in") == 3
+    assert "episode length: mean 30.0, max 30 (truncated at 30)" in out
+    left = [p for p in ray_cluster.wait_until_gone(None) if p not in before]
+    assert not left, f"Ray processes left behind: {left}"
