@@ -3,6 +3,7 @@ every autoreset mode; faults keep their guarantees; each env says which path it 
 
 from __future__ import annotations
 
+import multiprocessing
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -20,7 +21,8 @@ from modelicagym.vector.recovery import RESTART_INFO_KEY
 
 pytestmark = pytest.mark.timeout(180)
 
-LAYOUTS = {"caller steps": {"caller_steps": True}, "workers only": {"num_workers": 2}}
+LAYOUTS = {"caller steps": {"caller_steps": True}, "workers only": {"num_workers": 2},
+           "caller only": {"num_workers": 0}}
 
 
 def cartpole_fns(n: int, **options: Any) -> tuple[list, list]:
@@ -46,6 +48,18 @@ def assert_native_equals_python(native_fns: list, python_fns: list, steps: int =
 def test_identical_to_sync_over_the_python_path(layout: str, mode: AutoresetMode, fmi_version: int) -> None:
     native, python = cartpole_fns(5, fmi_version=fmi_version)
     assert_native_equals_python(native, python, autoreset_mode=mode, **LAYOUTS[layout])
+
+
+@pytest.mark.usefixtures("no_leaks")
+def test_with_no_workers_the_calling_process_steps_every_env_itself() -> None:
+    native, python = cartpole_fns(4)
+    with PoolVectorEnv(native, num_workers=0) as pool:
+        assert (pool.num_workers, pool.caller_steps) == (0, True)
+        assert multiprocessing.active_children() == []
+        sync = SyncVectorEnv(python)
+        expected, actual = rollout(sync, 60), rollout(pool, 60)
+        sync.close()
+    assert_same(expected, actual)
 
 
 @pytest.mark.parametrize("reset_rung", ["reset", "reinstantiate"])

@@ -1,10 +1,10 @@
 """`RayVectorEnv`: a Gymnasium vector env whose envs live in Ray actors across a cluster.
 
 The envs are split into contiguous slices, one per actor (`~modelicagym.distributed.host`); each
-actor steps its slice in a local vector env on its node (the pool, or ``SyncVectorEnv`` for one
-CPU or one env). By default there is one actor per node, reserving its CPUs
-(`~modelicagym.distributed.layout`). ``step`` sends each actor its actions and gathers the batches in env order: the
-same results, step by step, as ``SyncVectorEnv`` over the same env fns and seeds. One remote call
+actor steps its slice on a local pool on its node. By default there is one actor per node,
+reserving its CPUs (`~modelicagym.distributed.layout`). ``step`` sends each actor its actions and
+gathers the batches in env order: the same results, step by step, as ``SyncVectorEnv`` over the
+same env fns and seeds. One remote call
 costs far more than a light env step, so for sampling at scale use :meth:`RayVectorEnv.rollout`:
 the policy travels once, each actor steps ``T`` times locally and returns arrays.
 

@@ -73,13 +73,13 @@ def _positive_or_none(name: str, value: Any, allow_zero: bool = False) -> None:
         raise ConfigError(f"{name} must be a finite number of seconds {'>=' if allow_zero else '>'} 0, got {value!r}")
 
 
-def _count_or_none(name: str, value: Any) -> None:
+def _count_or_none(name: str, value: Any, least: int = 1) -> None:
     if value is None:
         return
     if isinstance(value, bool) or not isinstance(value, Integral):
         raise ConfigTypeError(f"{name} must be an integer or None, got {value!r} ({type(value).__name__})")
-    if value < 1:
-        raise ConfigError(f"{name} must be >= 1, got {value}")
+    if value < least:
+        raise ConfigError(f"{name} must be >= {least}, got {value}")
 
 
 def check_pool_options(
@@ -92,7 +92,7 @@ def check_pool_options(
     flags: dict[str, Any],
 ) -> None:
     """The pool's own options: counts, durations (finite, positive), choices and flags."""
-    _count_or_none("num_workers", num_workers)
+    _count_or_none("num_workers", num_workers, least=0)
     _count_or_none("max_envs_per_worker", max_envs_per_worker)
     _positive_or_none("step_timeout", step_timeout)
     _positive_or_none("startup_timeout", startup_timeout)

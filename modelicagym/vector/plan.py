@@ -35,6 +35,8 @@ def plan_layout(
     """
     caps = [max_envs_per_worker] + [getattr(fn, "max_envs_per_process", None) for fn in env_fns]
     caps = [cap for cap in caps if cap is not None]
+    if num_workers == 0:
+        return _caller_only_layout(len(env_fns), caps, restart_dead_workers, step_timeout, caller_steps)
     if caller_steps is None:
         caller_steps = num_workers is None and not caps and not restart_dead_workers and step_timeout is None
     if caller_steps and restart_dead_workers:
@@ -42,6 +44,21 @@ def plan_layout(
     parties = num_workers + 1 if caller_steps and num_workers else num_workers
     slices = plan_workers(len(env_fns), parties, min(caps) if caps else None)
     return Layout(slices, slices.pop() if caller_steps else None)
+
+
+def _caller_only_layout(
+    num_envs: int, caps: list[int], restart_dead_workers: bool, step_timeout: float | None, caller_steps: bool | None
+) -> Layout:
+    """``num_workers=0``: the calling process steps every env; nothing to isolate, restart or time out."""
+    conflicts = [name for name, asked in (("caller_steps=False", caller_steps is False),
+                                          ("restart_dead_workers=True", restart_dead_workers),
+                                          ("step_timeout", step_timeout is not None),
+                                          (f"at most {min(caps) if caps else 0} env(s) per process",
+                                           bool(caps) and min(caps) < num_envs)) if asked]
+    if conflicts:
+        raise ConfigError(f"num_workers=0 (the calling process steps every env) and {conflicts[0]} contradict "
+                          "each other: use worker processes")
+    return Layout([], range(num_envs))
 
 
 def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: int | None) -> list[range]:

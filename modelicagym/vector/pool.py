@@ -175,7 +175,8 @@ class PoolVectorEnv(VectorEnv):
                 an attribute ``max_envs_per_process`` (e.g. 1 for an FMU that can be instantiated
                 only once per process), it caps the envs per worker like ``max_envs_per_worker``.
             num_workers: worker processes; default one per usable core (less the caller's, see
-                ``caller_steps``), never more than envs.
+                ``caller_steps``), never more than envs. ``0``: none, the calling process steps
+                every env itself (no fault handling then: nothing to isolate, restart or time out).
             start_method: ``multiprocessing`` start method; default ``forkserver`` (see above).
             autoreset_mode: ``AutoresetMode`` (or its value), default ``NEXT_STEP``.
             step_timeout: seconds any call into the envs (step, reset, call, set_attr) may take
@@ -216,6 +217,8 @@ class PoolVectorEnv(VectorEnv):
         self.num_envs = len(self.env_fns)
         self.batch_size = check_batch_size(batch_size, self.num_envs, caller_steps)
         if batch_size is not None:
+            if num_workers == 0:
+                raise ConfigError("batch_size (partial batches) needs every env in a worker; num_workers=0 starts none")
             caller_steps = False
         try:
             self.autoreset_mode = AutoresetMode(autoreset_mode)
