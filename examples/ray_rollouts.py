@@ -1,7 +1,7 @@
 """Sample Cart-Pole rollouts on a Ray cluster with a policy shipped once.
 
 Connects to Ray (``--address``, else a new Ray on this machine), puts ``--envs`` FMU environments
-in Ray actors (by default one per node, stepping its share on a local pool), and collects
+in Ray actors (by default one per CPU, each stepping its share in its own process), and collects
 ``--rounds`` rollouts of ``--steps`` steps with the "lean" controller: each round is one remote
 call per actor, which steps its envs ``--steps`` times and sends the arrays back. Prints, per
 round, the env steps per second and the episodes that ended, then what the envs reported.

@@ -47,7 +47,7 @@ def test_ray_rollouts_sample_on_a_local_ray():
     # the environment ray_cluster set up: a session token, Ray on 127.0.0.1
     out = run_example("ray_rollouts.py", "--envs", "3", "--steps", "40", "--rounds", "3", "--max-steps", "30",
                       env=dict(os.environ))
-    assert re.search(r"3 envs in 1 actor\(s\): envs 0-2 on \d+ CPU\(s\)", out), out
+    assert re.search(r"3 envs in \d actor\(s\): envs 0-\d on 1 CPU\(s\)", out), out
     assert out.count("env steps in") == 3
     assert "episode length: mean 30.0, max 30 (truncated at 30)" in out
     left = [p for p in ray_cluster.wait_until_gone(None) if p not in before]

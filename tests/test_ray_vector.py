@@ -49,16 +49,16 @@ def assert_same_infos(left, right):
 
 @pytest.mark.parametrize(
     "layout, autoreset_mode",
-    [({"num_actors": 2}, "NextStep"), ({"num_actors": 2}, "SameStep"), ({}, "NextStep")],
-    ids=["2-actors", "2-actors-same-step", "default-1-actor-pool"],
+    [({}, "NextStep"), ({}, "SameStep"), ({"cpus_per_actor": "node"}, "NextStep")],
+    ids=["2-actors", "2-actors-same-step", "1-actor-per-node-pool"],
 )
 def test_same_results_as_sync_vector_env(layout, autoreset_mode):
-    """Step by step, through autoresets, with the same seeds; by default the node's one actor
-    reserves its 2 CPUs and hosts a pool."""
+    """Step by step, through autoresets, with the same seeds; by default one actor per CPU, with
+    ``cpus_per_actor="node"`` the node's one actor reserves its 2 CPUs and hosts a pool."""
     envs = RayVectorEnv(env_fns(), autoreset_mode=autoreset_mode, **layout)
     sync = gym.vector.SyncVectorEnv(env_fns(), autoreset_mode=autoreset_mode)
     try:
-        assert [plan.cpus for plan in envs.plans] == ([1, 1] if layout else [2])
+        assert [plan.cpus for plan in envs.plans] == ([2] if layout else [1, 1])
         assert envs.single_observation_space == sync.single_observation_space
         assert envs.action_space == sync.action_space
         for left, right in zip(envs.reset(seed=7), sync.reset(seed=7), strict=True):

@@ -8,8 +8,8 @@ For each setting (the default cart-pole and the heavy one, ``cs_step_size=1e-4``
 * ``ray rollout``: ``RayVectorEnv.rollout(policy, T)``: one remote call per actor for T steps.
 
 Ray runs on this machine (``ray.init`` with the machine's CPUs, or the cluster at ``--address``)
-with its default layout (one actor per node, stepping a local pool), so the figures say what
-Ray's layer costs, not what more machines add. Target: the rollout at
+with its default layout (one actor per CPU), so the figures say what Ray's layer costs, not what
+more machines add. Target: the rollout at
 T >= 64 reaches >= 0.9x the pool's throughput for the heavy cart-pole.
 """
 

@@ -1,11 +1,14 @@
 """Where a `RayVectorEnv`'s actors go, how many CPUs each reserves and which envs it hosts.
 
 Planned before anything starts, from the cluster's nodes, so that a layout Ray could never place
-is refused at once instead of waiting forever. The default is one actor per node, reserving the
-node's CPUs and stepping its envs on a local pool of that many processes: Ray's cost (a remote
-call, its barrier across actors) is paid once per node, and within the node the pool's shared
-memory does the rest. With ``num_actors`` or ``cpus_per_actor`` given, actors of that many CPUs go
-wherever Ray places them.
+is refused at once instead of waiting forever. The default is one actor per free CPU, each
+stepping its slice in its own process (a pool without workers: one C call a step on the native
+path), as RLlib's env runners do: the actors meet only once per call, and for an FMU of ~0.1 ms a
+step a rollout of 64 steps reaches 0.90-0.96x the local pool on this project's machine.
+``cpus_per_actor="node"`` puts one actor on each node instead, reserving all its CPUs and stepping
+its envs on a local pool of that many processes: fewer remote calls, but the pool's processes meet
+at every step (better for light envs: 0.34-0.42x against 0.29-0.33x at 64 steps; worse for heavy
+ones: 0.83-0.90x).
 """
 
 from __future__ import annotations
@@ -34,16 +37,16 @@ def plan_actors(
     free_cpus: float,
     num_envs: int,
     num_actors: int | None = None,
-    cpus_per_actor: int | None = None,
+    cpus_per_actor: int | str | None = None,
 ) -> list[ActorPlan]:
     """The actors for ``num_envs`` envs on a cluster of ``nodes`` (``ray.nodes()``) with
     ``free_cpus`` not reserved by anything else (``ray.available_resources()``).
 
-    Both ``None``: one actor per node with CPUs (the largest first, at most ``num_envs``), each
-    reserving all of its node's CPUs, envs in proportion to them; while other work holds CPUs, one
-    actor per free CPU instead. Otherwise ``num_actors`` actors (default: as many as fit) of
-    ``cpus_per_actor`` CPUs (default 1), envs split evenly. Raises `ConfigError` for actors that
-    cannot fit on any node, or more actors than fit.
+    ``cpus_per_actor="node"``: one actor per node with CPUs (the largest first, at most
+    ``num_envs``), pinned there, reserving all of its CPUs, envs in proportion to them. Otherwise
+    ``num_actors`` actors (default: as many as the free CPUs hold, at least one, at most
+    ``num_envs``) of ``cpus_per_actor`` CPUs (default 1), envs split evenly. Raises `ConfigError`
+    for actors that cannot fit on any node, or more actors than fit.
     """
     node_cpus = sorted(((int(n["Resources"].get("CPU", 0)), n["NodeID"]) for n in nodes if n.get("Alive", True)),
                        key=lambda item: -item[0])
@@ -51,18 +54,18 @@ def plan_actors(
     total = sum(cpus for cpus, _ in node_cpus)
     if not node_cpus:
         raise ConfigError("the Ray cluster has no node with a CPU: envs need CPUs to step on")
-    if num_actors is None and cpus_per_actor is None:
-        if free_cpus >= total:
-            chosen = node_cpus[:num_envs]
-            slices = split_by_weight(num_envs, [cpus for cpus, _ in chosen])
-            return [ActorPlan(envs, cpus, node_id) for envs, (cpus, node_id) in zip(slices, chosen, strict=True)]
-        cpus_per_actor, num_actors = 1, max(1, min(num_envs, int(free_cpus)))
+    if cpus_per_actor == "node":
+        if num_actors is not None:
+            raise ConfigError("cpus_per_actor='node' places one actor on each node: leave num_actors unset")
+        chosen = node_cpus[:num_envs]
+        slices = split_by_weight(num_envs, [cpus for cpus, _ in chosen])
+        return [ActorPlan(envs, cpus, node_id) for envs, (cpus, node_id) in zip(slices, chosen, strict=True)]
     cpus = 1 if cpus_per_actor is None else cpus_per_actor
-    if not isinstance(cpus, int) or cpus < 1:
-        raise ConfigError(f"cpus_per_actor must be an integer >= 1, got {cpus!r}")
+    if isinstance(cpus, bool) or not isinstance(cpus, int) or cpus < 1:
+        raise ConfigError(f"cpus_per_actor must be an integer >= 1 or 'node', got {cpus!r}")
     room = sum(node // cpus for node, _ in node_cpus)
     if num_actors is None:
-        num_actors = min(num_envs, room)
+        num_actors = max(1, min(num_envs, room, int(free_cpus) // cpus))
     if not 1 <= num_actors <= room:
         nodes_text = ", ".join(str(node) for node, _ in node_cpus)
         raise ConfigError(

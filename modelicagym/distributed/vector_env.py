@@ -1,8 +1,8 @@
 """`RayVectorEnv`: a Gymnasium vector env whose envs live in Ray actors across a cluster.
 
 The envs are split into contiguous slices, one per actor (`~modelicagym.distributed.host`); each
-actor steps its slice on a local pool on its node. By default there is one actor per node,
-reserving its CPUs (`~modelicagym.distributed.layout`). ``step`` sends each actor its actions and
+actor steps its slice on a local pool on its node. By default there is one actor per free CPU
+(`~modelicagym.distributed.layout`). ``step`` sends each actor its actions and
 gathers the batches in env order: the same results, step by step, as ``SyncVectorEnv`` over the
 same env fns and seeds. One remote call
 costs far more than a light env step, so for sampling at scale use :meth:`RayVectorEnv.rollout`:
@@ -58,7 +58,7 @@ class RayVectorEnv(VectorEnv):
         env_fns: Sequence[Callable[[], gym.Env]],
         *,
         num_actors: int | None = None,
-        cpus_per_actor: int | None = None,
+        cpus_per_actor: int | str | None = None,
         address: str | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         pool_options: Mapping[str, Any] | None = None,
@@ -69,11 +69,11 @@ class RayVectorEnv(VectorEnv):
 
         Args:
             env_fns: functions creating the envs; they travel to the actors with cloudpickle.
-            num_actors: actors (default: one per node, or with ``cpus_per_actor`` given as many as
-                the nodes hold; never more than envs).
-            cpus_per_actor: CPUs each actor reserves and uses: with more than one, its envs step in
-                a local pool of that many processes (default: its node's CPUs, with ``num_actors``
-                given 1).
+            num_actors: actors (default: as many as the free CPUs hold at ``cpus_per_actor``
+                each; never more than envs).
+            cpus_per_actor: CPUs each actor reserves and uses (default 1): with more than one, its
+                envs step in a local pool of that many processes. ``"node"``: one actor on each
+                node, reserving all its CPUs.
             address: the cluster to connect to when this process is not connected yet.
             autoreset_mode: Gymnasium's autoreset mode, for every actor.
             pool_options: `~modelicagym.vector.PoolVectorEnv` options of the actors' pools.
