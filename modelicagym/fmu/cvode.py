@@ -132,20 +132,22 @@ class CVodeSolver:
         self._linear_solver = sun.SUNLinSol_Dense(self._y, self._matrix, self._context)
         return sun.CVodeSetLinearSolver(self._cvode, self._linear_solver, self._matrix)
 
+    def _set_time_and_states(self, t: float, y: int) -> None:
+        self._set_time(t)
+        if self.nx > 0:
+            self._set_x(self.sun.N_VGetArrayPointer(y), self.nx)
+
     def _rhs(self, t: float, y: int, ydot: int, user_data: Any) -> int:
         dx = self.sun.N_VGetArrayPointer(ydot)
-        self._set_time(t)
+        self._set_time_and_states(t, y)
         if self.nx == 0:
             dx[0] = 0.0
         else:
-            self._set_x(self.sun.N_VGetArrayPointer(y), self.nx)
             self._get_dx(dx, self.nx)
         return 0
 
     def _roots_at(self, t: float, y: int, z: Any, user_data: Any) -> int:
-        self._set_time(t)
-        if self.nx > 0:
-            self._set_x(self.sun.N_VGetArrayPointer(y), self.nx)
+        self._set_time_and_states(t, y)
         self._get_z(z, self.nz)
         return 0
 

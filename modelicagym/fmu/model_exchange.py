@@ -119,7 +119,7 @@ class ModelExchangeIntegrator:
         """Integrate from ``time`` to ``stop``; returns True if the model asked to terminate."""
         if self.method is not None and self._solver.method != self.method:
             self._make_solver(time)  # the model proved stiff: BDF from here on
-        elif not (self.continuous and self.method is not None):
+        elif not self.continuous:
             self._solver.reset(time)
         self.continuous = False
         solver = self._solver
@@ -166,7 +166,7 @@ class ModelExchangeIntegrator:
 
     def close(self) -> None:
         """Release the solver."""
-        if self._solver is not None and self.method is not None:
+        if isinstance(self._solver, CVodeSolver):
             self._solver.close()
         self._solver = None
 

@@ -153,29 +153,8 @@ static int32_t handle_event(mg_integrator *integrator, double time) {
 
 /* -- CVode ------------------------------------------------------------------------------------------ */
 
-/* The right-hand side: the FMU's derivatives at (t, y). A failing FMU call stops CVode (-1). */
-static int cvode_rhs(double t, N_Vector y, N_Vector ydot, void *user_data) {
-    mg_integrator *integrator = user_data;
-    double *dx = SUN(N_VGetArrayPointer)(ydot);
-    int status = set_time(integrator, t);
-    if (status > WARNING)
-        return fail(integrator, MG_FMU_CALL_SET_TIME, status, t), -1;
-    if (integrator->nx == 0) { /* a model without states: CVode integrates one dummy state */
-        dx[0] = 0.0;
-        return 0;
-    }
-    status = set_x(integrator, SUN(N_VGetArrayPointer)(y));
-    if (status > WARNING)
-        return fail(integrator, MG_FMU_CALL_SET_X, status, t), -1;
-    status = get_dx(integrator, dx);
-    if (status > WARNING)
-        return fail(integrator, MG_FMU_CALL_GET_DX, status, t), -1;
-    return 0;
-}
-
-/* The root function: the FMU's event indicators at (t, y). */
-static int cvode_roots(double t, N_Vector y, double *z, void *user_data) {
-    mg_integrator *integrator = user_data;
+/* Put CVode's (t, y) into the FMU (no states: time only); -1 and the failure recorded if a call fails. */
+static int set_time_and_states(mg_integrator *integrator, double t, N_Vector y) {
     int status = set_time(integrator, t);
     if (status > WARNING)
         return fail(integrator, MG_FMU_CALL_SET_TIME, status, t), -1;
@@ -184,7 +163,31 @@ static int cvode_roots(double t, N_Vector y, double *z, void *user_data) {
         if (status > WARNING)
             return fail(integrator, MG_FMU_CALL_SET_X, status, t), -1;
     }
-    status = get_z(integrator, z);
+    return 0;
+}
+
+/* The right-hand side: the FMU's derivatives at (t, y). A failing FMU call stops CVode (-1). */
+static int cvode_rhs(double t, N_Vector y, N_Vector ydot, void *user_data) {
+    mg_integrator *integrator = user_data;
+    double *dx = SUN(N_VGetArrayPointer)(ydot);
+    if (set_time_and_states(integrator, t, y))
+        return -1;
+    if (integrator->nx == 0) { /* a model without states: CVode integrates one dummy state */
+        dx[0] = 0.0;
+        return 0;
+    }
+    int status = get_dx(integrator, dx);
+    if (status > WARNING)
+        return fail(integrator, MG_FMU_CALL_GET_DX, status, t), -1;
+    return 0;
+}
+
+/* The root function: the FMU's event indicators at (t, y). */
+static int cvode_roots(double t, N_Vector y, double *z, void *user_data) {
+    mg_integrator *integrator = user_data;
+    if (set_time_and_states(integrator, t, y))
+        return -1;
+    int status = get_z(integrator, z);
     if (status > WARNING)
         return fail(integrator, MG_FMU_CALL_GET_Z, status, t), -1;
     return 0;

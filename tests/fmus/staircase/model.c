@@ -11,12 +11,8 @@
  * steps come within rounding of nextEventTime may call that the event. */
 #define EVENT_TOLERANCE (1e-6 * DEFAULT_CS_STEP_SIZE)
 
-static void set_start_values(ModelData *m) {
-    m->u = 0.0;
-    m->period = 0.3;
-    m->height = 1.0;
-    m->t_stop = 100.0;
-    m->k = 2.0;
+/* The state an episode starts from: x at rest on the ground floor, no stair taken yet. */
+static void reset_state(ModelData *m) {
     m->x = 0.0;
     m->level = 0.0;
     m->t_last_event = -1.0;
@@ -26,6 +22,15 @@ static void set_start_values(ModelData *m) {
     m->pending = false;
 }
 
+static void set_start_values(ModelData *m) {
+    m->u = 0.0;
+    m->period = 0.3;
+    m->height = 1.0;
+    m->t_stop = 100.0;
+    m->k = 2.0;
+    reset_state(m);
+}
+
 static Status initialize(ModelInstance *comp) {
     ModelData *m = M(comp);
     if (!(m->period > 0.0)) {
@@ -33,13 +38,7 @@ static Status initialize(ModelInstance *comp) {
                 m->period);
         return StatusError;
     }
-    m->x = 0.0;
-    m->level = 0.0;
-    m->t_last_event = -1.0;
-    m->steps_taken = 0;
-    m->iterations = 0;
-    m->stopped = false;
-    m->pending = false;
+    reset_state(m);
     return StatusOK;
 }
 
