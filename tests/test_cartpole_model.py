@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 import os
@@ -16,10 +17,10 @@ import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave
-from fmpy.fmi3 import FMU3Slave
+from fmpy.fmi2 import FMU2Model, FMU2Slave
+from fmpy.fmi3 import FMU3Model, FMU3Slave
 from fmpy.validation import validate_fmu
-from reference_cartpole import CartPoleParameters, simulate
+from reference_cartpole import CartPoleParameters, accelerations, simulate
 
 from modelicagym.fmu.build import FMUBuildError, build_source_fmu
 from modelicagym.models.cartpole import DEFAULT_PARAMETERS, MODEL_DIR, OUTPUTS, VALUE_REFERENCES
@@ -136,6 +137,50 @@ def test_model_exchange_matches_co_simulation(fmu_path: Path) -> None:
     assert len(cs) == len(me) == N_STEPS + 1
     for name in OUTPUTS:
         assert np.max(np.abs(cs[name] - me[name])) < 1e-5, name
+
+
+def test_model_exchange_calls_see_the_states_an_importer_sets(fmu_path: Path, fmi_version: int) -> None:
+    """An ODE solver sets states and asks for derivatives many times between two reads of the
+    outputs: each derivative is the physics at the states just set, and outputs read afterwards
+    are those of the last states (the framework skips calculated values only until they are read)."""
+    md = read_model_description(str(fmu_path))
+    unzipdir = extract(str(fmu_path))
+    cls = FMU2Model if fmi_version == 2 else FMU3Model
+    fmu = cls(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.modelExchange.modelIdentifier,
+              instanceName="cartpole")
+    if fmi_version == 2:
+        get, set_, get_derivatives = fmu.getReal, fmu.setReal, fmu.getDerivatives
+    else:
+        get, set_, get_derivatives = fmu.getFloat64, fmu.setFloat64, fmu.getContinuousStateDerivatives
+    physics = CartPoleParameters(**{name: DEFAULT_PARAMETERS[name]
+                                    for name in ("m_cart", "m_pole", "length", "diameter", "density")})
+    derivative_vrs = [VALUE_REFERENCES[f"der({name})"] for name in OUTPUTS]
+    try:
+        fmu.instantiate()
+        if fmi_version == 2:
+            fmu.setupExperiment(startTime=0.0)
+            fmu.enterInitializationMode()
+            fmu.exitInitializationMode()
+            fmu.newDiscreteStates()
+        else:
+            fmu.enterInitializationMode(startTime=0.0)
+            fmu.exitInitializationMode()
+            fmu.updateDiscreteStates()
+        fmu.enterContinuousTimeMode()
+        set_([VALUE_REFERENCES["f"]], [7.5])
+        for states in ([0.1, -0.2, 0.3, 1.5], [-1.0, 0.5, 2.0, -3.0], [0.0, 0.0, -0.4, 0.2]):
+            x, dx = (ctypes.c_double * 4)(*states), (ctypes.c_double * 4)()
+            fmu.setContinuousStates(x, 4)
+            get_derivatives(dx, 4)
+            assert list(dx)[0::2] == [states[1], states[3]]
+            np.testing.assert_allclose(list(dx)[1::2], accelerations(np.array(states), 7.5, physics),
+                                       rtol=1e-12, atol=1e-12)
+            assert get(derivative_vrs) == list(dx)
+            assert get(OUTPUT_VRS) == states
+        fmu.terminate()
+    finally:
+        fmu.freeInstance()
+        shutil.rmtree(unzipdir, ignore_errors=True)
 
 
 @pytest.mark.parametrize("fmi_type", ["CoSimulation", "ModelExchange"])

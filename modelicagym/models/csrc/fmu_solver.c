@@ -301,13 +301,21 @@ Status fmu_get_continuous_states(ModelInstance *comp, double x[], size_t nx) {
     return status;
 }
 
+/* Before get_derivatives / get_event_indicators: they read ModelData's states, inputs and
+ * parameters only (the RK4 calls them so), not calculated values. Only initialization mode, where
+ * the initialize hook computes states from parameters, needs the values brought up to date; a
+ * solver's many right-hand sides between two reads of the outputs skip calculate_values. */
+static Status prepare_model_functions(ModelInstance *comp) {
+    return comp->s.mode == ModeInitialization ? fmu_update_values(comp) : StatusOK;
+}
+
 Status fmu_get_derivatives(ModelInstance *comp, double dx[], size_t nx) {
     Status status;
     if (!comp || !fmu_allowed(comp, "getDerivatives", MODES_INITIALIZED | ModeError) ||
         check_size(comp, "getDerivatives", nx, NX, dx) != StatusOK) {
         return StatusError;
     }
-    status = fmu_update_values(comp);
+    status = prepare_model_functions(comp);
     if (NX > 0 && status <= StatusWarning) {
         model_definition.get_derivatives(comp, dx);
     }
@@ -320,7 +328,7 @@ Status fmu_get_event_indicators(ModelInstance *comp, double z[], size_t nz) {
         check_size(comp, "getEventIndicators", nz, NZ, z) != StatusOK) {
         return StatusError;
     }
-    status = fmu_update_values(comp);
+    status = prepare_model_functions(comp);
     if (NZ > 0 && status <= StatusWarning) {
         model_definition.get_event_indicators(comp, z);
     }

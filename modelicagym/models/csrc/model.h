@@ -43,9 +43,13 @@
  *   get_continuous_states,  required if NX > 0: copy states out of / into
  *   set_continuous_states   ModelData (x[0..NX-1]).
  *   get_derivatives         required if NX > 0: dx/dt at comp->s.time for the
- *                           current ModelData. Hot path of the RK4 solver.
- *   get_event_indicators    required if NZ > 0: z[0..NZ-1]; a state event is
- *                           a change of sign of some z_i (z_i > 0 vs <= 0).
+ *                           current ModelData, from its states, inputs and
+ *                           parameters (not from values calculate_values
+ *                           writes: it is not called before). Hot path of the
+ *                           RK4 solver and of an importer's ODE solver.
+ *   get_event_indicators    required if NZ > 0: z[0..NZ-1], from ModelData as
+ *                           get_derivatives; a state event is a change of
+ *                           sign of some z_i (z_i > 0 vs <= 0).
  *   event_update            optional: called in event mode (time event, state
  *                           event, after initialization). May change ModelData
  *                           and must set comp->s.event fields: values_changed
