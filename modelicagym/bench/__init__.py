@@ -33,6 +33,25 @@ def time_rounds(candidates: dict[str, Callable[[], int]], repeats: int) -> dict[
     return samples
 
 
+def paired_ratios(numerator: Callable[[], int], denominator: Callable[[], int], rounds: int) -> list[float]:
+    """Time per step of ``numerator`` over that of ``denominator``, run back to back ``rounds`` times.
+
+    Each ratio comes from two runs a few milliseconds apart, which a load spike on a shared machine
+    mostly hits together, and the order alternates so that neither always runs first: the median of
+    these ratios is steadier than a ratio of medians taken over rounds seconds apart.
+    """
+    ratios = []
+    for k in range(rounds):
+        first, second = (numerator, denominator) if k % 2 == 0 else (denominator, numerator)
+        times = {}
+        for run in (first, second):
+            started = time.perf_counter()
+            steps = run()
+            times[run] = (time.perf_counter() - started) / steps
+        ratios.append(times[numerator] / times[denominator])
+    return ratios
+
+
 def median(values: Sequence[float]) -> float:
     return statistics.median(values)
 

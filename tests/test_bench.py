@@ -1,0 +1,49 @@
+"""The benchmarks, run as the README runs them (``modelicagym bench ...`` in a fresh process) with
+tiny arguments: each prints its table and writes its JSON. Their figures are not checked — a
+test never asserts a duration — only that a benchmark nobody ran lately still works."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+#: benchmark -> tiny arguments, and top-level keys its JSON must hold
+BENCHMARKS = {
+    "fmi-calls": (["--steps", "50", "--repeats", "1"], {"seconds_per_step"}),
+    "model-exchange": (["--steps", "50", "--python-steps", "5", "--repeats", "1", "--target-steps", "20",
+                        "--target-rounds", "3"], {"seconds_per_step", "rate_vs_co_simulation", "target"}),
+    "throughput": (["--n", "2", "--settings", "default", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
+    "partial-batches": (["--n", "4", "--workers", "2", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
+    "solver-accuracy": (["--repeats", "1"], {"rows"}),
+}
+
+
+def run_bench(name: str, args: list[str], json_path: Path) -> str:
+    command = [sys.executable, "-m", "modelicagym.cli", "bench", name, *args, "--json", str(json_path)]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, f"bench {name} failed:\n{result.stdout}\n{result.stderr}"
+    return result.stdout
+
+
+@pytest.mark.parametrize("name", list(BENCHMARKS))
+def test_benchmark_prints_a_table_and_writes_json(name: str, tmp_path: Path) -> None:
+    args, keys = BENCHMARKS[name]
+    out = run_bench(name, args, tmp_path / "result.json")
+    assert "---" in out  # the table's rule
+    assert f"wrote {tmp_path / 'result.json'}" in out
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert keys <= set(result)
+
+
+def test_the_model_exchange_target_is_a_median_of_paired_ratios(tmp_path: Path) -> None:
+    args, _ = BENCHMARKS["model-exchange"]
+    out = run_bench("model-exchange", args, tmp_path / "result.json")
+    target = json.loads((tmp_path / "result.json").read_text())["target"]
+    assert target["row"] == "cvode (native)" and target["rounds"] == 3
+    low, high = target["quartiles"]
+    assert 0 < low <= target["rate_vs_co_simulation"] <= high
+    assert f"median of 3 back-to-back pairs: {target['rate_vs_co_simulation']:.2f}" in out
