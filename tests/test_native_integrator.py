@@ -23,7 +23,7 @@ from vector_rollouts import assert_same, rollout
 import modelicagym
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError
-from modelicagym.fmu import FMUError, FMUInstance
+from modelicagym.fmu import FMUCallError, FMUError, FMUInstance
 from modelicagym.vector import PoolVectorEnv
 
 MODELS = {  # outputs, input, parameters, step size, steps
@@ -101,19 +101,37 @@ def test_the_instance_says_which_integrator_runs_and_why(family_fmu):
         FMUInstance(family_fmu("ball", 2), mode="me", integrator="fortran")
 
 
-def test_a_solver_failure_is_an_fmu_error_and_the_next_reset_recovers(family_fmu):
+@pytest.mark.parametrize("solver", sorted(SOLVERS))
+def test_an_fmu_call_failing_inside_the_solver_says_which_and_the_next_reset_recovers(family_fmu, fmi_version, solver):
     outputs, u_name, parameters, dt, _ = MODELS["stiff"]
+    function = "fmi2GetDerivatives" if fmi_version == 2 else "fmi3GetContinuousStateDerivatives"
+    messages = []
     for integrator in ("auto", "python"):
-        with FMUInstance(family_fmu("stiff", 2), mode="me", inputs=["u"], outputs=outputs, integrator=integrator) as fmu:
+        with FMUInstance(family_fmu("stiff", fmi_version), mode="me", inputs=["u"], outputs=outputs,
+                         integrator=integrator, solver=solver, **SOLVERS[solver]) as fmu:
             fmu.reset(parameters)
-            fmu.inputs.views["u"][...] = np.nan
-            with pytest.raises(FMUError, match="cvode solver failed at t="):
+            fmu.inputs.views["u"][...] = np.nan  # the model's derivative is NaN: it returns Error
+            with pytest.raises(FMUCallError, match=f"{function} returned Error") as raised:
                 fmu.step(dt)
+            messages.append(str(raised.value))
             assert fmu.broken
             fmu.reset(parameters)
             fmu.inputs.views["u"][...] = 1.0
             fmu.step(dt)
             assert np.isfinite(fmu.outputs.flat).all()
+    assert messages[0] == messages[1]  # the same call, status and log on either path
+    assert "the derivative of state 0 is nan at t=0" in messages[0]
+
+
+def test_a_solver_failure_is_an_fmu_error_with_cvodes_message_and_nothing_on_stderr(family_fmu, capfd):
+    outputs, _, parameters, dt, _ = MODELS["stiff"]
+    for integrator in ("auto", "python"):
+        with FMUInstance(family_fmu("stiff", 2), mode="me", outputs=outputs, integrator=integrator,
+                         tolerance=1e-30) as fmu:
+            fmu.reset(parameters)
+            with pytest.raises(FMUError, match="cvode solver failed at t=0.0: .*too much accuracy requested"):
+                fmu.step(dt)
+    assert "too much accuracy" not in capfd.readouterr().err  # SUNDIALS' own printing is off
 
 
 # -- the env and the pool -------------------------------------------------------------------------

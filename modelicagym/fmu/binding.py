@@ -260,9 +260,9 @@ class FMIBinding:
         raise NotImplementedError
 
     def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
-        """Raw ``(pointer, n)`` calls bound to this instance: set_time (``(t)``), get_x, set_x, get_dx, get_z, get_nominals."""
-        return {key: partial(self.raw[self.PREFIX + suffix], self.component)
-                for key, suffix in self.CONTINUOUS_STATE_FUNCTIONS.items()}
+        """``(pointer, n)`` calls bound to this instance, raising `FMUCallError` as `call` does:
+        set_time (``(t)``), get_x, set_x, get_dx, get_z, get_nominals."""
+        return {key: partial(self.call, suffix) for key, suffix in self.CONTINUOUS_STATE_FUNCTIONS.items()}
 
     def close(self) -> None:
         """Free the instance and release the log route; the library is left to the OS."""

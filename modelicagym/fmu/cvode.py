@@ -31,6 +31,7 @@ _ERRORS = ctypes.CFUNCTYPE(None, c_int, ctypes.c_char_p, ctypes.c_char_p, ctypes
 _SIGNATURES: dict[str, tuple[str, Any, tuple[Any, ...]]] = {
     "SUNContext_Create": ("sundials_core", c_int, (c_int, POINTER(c_void_p))),
     "SUNContext_Free": ("sundials_core", c_int, (POINTER(c_void_p),)),
+    "SUNContext_ClearErrHandlers": ("sundials_core", c_int, (c_void_p,)),
     "SUNContext_PushErrHandler": ("sundials_core", c_int, (c_void_p, _ERRORS, c_void_p)),
     "N_VNew_Serial": ("sundials_nvecserial", c_void_p, (c_int64, c_void_p)),
     "N_VDestroy": ("sundials_core", None, (c_void_p,)),
@@ -70,8 +71,9 @@ def _sundials() -> Any:
 class CVodeSolver:
     """One CVode integrator over an FMU's continuous states, with root finding on its event indicators.
 
-    The callables are the FMU's raw ``(pointer, n)`` calls (`FMIBinding.continuous_state_functions`).
-    `step` raises ``RuntimeError`` with CVode's message when the solver fails.
+    The callables are the FMU's ``(pointer, n)`` calls (`FMIBinding.continuous_state_functions`).
+    `step` raises ``RuntimeError`` with CVode's message when the solver fails, and the error of
+    the FMU's call when one of them failed inside the right-hand side or root function.
     """
 
     def __init__(
@@ -94,6 +96,7 @@ class CVodeSolver:
         self.nx, self.nz, self.method = nx, nz, method
         self._get_x, self._set_x, self._get_dx, self._get_z, self._set_time = get_x, set_x, get_dx, get_z, set_time
         self.error: str | None = None
+        self.failure: Exception | None = None
         self.roots = (c_int * max(nz, 1))()
         self._context = c_void_p()
         self._cvode = self._y = self._abstol = self._matrix = self._linear_solver = self._nonlinear_solver = None
@@ -102,6 +105,7 @@ class CVodeSolver:
         n = max(nx, 1)  # a model without states: CVode integrates one dummy state
         if sun.SUNContext_Create(0, ctypes.byref(self._context)):
             raise RuntimeError("SUNContext_Create failed")
+        sun.SUNContext_ClearErrHandlers(self._context)  # no printing to stderr: the message goes into the error
         sun.SUNContext_PushErrHandler(self._context, self._callbacks[2], None)
         self._y, self._abstol = sun.N_VNew_Serial(n, self._context), sun.N_VNew_Serial(n, self._context)
         self._cvode = sun.CVodeCreate(_ADAMS if method == "adams" else _BDF, self._context)
@@ -139,16 +143,24 @@ class CVodeSolver:
 
     def _rhs(self, t: float, y: int, ydot: int, user_data: Any) -> int:
         dx = self.sun.N_VGetArrayPointer(ydot)
-        self._set_time_and_states(t, y)
-        if self.nx == 0:
-            dx[0] = 0.0
-        else:
-            self._get_dx(dx, self.nx)
+        try:
+            self._set_time_and_states(t, y)
+            if self.nx == 0:
+                dx[0] = 0.0
+            else:
+                self._get_dx(dx, self.nx)
+        except Exception as error:  # CVode cannot carry it: `step` raises it once CVode has stopped
+            self.failure = error
+            return -1
         return 0
 
     def _roots_at(self, t: float, y: int, z: Any, user_data: Any) -> int:
-        self._set_time_and_states(t, y)
-        self._get_z(z, self.nz)
+        try:
+            self._set_time_and_states(t, y)
+            self._get_z(z, self.nz)
+        except Exception as error:
+            self.failure = error
+            return -1
         return 0
 
     def _on_error(self, line: int, function: bytes, file: bytes, message: bytes, code: int, *_: Any) -> None:
@@ -169,8 +181,11 @@ class CVodeSolver:
         """Integrate towards ``target``, stopping early at an event-indicator root; writes the states
         reached to the FMU. Returns (a state event was found, the roots found, the time reached)."""
         sun, reached = self.sun, c_double(time)
+        self.failure = None
         flag = sun.CVode(self._cvode, target, self._y, ctypes.byref(reached), _NORMAL)
         if flag < 0:
+            if self.failure is not None:  # a call of the right-hand side or root function
+                raise self.failure
             raise RuntimeError(self.error or f"CVode returned {flag}")
         if self.nx > 0:
             self._set_x(self._y_data, self.nx)

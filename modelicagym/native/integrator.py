@@ -28,6 +28,7 @@ __all__ = ["MgIntegrator", "NativeIntegrator", "python_integrator_reason"]
 _SUNDIALS_FUNCTIONS = {
     "SUNContext_Create": "sundials_core",
     "SUNContext_Free": "sundials_core",
+    "SUNContext_ClearErrHandlers": "sundials_core",
     "SUNContext_PushErrHandler": "sundials_core",
     "N_VNew_Serial": "sundials_nvecserial",
     "N_VDestroy": "sundials_core",

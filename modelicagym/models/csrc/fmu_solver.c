@@ -311,6 +311,7 @@ static Status prepare_model_functions(ModelInstance *comp) {
 
 Status fmu_get_derivatives(ModelInstance *comp, double dx[], size_t nx) {
     Status status;
+    int i;
     if (!comp || !fmu_allowed(comp, "getDerivatives", MODES_INITIALIZED | ModeError) ||
         check_size(comp, "getDerivatives", nx, NX, dx) != StatusOK) {
         return StatusError;
@@ -318,6 +319,12 @@ Status fmu_get_derivatives(ModelInstance *comp, double dx[], size_t nx) {
     status = prepare_model_functions(comp);
     if (NX > 0 && status <= StatusWarning) {
         model_definition.get_derivatives(comp, dx);
+        for (i = 0; i < NX; i++) {
+            if (!isfinite(dx[i])) {
+                return fmu_fail(comp, "getDerivatives: the derivative of state %d is %g at t=%.17g", i, dx[i],
+                                comp->s.time);
+            }
+        }
     }
     return status;
 }

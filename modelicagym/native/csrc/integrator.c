@@ -28,6 +28,7 @@ typedef int (*root_fn)(double, N_Vector, double *, void *);
 typedef void (*err_handler_fn)(int, const char *, const char *, const char *, int, void *, void *);
 typedef int (*SUNContext_Create_t)(int, void **);
 typedef int (*SUNContext_Free_t)(void **);
+typedef int (*SUNContext_ClearErrHandlers_t)(void *);
 typedef int (*SUNContext_PushErrHandler_t)(void *, err_handler_fn, void *);
 typedef N_Vector (*N_VNew_Serial_t)(int64_t, void *);
 typedef void (*N_VDestroy_t)(N_Vector);
@@ -238,6 +239,7 @@ static int32_t cvode_create(mg_integrator *integrator, double time) {
     int64_t n = integrator->nx > 0 ? integrator->nx : 1;
     if (SUN(SUNContext_Create)(0, &integrator->context) != CV_SUCCESS)
         return solver_failed(integrator, time, "SUNContext_Create");
+    SUN(SUNContext_ClearErrHandlers)(integrator->context); /* no printing to stderr: the message goes into the error */
     SUN(SUNContext_PushErrHandler)(integrator->context, cvode_error, integrator);
     integrator->y = SUN(N_VNew_Serial)(n, integrator->context);
     integrator->abstol = SUN(N_VNew_Serial)(n, integrator->context);

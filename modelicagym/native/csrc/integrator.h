@@ -31,7 +31,7 @@
 
 /* The SUNDIALS 7 functions the integrator calls (addresses in fmpy's shared libraries). */
 typedef struct {
-    void *SUNContext_Create, *SUNContext_Free, *SUNContext_PushErrHandler;
+    void *SUNContext_Create, *SUNContext_Free, *SUNContext_ClearErrHandlers, *SUNContext_PushErrHandler;
     void *N_VNew_Serial, *N_VDestroy, *N_VGetArrayPointer;
     void *SUNDenseMatrix, *SUNMatDestroy, *SUNLinSol_Dense, *SUNLinSolFree, *SUNNonlinSol_FixedPoint, *SUNNonlinSolFree;
     void *CVodeCreate, *CVodeInit, *CVodeReInit, *CVodeSVtolerances, *CVodeRootInit;
