@@ -262,7 +262,19 @@ class FMIBinding:
     def continuous_state_functions(self) -> dict[str, Callable[..., int]]:
         """``(pointer, n)`` calls bound to this instance, raising `FMUCallError` as `call` does:
         set_time (``(t)``), get_x, set_x, get_dx, get_z, get_nominals."""
-        return {key: partial(self.call, suffix) for key, suffix in self.CONTINUOUS_STATE_FUNCTIONS.items()}
+        return {key: self._checked(self.PREFIX + suffix) for key, suffix in self.CONTINUOUS_STATE_FUNCTIONS.items()}
+
+    def _checked(self, function: str) -> Callable[..., int]:
+        """`call` for one function, looked up once (a solver calls these thousands of times a step)."""
+        raw = self.raw[function]
+
+        def checked(*args: Any) -> int:
+            status = raw(self.component, *args)
+            if status > WARNING:
+                raise self.fail(function, status)
+            return status
+
+        return checked
 
     def close(self) -> None:
         """Free the instance and release the log route; the library is left to the OS."""
