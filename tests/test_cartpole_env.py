@@ -52,6 +52,19 @@ def test_model_exchange_agrees_with_co_simulation(fmi_version):
     assert np.ptp(a[:, 2]) > 0.5, "the pole should have moved a lot in 5 s"
 
 
+@pytest.mark.parametrize("step_path", ["auto", "python"])
+def test_model_exchange_with_rk4_at_the_fmus_internal_step_gives_co_simulations_numbers(fmi_version, step_path):
+    """The classical Runge-Kutta scheme of model exchange is the FMU's own co-simulation solver:
+    at its internal step (5 ms) the two trajectories agree to rounding over 5 s."""
+    cs = free_env(fmi_version=fmi_version, mode="cs")
+    me = free_env(fmi_version=fmi_version, mode="me", solver="rk4", solver_step=5e-3, step_path=step_path)
+    a, b = rollout(cs, PUSHES), rollout(me, PUSHES)
+    assert me.step_path == ("native" if step_path == "auto" else "python")
+    assert a.shape == b.shape == (101, 4)
+    np.testing.assert_allclose(b, a, atol=1e-12, rtol=0)
+    assert np.ptp(a[:, 2]) > 0.5
+
+
 def test_fmi2_and_fmi3_give_the_same_trajectory():
     a = rollout(free_env(fmi_version=2), PUSHES)
     b = rollout(free_env(fmi_version=3), PUSHES)

@@ -4,8 +4,8 @@ bouncing ball (state and time events), the staircase (time events, two-pass even
 terminating event), the stiff model, and the cart-pole.
 
 Every solver (``"cvode"``: Adams until the model proves stiff, then BDF; ``"cvode-bdf"``;
-``"euler"``) runs the same algorithm on both paths, calling the same SUNDIALS binaries in the same
-order, and both let CVode go on across steps whose inputs did not change: an instance, an env and a
+``"euler"``; ``"rk4"``) runs the same algorithm on both paths, calling the same SUNDIALS binaries
+in the same order, and both let CVode go on across steps whose inputs did not change: an instance, an env and a
 pool give the same numbers to the last bit, event times included.
 """
 
@@ -56,13 +56,15 @@ def run_model(family_fmu, name: str, fmi_version: int, **options) -> tuple[list[
     return simulate(family_fmu(name, fmi_version), outputs, u_name, parameters, dt, n_steps, **options)
 
 
-SOLVERS = {"cvode": {}, "cvode-bdf": {}, "euler": {"solver_step": 1e-3}}
+SOLVERS = {"cvode": {}, "cvode-bdf": {}, "euler": {"solver_step": 1e-3}, "rk4": {"solver_step": 1e-3}}
+#: the stiff model (eigenvalue -1e4) needs explicit steps inside their stability regions
+STIFF_STEPS = {"euler": {"solver_step": 2e-5}, "rk4": {"solver_step": 1e-4}}
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
 @pytest.mark.parametrize("solver", sorted(SOLVERS))
 def test_every_solver_gives_the_python_paths_numbers_in_c(family_fmu, fmi_version, name, solver):
-    options = {"solver_step": 2e-5} if name == "stiff" and solver == "euler" else SOLVERS[solver]
+    options = STIFF_STEPS.get(solver, {}) if name == "stiff" else SOLVERS[solver]
     native, native_fmu = run_model(family_fmu, name, fmi_version, solver=solver, **options)
     python, python_fmu = run_model(family_fmu, name, fmi_version, solver=solver, integrator="python", **options)
     assert (native_fmu.integrator_path, python_fmu.integrator_path) == ("native", "python")
@@ -85,9 +87,15 @@ def test_cvode_switches_to_bdf_on_a_stiff_model_only(family_fmu, integrator):
 
 
 def test_the_solver_method_reads_as_configured(family_fmu):
-    for mode, solver, method in (("me", "cvode-bdf", "bdf"), ("me", "euler", None), ("cs", "cvode", None)):
+    for mode, solver, method in (("me", "cvode-bdf", "bdf"), ("me", "euler", None), ("me", "rk4", None), ("cs", "cvode", None)):
         with FMUInstance(family_fmu("ball", 3), mode=mode, solver=solver, solver_step=1e-3) as fmu:
             assert fmu.solver_method == method
+
+
+@pytest.mark.parametrize("solver", ["euler", "rk4"])
+def test_a_fixed_step_solver_needs_its_step(family_fmu, solver):
+    with pytest.raises(ConfigError, match=f"solver='{solver}' needs a step_size"):
+        FMUInstance(family_fmu("ball", 2), mode="me", solver=solver)
 
 
 def test_the_instance_says_which_integrator_runs_and_why(family_fmu):
@@ -185,13 +193,13 @@ def test_the_balls_bounce_times_are_the_same_on_both_step_paths(family_fmu, fmi_
     assert len({t_bounce for _, _, t_bounce in native}) >= 5  # four bounces and the start: real event times
 
 
-@pytest.mark.parametrize("solver", ["cvode", "euler"])
+@pytest.mark.parametrize("solver", ["cvode", "euler", "rk4"])
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 def test_the_pool_steps_and_resets_model_exchange_natively_like_sync(family_fmu, mode, solver):
     """Every episode (native resets restore the snapshot and its pending time event) matches
     SyncVectorEnv over the Python path exactly."""
     path = family_fmu("staircase", 2)
-    options = {"solver": solver, "solver_step": 0.01 if solver == "euler" else None}
+    options = {"solver": solver, "solver_step": None if solver == "cvode" else 0.01}
     native = [partial(staircase_env, path, max_episode_steps=4 + i, **options) for i in range(3)]
     python = [partial(staircase_env, path, max_episode_steps=4 + i, step_path="python", **options) for i in range(3)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)

@@ -2,12 +2,12 @@
 
 A model-exchange FMU only evaluates derivatives; the importer integrates. This follows the loop
 of ``fmpy.simulation.simulateME``: integrate with CVode (variable step, root finding on the event
-indicators; `modelicagym.fmu.cvode`) or fmpy's forward Euler at a fixed step, stop at time events
-(``nextEventTime``), state events (event-indicator roots) and step events
-(``fmiCompletedIntegratorStep``), run the event iteration, and carry on.
+indicators; `modelicagym.fmu.cvode`) or a fixed-step scheme (forward Euler, classical Runge-Kutta;
+`modelicagym.fmu.fixed_step`), stop at time events (``nextEventTime``), state events (event-indicator
+roots) and step events (``fmiCompletedIntegratorStep``), run the event iteration, and carry on.
 
-Inputs are piecewise constant between calls, so the solver is re-initialised at the start of
-every ``advance``: a multistep solver must not carry history across an input jump.
+Inputs are piecewise constant between calls, so CVode restarts after new input values (a multistep
+solver must not carry history across an input jump), and after events; otherwise it goes on.
 """
 
 from __future__ import annotations
@@ -16,25 +16,19 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from fmpy.simulation import ForwardEuler
-
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.binding import FMIBinding
 from modelicagym.fmu.cvode import CVodeSolver
 from modelicagym.fmu.errors import FMUError
+from modelicagym.fmu.fixed_step import ForwardEuler, RungeKutta4
 
-SOLVERS = ("cvode", "cvode-bdf", "euler")
+SOLVERS = ("cvode", "cvode-bdf", "euler", "rk4")
+#: solver name -> its fixed-step scheme (these need a ``step_size``)
+FIXED_STEP_SOLVERS = {"euler": ForwardEuler, "rk4": RungeKutta4}
 #: ``solver="cvode"``: this many fixed-point convergence failures between two restarts mark the
 #: model stiff. A non-stiff model has none (the cart-pole: 0 in 300 steps), a stiff one has them at
 #: once (eigenvalue -1e4, steps of 0.01 s: 15-30 per step). ``native/csrc/integrator.c`` agrees.
 STIFF_CONVERGENCE_FAILURES = 10
-
-
-class _NoInput:
-    """fmpy's solvers re-apply inputs at intermediate times; ours are set once per step."""
-
-    def apply(self, time: float, continuous: bool = True, discrete: bool = True, after_event: bool = False) -> None:
-        return None
 
 
 def _close(a: float, b: float) -> bool:
@@ -46,7 +40,8 @@ class ModelExchangeIntegrator:
 
     ``solver="cvode"`` (default) runs CVode's Adams method until the model proves stiff, then BDF
     (from the next `advance` on); ``"cvode-bdf"`` runs BDF throughout, as fmpy does; both with
-    relative tolerance ``tolerance``. ``solver="euler"`` takes fixed steps of ``step_size``.
+    relative tolerance ``tolerance``. ``solver="euler"`` (forward Euler) and ``"rk4"`` (classical
+    Runge-Kutta) take fixed steps of ``step_size``.
     The native integrator (`modelicagym.native.integrator`) runs the same algorithms in C.
     """
 
@@ -62,8 +57,8 @@ class ModelExchangeIntegrator:
     ):
         if solver not in SOLVERS:
             raise ConfigError(f"solver must be one of {SOLVERS}, got {solver!r}")
-        if solver == "euler" and not step_size:
-            raise ConfigError("solver='euler' needs a step_size (the fixed integration step)")
+        if solver in FIXED_STEP_SOLVERS and not step_size:
+            raise ConfigError(f"solver={solver!r} needs a step_size (the fixed integration step)")
         self.binding = binding
         self.n_states = n_states
         self.n_indicators = n_indicators
@@ -98,7 +93,7 @@ class ModelExchangeIntegrator:
     @property
     def method(self) -> str | None:
         """CVode's method, ``"adams"`` or ``"bdf"``; ``None`` for Euler."""
-        if self.solver_name == "euler":
+        if self.solver_name in FIXED_STEP_SOLVERS:
             return None
         return "adams" if self.solver_name == "cvode" and not self.stiff else "bdf"
 
@@ -109,7 +104,7 @@ class ModelExchangeIntegrator:
         args = dict(nx=self.n_states, nz=self.n_indicators, get_x=f["get_x"], set_x=f["set_x"],
                     get_dx=f["get_dx"], get_z=f["get_z"])
         if self.method is None:
-            self._solver = ForwardEuler(input=_NoInput(), **args)
+            self._solver = FIXED_STEP_SOLVERS[self.solver_name](set_time=self._set_time, **args)
         else:
             self._solver = CVodeSolver(get_nominals=f["get_nominals"], set_time=self._set_time, start_time=time,
                                        tolerance=self.tolerance, method=self.method, **args)

@@ -1,7 +1,7 @@
 """Model exchange with the solver loop in C (``csrc/integrator.c``): no Python inside a step.
 
 `NativeIntegrator` is a `ModelExchangeIntegrator` whose ``advance`` is one C call: CVode (the
-SUNDIALS 7 libraries fmpy ships, the same binaries the Python path drives) or forward Euler,
+SUNDIALS 7 libraries fmpy ships, the same binaries the Python path drives) or a fixed-step scheme,
 with right-hand-side and root functions that call the FMU's own functions, and the event
 iteration in C. Initialization events, ``event`` and snapshots stay with the parent class: they
 happen once per episode or on a user's call, not inside the hot loop.
@@ -79,6 +79,7 @@ class MgIntegrator(ctypes.Structure):
         ("z", ctypes.c_void_p),
         ("previous_z", ctypes.c_void_p),
         ("roots", ctypes.c_void_p),
+        ("stages", ctypes.c_void_p),
         ("sundials", ctypes.POINTER(MgSundials)),
         *((name, ctypes.c_void_p) for name in (
             "context", "cvode", "y", "abstol", "matrix", "linear_solver", "nonlinear_solver",
@@ -95,7 +96,7 @@ OK, TERMINATE, FAILED = 0, 1, 2
 #: MG_FMU_CALL_SOLVER: the solver failed, not an FMU call
 _SOLVER_CALL = 11
 #: solver name -> (MG_SOLVER_*, MG_CVODE_*)
-_SOLVERS = {"cvode": (0, 2), "cvode-bdf": (0, 0), "euler": (1, 0)}
+_SOLVERS = {"cvode": (0, 2), "cvode-bdf": (0, 0), "euler": (1, 0), "rk4": (2, 0)}
 
 #: FMU functions the integrator calls, by field: the suffix per FMI version (2, 3)
 _FUNCTIONS = {
@@ -173,6 +174,7 @@ class NativeIntegrator(ModelExchangeIntegrator):
         self._buffers = {name: np.zeros(max(n, 1)) for name, n in
                          (("x", n_states), ("dx", n_states), ("z", n_indicators), ("previous_z", n_indicators))}
         self._buffers["roots"] = np.zeros(max(n_indicators, 1), dtype=np.int32)
+        self._buffers["stages"] = np.zeros(4 * max(n_states, 1))
         for name, array in self._buffers.items():
             setattr(state, name, array.ctypes.data)
         if self.solver_name.startswith("cvode"):

@@ -27,7 +27,8 @@ logger = logging.getLogger(__name__)
 
 SOURCES_DIR = Path(__file__).resolve().parent / "csrc"
 _NAME = "libmodelicagym_native.so"
-_FLAGS = ("-O2", "-shared", "-fPIC", "-std=c11", "-Wall")
+#: -ffp-contract=off: no fused multiply-add, so C does the arithmetic of the Python path and of fmpy's binaries
+_FLAGS = ("-O2", "-shared", "-fPIC", "-std=c11", "-Wall", "-ffp-contract=off")
 
 
 def _compiler() -> str:

@@ -308,17 +308,12 @@ static int32_t cvode_step(mg_integrator *integrator, double time, double target,
     return MG_INTEGRATOR_OK;
 }
 
-/* -- forward Euler ----------------------------------------------------------------------------------- */
+/* -- fixed-step schemes (as fmpy's ForwardEuler: an event happens at the end of the step that crossed) -- */
 
-static int32_t euler_step(mg_integrator *integrator, double time, double target, bool *state_event, double *reached) {
-    int64_t nx = integrator->nx, nz = integrator->nz;
-    double *x = integrator->x, *dx = integrator->dx, *z = integrator->z, *previous = integrator->previous_z;
-    CALL(MG_FMU_CALL_GET_X, time, get_x(integrator, x));
-    CALL(MG_FMU_CALL_GET_DX, time, get_dx(integrator, dx));
-    double h = target - time;
-    for (int64_t k = 0; k < nx; k++)
-        x[k] += h * dx[k];
-    CALL(MG_FMU_CALL_SET_X, target, set_x(integrator, x));
+/* The event indicators at the end of a step against those at its start. */
+static int32_t detect_crossings(mg_integrator *integrator, double target, bool *state_event) {
+    int64_t nz = integrator->nz;
+    double *z = integrator->z, *previous = integrator->previous_z;
     memcpy(previous, z, sizeof(double) * (size_t)nz);
     CALL(MG_FMU_CALL_GET_Z, target, get_z(integrator, z));
     *state_event = false;
@@ -326,11 +321,62 @@ static int32_t euler_step(mg_integrator *integrator, double time, double target,
         integrator->roots[k] = previous[k] < 0 && z[k] >= 0 ? -1 : previous[k] > 0 && z[k] <= 0 ? 1 : 0;
         *state_event |= integrator->roots[k] != 0;
     }
-    *reached = target;
     return MG_INTEGRATOR_OK;
 }
 
+static int32_t euler_step(mg_integrator *integrator, double time, double target, bool *state_event, double *reached) {
+    int64_t nx = integrator->nx;
+    double *x = integrator->x, *dx = integrator->dx;
+    CALL(MG_FMU_CALL_GET_X, time, get_x(integrator, x));
+    CALL(MG_FMU_CALL_GET_DX, time, get_dx(integrator, dx));
+    double h = target - time;
+    for (int64_t k = 0; k < nx; k++)
+        x[k] += h * dx[k];
+    CALL(MG_FMU_CALL_SET_X, target, set_x(integrator, x));
+    *reached = target;
+    return detect_crossings(integrator, target, state_event);
+}
+
+/* k = f(t, x): the FMU's derivatives at time t for the states x. */
+static int32_t derivatives_at(mg_integrator *integrator, double t, const double *x, double *k) {
+    CALL(MG_FMU_CALL_SET_TIME, t, set_time(integrator, t));
+    CALL(MG_FMU_CALL_SET_X, t, set_x(integrator, x));
+    CALL(MG_FMU_CALL_GET_DX, t, get_dx(integrator, k));
+    return MG_INTEGRATOR_OK;
+}
+
+/* The classical Runge-Kutta step, written as the FMU framework's own (models/csrc/fmu_solver.c). */
+static int32_t rk4_step(mg_integrator *integrator, double time, double target, bool *state_event, double *reached) {
+    int64_t nx = integrator->nx;
+    double *x0 = integrator->x, *k1 = integrator->dx;
+    double *k2 = integrator->stages, *k3 = k2 + nx, *k4 = k3 + nx, *xt = k4 + nx;
+    double h = target - time, middle = time + 0.5 * h;
+    int32_t outcome;
+    CALL(MG_FMU_CALL_GET_X, time, get_x(integrator, x0));
+    CALL(MG_FMU_CALL_GET_DX, time, get_dx(integrator, k1));
+    for (int64_t k = 0; k < nx; k++)
+        xt[k] = x0[k] + 0.5 * h * k1[k];
+    if ((outcome = derivatives_at(integrator, middle, xt, k2)))
+        return outcome;
+    for (int64_t k = 0; k < nx; k++)
+        xt[k] = x0[k] + 0.5 * h * k2[k];
+    if ((outcome = derivatives_at(integrator, middle, xt, k3)))
+        return outcome;
+    for (int64_t k = 0; k < nx; k++)
+        xt[k] = x0[k] + h * k3[k];
+    if ((outcome = derivatives_at(integrator, target, xt, k4)))
+        return outcome;
+    for (int64_t k = 0; k < nx; k++)
+        xt[k] = x0[k] + h / 6.0 * (k1[k] + 2.0 * k2[k] + 2.0 * k3[k] + k4[k]);
+    CALL(MG_FMU_CALL_SET_X, target, set_x(integrator, xt));
+    *reached = target;
+    return detect_crossings(integrator, target, state_event);
+}
+
 /* -- the loop -------------------------------------------------------------------------------------- */
+
+/* One solver step from `time` towards `target`: whether it ended on a state event, and where. */
+typedef int32_t (*step_fn)(mg_integrator *, double, double, bool *, double *);
 
 /* CVode's objects are missing, or they run Adams on a model that proved stiff (BDF from now on). */
 static bool needs_new_cvode(const mg_integrator *integrator) {
@@ -338,7 +384,7 @@ static bool needs_new_cvode(const mg_integrator *integrator) {
 }
 
 int32_t mg_integrator_open(mg_integrator *integrator, double time) {
-    if (integrator->solver == MG_SOLVER_EULER) {
+    if (integrator->solver != MG_SOLVER_CVODE) { /* a fixed step compares with the indicators now */
         CALL(MG_FMU_CALL_GET_Z, time, get_z(integrator, integrator->z));
         return MG_INTEGRATOR_OK;
     }
@@ -391,8 +437,8 @@ int32_t mg_integrator_advance(mg_integrator *integrator, double time, double sto
             target = step_end;
         bool state_event = false;
         double reached = time;
-        outcome = cvode ? cvode_step(integrator, time, target, &state_event, &reached)
-                        : euler_step(integrator, time, target, &state_event, &reached);
+        step_fn step = cvode ? cvode_step : integrator->solver == MG_SOLVER_RK4 ? rk4_step : euler_step;
+        outcome = step(integrator, time, target, &state_event, &reached);
         if (outcome)
             break;
         time = reached;

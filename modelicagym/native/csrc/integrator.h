@@ -39,7 +39,7 @@ typedef struct {
     void *CVodeSetUserData, *CVode, *CVodeGetRootInfo, *CVodeGetNumNonlinSolvConvFails, *CVodeFree;
 } mg_sundials;
 
-enum { MG_SOLVER_CVODE = 0, MG_SOLVER_EULER = 1 };
+enum { MG_SOLVER_CVODE = 0, MG_SOLVER_EULER = 1, MG_SOLVER_RK4 = 2 };
 enum { MG_CVODE_BDF = 0, MG_CVODE_ADAMS = 1, MG_CVODE_AUTO = 2 };
 
 typedef struct {
@@ -62,6 +62,7 @@ typedef struct {
     /* buffers of at least max(nx, 1) / nz doubles, owned by Python */
     double *x, *dx, *z, *previous_z;
     int32_t *roots;
+    double *stages; /* RK4: 4 * max(nx, 1) doubles (k2, k3, k4 and the stage's states) */
     const mg_sundials *sundials;
     /* CVode's objects (NULL: not created) */
     void *context, *cvode, *y, *abstol, *matrix, *linear_solver, *nonlinear_solver;
