@@ -71,9 +71,8 @@ def measure(steps: int = 20_000, python_steps: int = 2_000, repeats: int = 5, fm
         envs[f"{name} (python)"] = modelicagym.make("cartpole", fmi_version=fmi_version, step_path="python", **options)
     candidates = {name: _loop(env, python_actions if name.endswith("(python)") else actions) for name, env in envs.items()}
     samples = time_rounds(candidates, repeats)
-    target = TARGET_ROW
     pairs = paired_ratios(_loop(envs[CO_SIMULATION], actions[:target_steps]),
-                          _loop(envs[target], actions[:target_steps]), target_rounds)
+                          _loop(envs[TARGET_ROW], actions[:target_steps]), target_rounds)
     paths = {name: env.unwrapped.step_path for name, env in envs.items()}
     for env in envs.values():
         env.close()
@@ -89,7 +88,7 @@ def measure(steps: int = 20_000, python_steps: int = 2_000, repeats: int = 5, fm
         "rate_vs_co_simulation": {name: cs / s for name, s in per_step.items()},
         "native_vs_python": {name: per_step[f"{name} (python)"] / per_step[f"{name} (native)"] for name in SOLVERS},
         "target": {
-            "row": target,
+            "row": TARGET_ROW,
             "steps": target_steps,
             "rounds": target_rounds,
             "rate_vs_co_simulation": median(pairs),
