@@ -27,7 +27,7 @@ def _echo(fd: int, rounds: int, spin_time: float) -> None:
     """Child process: wait for ``go`` and answer ``done``, ``rounds`` times."""
     memory = mmap.mmap(fd, mmap.PAGESIZE)
     address = _address(memoryview(memory))
-    go, done = FutexSignal(library, address, False), FutexSignal(library, address + 64, False)
+    go, done = FutexSignal(library, address), FutexSignal(library, address + 64)
     for _ in range(rounds):
         assert go.wait(spin_time, 10.0)
         done.post()
@@ -44,7 +44,7 @@ def test_futex_signals_cross_processes_without_losing_a_post(spin_time: float) -
     os.ftruncate(fd, mmap.PAGESIZE)
     memory = mmap.mmap(fd, mmap.PAGESIZE)
     address = _address(memoryview(memory))
-    go, done = FutexSignal(library, address, False), FutexSignal(library, address + 64, False)
+    go, done = FutexSignal(library, address), FutexSignal(library, address + 64)
     child = multiprocessing.get_context("fork").Process(target=_echo, args=(fd, 500, spin_time))
     child.start()
     try:
@@ -60,7 +60,7 @@ def test_futex_signals_cross_processes_without_losing_a_post(spin_time: float) -
 @needs_futex
 def test_a_futex_wait_times_out_and_a_post_is_kept_for_the_next_wait() -> None:
     memory = mmap.mmap(-1, mmap.PAGESIZE)
-    signal = FutexSignal(library, _address(memoryview(memory)), True)
+    signal = FutexSignal(library, _address(memoryview(memory)))
     started = time.monotonic()
     assert not signal.wait(1e-4, 0.02)
     assert time.monotonic() - started >= 0.02

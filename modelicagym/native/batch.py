@@ -25,7 +25,7 @@ from modelicagym.errors import ArgumentError
 from modelicagym.native.library import load_library
 from modelicagym.native.step import Flags, MgEnv
 
-__all__ = ["MgBatch", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
+__all__ = ["MgBatch", "MgWaiter", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
 
 #: flags of an env that Python must finish after ``mg_step_batch``
 NEEDS_PYTHON = Flags.FMU_ERROR | Flags.PYTHON_RESET | Flags.MODEL_ENDED | Flags.BAD_ACTION
@@ -63,6 +63,18 @@ class MgBatch(ctypes.Structure):
     ]
 
 
+class MgWaiter(ctypes.Structure):
+    """``mg_waiter`` of ``csrc/signal.h``: one waiting party's adaptive state and what its waits did."""
+
+    _fields_ = [
+        ("ready", ctypes.c_int64),
+        ("spun", ctypes.c_int64),
+        ("slept", ctypes.c_int64),
+        ("blocked", ctypes.c_int64),
+        ("long_waits", ctypes.c_int64),
+    ]
+
+
 class MgServer(ctypes.Structure):
     """``mg_server`` of ``csrc/step.h``."""
 
@@ -73,9 +85,9 @@ class MgServer(ctypes.Structure):
         ("command", ctypes.c_void_p),
         ("reply", ctypes.c_void_p),
         ("step_code", ctypes.c_int32),
-        ("yield_cpu", ctypes.c_int32),
         ("spin_ns", ctypes.c_int64),
         ("timeout_ns", ctypes.c_int64),
+        ("waiter", ctypes.c_void_p),
     ]
 
 
@@ -89,7 +101,7 @@ class MgCollector(ctypes.Structure):
         ("replies", ctypes.c_void_p),
         ("spin_ns", ctypes.c_int64),
         ("timeout_ns", ctypes.c_int64),
-        ("yield_cpu", ctypes.c_int32),
+        ("waiter", ctypes.c_void_p),
     ]
 
 
@@ -181,8 +193,9 @@ class NativeServer:
         go, done: addresses of the worker's signals in shared memory.
         command, reply: the worker's command and reply slots (one-element views).
         step_code: the command code of a step.
-        spin_time, timeout: seconds to poll before sleeping, and to wait before returning
-            `SERVE_TIMEOUT`; ``yield_cpu``: yield the core while polling.
+        spin_time, timeout: seconds to poll at most before sleeping, and to wait before
+            returning `SERVE_TIMEOUT`.
+        waiter: the adaptive state of the worker's waits (its ``go`` signal's).
     """
 
     def __init__(
@@ -195,15 +208,16 @@ class NativeServer:
         step_code: int,
         spin_time: float,
         timeout: float,
-        yield_cpu: bool,
+        waiter: MgWaiter,
     ) -> None:
         self.batch = batch
+        self._waiter = waiter
         self.state = server = MgServer()
         server.batch = ctypes.addressof(batch.state)
         server.go, server.done = go, done
         server.command, server.reply = command.ctypes.data, reply.ctypes.data
         server.step_code = step_code
-        server.yield_cpu = int(yield_cpu)
+        server.waiter = ctypes.addressof(waiter)
         server.spin_ns, server.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
         self._serve = batch.library.mg_serve
         self._ref = ctypes.byref(server)
@@ -220,7 +234,8 @@ class NativeCollector:
         local: the calling process's native slice, or ``None``.
         done: addresses of the workers' ``done`` signals, in worker order.
         replies: the workers' reply slots (worker ``k`` at index ``k``).
-        spin_time, timeout, yield_cpu: as for :class:`NativeServer`.
+        spin_time, timeout: as for :class:`NativeServer`.
+        waiter: the adaptive state of the parent's waits for the workers.
     """
 
     def __init__(
@@ -230,9 +245,10 @@ class NativeCollector:
         replies: np.ndarray,
         spin_time: float,
         timeout: float,
-        yield_cpu: bool,
+        waiter: MgWaiter,
     ) -> None:
         self.library = load_library()
+        self.waiter = waiter
         self._done = (ctypes.c_void_p * max(len(done), 1))(*done)
         self._replies = replies
         self.state = collector = MgCollector()
@@ -241,7 +257,7 @@ class NativeCollector:
         collector.done = ctypes.addressof(self._done)
         collector.replies = replies.ctypes.data
         collector.spin_ns, collector.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
-        collector.yield_cpu = int(yield_cpu)
+        collector.waiter = ctypes.addressof(waiter)
         self._collect = self.library.mg_collect
         self._ref = ctypes.byref(collector)
 

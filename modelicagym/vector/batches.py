@@ -25,7 +25,6 @@ Example::
 
 from __future__ import annotations
 
-import os
 import time
 from collections import deque
 from typing import Any
@@ -40,6 +39,7 @@ from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import check_env_ids
 from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Reply, WaitStatus
+from modelicagym.vector.sync import machine_crowded
 
 __all__ = ["PartialBatches"]
 
@@ -178,13 +178,10 @@ class PartialBatches:
         """Wait until at least one busy worker is done; take in the results of every done one
         (all of them, so that no worker's results wait behind a faster worker's)."""
         busy = [k for k, ids in enumerate(self._stepping) if ids]
-        deadline = time.monotonic() + self.spin_time
-        yield_cpu = any(getattr(self.handles[k].done, "yield_cpu", True) for k in busy)
+        deadline = time.monotonic() + (0.0 if machine_crowded() else self.spin_time)
         while not self._take_done(busy, 0.0):
             if time.monotonic() >= deadline:
                 break
-            if yield_cpu:  # more waiting parties than cores: let a worker have this one
-                os.sched_yield()
         else:
             return
         while not self._take_done(busy, _POLL_BLOCK / len(busy)):

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.native.batch import COLLECT_DONE, COLLECT_LOCAL_PYTHON, NativeCollector
+from modelicagym.native.batch import COLLECT_DONE, COLLECT_LOCAL_PYTHON, MgWaiter, NativeCollector
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import PoolError
@@ -73,6 +73,8 @@ class Dispatcher:
         self._replies = memoryview(buffers.reply)
         self._local_command: PendingCommand | None = None
         self._local_reply: Message | None = None
+        #: the adaptive state of the native collection's waits (see ``FutexSignal``)
+        self.waiter = MgWaiter()
         self._collector = self._native_collector()
 
     def _native_collector(self) -> NativeCollector | None:
@@ -91,7 +93,7 @@ class Dispatcher:
             self.buffers.reply[: len(self.handles)],
             self.spin_time,
             timeout,
-            any(handle.done.yield_cpu for handle in self.handles),
+            self.waiter,
         )
 
     def release(self) -> None:

@@ -246,7 +246,6 @@ class PoolVectorEnv(VectorEnv):
             WorkerConfig(
                 self.autoreset_mode,
                 spin_time,
-                spin_yield=self.num_workers + 1 > usable_cores(),
                 shared_signals=futex_library() is not None,
                 step_timeout=step_timeout,
                 startup_timeout=startup_timeout,

@@ -123,8 +123,6 @@ class WorkerConfig:
     autoreset_mode: AutoresetMode
     #: seconds a waiting party spins before it blocks
     spin_time: float
-    #: whether a spinning party yields its core at every poll (more waiting parties than cores)
-    spin_yield: bool = True
     #: the signals live in shared memory (:class:`~modelicagym.vector.sync.FutexSignal`), else
     #: they are semaphores handed to the worker process when it starts
     shared_signals: bool = False

@@ -5,6 +5,9 @@ Two implementations of one interface (``post()``, ``wait(spin_time, timeout) -> 
 - :class:`FutexSignal` (Linux, the default): a word in the pool's shared memory, polled and slept
   on in C by our native library (``modelicagym/native/csrc/signal.c``); a round trip through
   ctypes costs about 0.9 µs while the waiter spins. The worker's C step loop waits on the same word.
+  A wait polls only while polling pays: it sleeps at once when the machine is crowded (more
+  runnable threads than cores, by the kernel's CPU pressure) or when its previous wait outlasted
+  the spin time (``signal.h`` states the policy; docs/design.md, "Waiting", gives the measurements).
 - :class:`SemaphoreSignal`: a process-shared semaphore, for where the native library cannot be
   built (no C compiler) or there are no futexes; it predicts when a post comes (below).
 
@@ -36,7 +39,7 @@ from multiprocessing.context import BaseContext
 from os import sched_yield
 from time import perf_counter
 
-__all__ = ["FutexSignal", "SemaphoreSignal", "futex_library"]
+__all__ = ["FutexSignal", "SemaphoreSignal", "futex_library", "machine_crowded"]
 
 logger = logging.getLogger(__name__)
 
@@ -127,37 +130,36 @@ class FutexSignal:
     """A signal in shared memory (``mg_signal`` of ``native/csrc/signal.h``), waited on in C.
 
     ``address`` is where the 8-byte struct lives in this process's mapping of the pool's shared
-    memory (zeroed memory is an unposted signal). ``yield_cpu`` makes the spin yield the core at
-    every poll: for when there may be more waiting parties than cores.
+    memory (zeroed memory is an unposted signal). :attr:`waiter` is this process's adaptive state
+    for its waits on the signal (and what they did: polled, slept, slept at once), shared with the
+    native loops that wait on the same signal.
     """
 
-    __slots__ = ("_address", "_post", "_wait", "_yield")
+    __slots__ = ("_address", "_post", "_wait", "waiter", "_waiter_ref")
 
-    def __init__(self, library: ctypes.CDLL, address: int, yield_cpu: bool) -> None:
+    def __init__(self, library: ctypes.CDLL, address: int) -> None:
+        from modelicagym.native.batch import MgWaiter
+
         self._address = address
         self._post = library.mg_signal_post
         self._wait = library.mg_signal_wait
-        self._yield = int(yield_cpu)
+        self.waiter = MgWaiter()
+        self._waiter_ref = ctypes.byref(self.waiter)
 
     @property
     def address(self) -> int:
         """The address of the signal in this process (for the native step loop)."""
         return self._address
 
-    @property
-    def yield_cpu(self) -> bool:
-        """Whether the spin yields the core at every poll."""
-        return bool(self._yield)
-
     def post(self) -> None:
         """Wake the waiter (or let its next :meth:`wait` return at once)."""
         self._post(self._address)
 
     def wait(self, spin_time: float, timeout: float | None) -> bool:
-        """Poll for up to ``spin_time`` seconds, then sleep for the rest of ``timeout`` (``None``:
-        until posted); ``True`` if a post was consumed."""
+        """Poll for up to ``spin_time`` seconds (when polling pays), then sleep for the rest of
+        ``timeout`` (``None``: until posted); ``True`` if a post was consumed."""
         timeout_ns = -1 if timeout is None else int(timeout * 1e9)
-        return bool(self._wait(self._address, int(spin_time * 1e9), timeout_ns, self._yield))
+        return bool(self._wait(self._address, int(spin_time * 1e9), timeout_ns, self._waiter_ref))
 
     def close(self) -> None:
         """Nothing to release: the memory belongs to the pool."""
@@ -176,3 +178,10 @@ def futex_library() -> ctypes.CDLL | None:
     except NativeBuildError as error:
         logger.warning("the pool signals through semaphores (slower): %s", error)
         return None
+
+
+def machine_crowded() -> bool:
+    """Whether this process's waits now sleep at once because runnable threads outnumber the
+    cores (``mg_machine_crowded``; ``False`` without the native library)."""
+    library = futex_library()
+    return library is not None and bool(library.mg_machine_crowded())

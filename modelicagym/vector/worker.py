@@ -104,14 +104,14 @@ class Worker:
             os.close(fd)
         self._envs.attach(self._buffers, needs_reset)
         if self._config.shared_signals:
-            library, spin_yield = futex_library(), self._config.spin_yield
-            self._go = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.GO), spin_yield)
-            self._done = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.DONE), spin_yield)
+            library = futex_library()
+            self._go = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.GO))
+            self._done = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.DONE))
             if self._envs.native is not None:
                 slot = slice(self._index, self._index + 1)
                 self._server = NativeServer(
                     self._envs.native, self._go.address, self._done.address, self._buffers.command[slot],
-                    self._buffers.reply[slot], Command.STEP, self._spin_time, LIVENESS_INTERVAL, spin_yield,
+                    self._buffers.reply[slot], Command.STEP, self._spin_time, LIVENESS_INTERVAL, self._go.waiter,
                 )
         self._conn.send(Message(Kind.OK))
 

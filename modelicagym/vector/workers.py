@@ -156,10 +156,10 @@ class WorkerSet:
 
     def _hand_out_buffers(self, handle: WorkerHandle, deadline: float | None, needs_reset: bool) -> None:
         if self._config.shared_signals:
-            buffers, library, spin_yield = self.buffers, futex_library(), self._config.spin_yield
+            buffers, library = self.buffers, futex_library()
             buffers.signals[handle.index] = 0  # a restarted worker starts from unposted signals
-            handle.go = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO), spin_yield)
-            handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE), spin_yield)
+            handle.go = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO))
+            handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE))
         handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset)))
         handle.send_fd(self._resources.fd)
         message = handle.receive(deadline, None, START_UP)

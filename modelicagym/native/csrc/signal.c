@@ -3,9 +3,12 @@
 #include "signal.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <linux/futex.h>
 #include <sched.h>
+#include <stdlib.h>
+#include <string.h>
 #include <sys/syscall.h>
 #include <time.h>
 #include <unistd.h>
@@ -17,6 +20,20 @@
 #else
 #define CPU_RELAX() ((void)0)
 #endif
+
+/* Polls between two clock readings while spinning (a reading costs ~20 ns, a pause ~20-50). */
+#define POLLS_PER_READING 16
+/* A gap this long between two clock readings of a poll: the poller was descheduled. A timer
+ * interrupt takes a few microseconds; losing the core to another thread takes a scheduler slice
+ * (hundreds of microseconds or more). */
+#define DESCHEDULED_NS 50000
+/* The machine's load is re-read at most this often (one pread of /proc, ~2 us). */
+#define CHECK_EVERY_NS 1000000
+/* Some runnable thread waited for a core this share of the time since the last reading: crowded. */
+#define CROWDED_STALL_SHARE 0.05
+/* How long a process sleeps at once after it saw crowding: doubled while crowding persists. */
+#define HOLD_MIN_NS 2000000
+#define HOLD_MAX_NS 256000000
 
 int64_t mg_now_ns(void) {
     struct timespec ts;
@@ -39,24 +56,114 @@ int mg_signal_try(mg_signal *signal) {
            __atomic_exchange_n(&signal->posted, 0, __ATOMIC_ACQ_REL);
 }
 
-int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, int yield) {
-    if (mg_signal_try(signal))
+/* ---- is the machine crowded? (process-wide: the machine is the same for every waiter) ---- */
+
+static struct {
+    int fd;               /* /proc/pressure/cpu or /proc/loadavg; -1: neither readable */
+    int psi;              /* fd is PSI */
+    int cores;            /* cores this process may run on */
+    int64_t checked_ns;   /* last reading */
+    int64_t stall_us;     /* PSI "some" total at the last reading */
+    int64_t until_ns;     /* sleep at once until then */
+    int64_t hold_ns;      /* the last hold */
+} machine = {.fd = -2};
+
+static int read_proc(char *buffer, size_t size) {
+    ssize_t n = pread(machine.fd, buffer, size - 1, 0);
+    if (n <= 0)
+        return 0;
+    buffer[n] = '\0';
+    return 1;
+}
+
+static void open_machine(void) {
+    machine.fd = open("/proc/pressure/cpu", O_RDONLY | O_CLOEXEC);
+    machine.psi = machine.fd >= 0;
+    char buffer[256];
+    if (machine.psi && !read_proc(buffer, sizeof buffer)) { /* PSI present but switched off */
+        close(machine.fd);
+        machine.psi = 0;
+    }
+    if (!machine.psi)
+        machine.fd = open("/proc/loadavg", O_RDONLY | O_CLOEXEC);
+    cpu_set_t set;
+    machine.cores = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
+    if (machine.cores < 1)
+        machine.cores = 1;
+}
+
+/* Crowded since the last reading, by the kernel's own account. */
+static int read_crowded(int64_t now, int64_t elapsed_ns) {
+    char buffer[256];
+    if (!read_proc(buffer, sizeof buffer))
+        return 0;
+    if (machine.psi) { /* "some avg10=0.00 avg60=0.00 avg300=0.00 total=123" */
+        char *total = strstr(buffer, "total=");
+        if (!total)
+            return 0;
+        int64_t stall_us = strtoll(total + 6, NULL, 10), before = machine.stall_us;
+        machine.stall_us = stall_us;
+        return before > 0 && elapsed_ns > 0 && (double)(stall_us - before) * 1e3 > CROWDED_STALL_SHARE * (double)elapsed_ns;
+    }
+    /* "0.03 0.18 0.10 2/85 2439": runnable threads (this one included) / all */
+    char *slash = strchr(buffer, '/');
+    if (!slash)
+        return 0;
+    char *runnable = slash;
+    while (runnable > buffer && runnable[-1] != ' ')
+        runnable--;
+    (void)now;
+    return strtol(runnable, NULL, 10) > machine.cores;
+}
+
+static void hold(int64_t now) {
+    int64_t hold_ns = machine.hold_ns;
+    /* crowding again right after the last hold ended: it persists, hold longer */
+    hold_ns = (hold_ns && now - machine.until_ns < hold_ns) ? hold_ns * 2 : HOLD_MIN_NS;
+    machine.hold_ns = hold_ns > HOLD_MAX_NS ? HOLD_MAX_NS : hold_ns;
+    machine.until_ns = now + machine.hold_ns;
+}
+
+static int crowded(int64_t now) {
+    if (now < machine.until_ns)
         return 1;
-    int64_t start = mg_now_ns();
-    if (spin_ns > 0) {
-        int64_t spin_end = start + spin_ns;
-        for (unsigned k = 1;; k++) {
-            if (yield)
-                sched_yield();
-            else
-                CPU_RELAX();
+    int64_t elapsed = now - machine.checked_ns;
+    if (elapsed < CHECK_EVERY_NS)
+        return 0;
+    if (machine.fd == -2)
+        open_machine();
+    machine.checked_ns = now;
+    if (machine.fd < 0 || !read_crowded(now, elapsed))
+        return 0;
+    hold(now);
+    return 1;
+}
+
+int mg_machine_crowded(void) { return crowded(mg_now_ns()); }
+
+/* ---- the wait ---- */
+
+/* Poll until posted (1) or the spin time is over or this process lost its core (0). */
+static int poll_for(mg_signal *signal, int64_t start, int64_t spin_ns) {
+    int64_t end = start + spin_ns, last = start;
+    for (;;) {
+        for (int k = 0; k < POLLS_PER_READING; k++) {
+            CPU_RELAX();
             if (mg_signal_try(signal))
                 return 1;
-            if ((k & 63) == 0 && mg_now_ns() >= spin_end)
-                break;
         }
+        int64_t now = mg_now_ns();
+        if (now - last > DESCHEDULED_NS) {
+            hold(now);
+            return 0;
+        }
+        if (now >= end)
+            return 0;
+        last = now;
     }
-    int64_t deadline = timeout_ns < 0 ? -1 : start + timeout_ns;
+}
+
+static int sleep_until_posted(mg_signal *signal, int64_t deadline) {
     __atomic_add_fetch(&signal->sleepers, 1, __ATOMIC_SEQ_CST);
     int got = 0;
     for (;;) {
@@ -76,5 +183,29 @@ int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, int y
         futex(&signal->posted, FUTEX_WAIT, 0, timeout);
     }
     __atomic_sub_fetch(&signal->sleepers, 1, __ATOMIC_SEQ_CST);
+    return got;
+}
+
+int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_waiter *waiter) {
+    mg_waiter scratch = {0};
+    if (!waiter)
+        waiter = &scratch;
+    if (mg_signal_try(signal)) {
+        waiter->ready++;
+        waiter->long_waits = 0;
+        return 1;
+    }
+    int64_t start = mg_now_ns();
+    int spin = spin_ns > 0 && waiter->long_waits == 0 && !crowded(start);
+    if (spin && poll_for(signal, start, spin_ns)) {
+        waiter->spun++;
+        return 1;
+    }
+    int got = sleep_until_posted(signal, timeout_ns < 0 ? -1 : start + timeout_ns);
+    if (spin)
+        waiter->slept++;
+    else
+        waiter->blocked++;
+    waiter->long_waits = !got || mg_now_ns() - start > spin_ns ? waiter->long_waits + 1 : 0;
     return got;
 }

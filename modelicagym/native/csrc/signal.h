@@ -1,14 +1,28 @@
-/* A wake-up signal between two processes, in shared memory: spin, then sleep on a futex.
+/* A wake-up signal between two processes, in shared memory, and a waiter that spins only while
+ * spinning pays.
  *
  * One party posts, one party waits; the protocol of the pool alternates them strictly (the
  * parent posts a worker's "go", the worker posts its "done"), so a signal is a binary semaphore:
- * post sets it, a successful wait clears it. A waiter first polls for up to a spin time (the
- * post usually comes within microseconds, and a futex wake-up costs tens of them on an idle
- * machine), then sleeps on the futex; the poster makes the wake-up system call only when somebody
- * sleeps.
+ * post sets it, a successful wait clears it. The poster makes the wake-up system call only when
+ * somebody sleeps.
+ *
+ * How a waiter waits (the policy; docs/design.md, "Waiting", says why): a post usually comes
+ * within microseconds while a futex wake-up costs tens of them, so a wait first polls, for up to
+ * the caller's spin time, and then sleeps on the futex. But a poll holds a core, and on a machine
+ * with more runnable threads than cores it holds the core that the party it waits for (or anybody
+ * else) needs. So a wait sleeps at once, without polling, when
+ *
+ *   - the machine is crowded: the kernel's CPU pressure (/proc/pressure/cpu, the time some
+ *     runnable thread waited for a core; /proc/loadavg's runnable count where there is no PSI)
+ *     says runnable threads outnumber the cores, or a poll of this process was descheduled
+ *     (a gap in its clock readings); both are re-read at most once a millisecond and keep the
+ *     process from polling for a hold time that doubles while crowding persists; or
+ *   - this waiter's previous wait outlasted the spin time (its partner computes between posts:
+ *     an agent thinking, an update epoch, a heavy step): polling would only burn a core. A wait
+ *     that then ends within the spin time turns polling back on.
  *
  * The struct lives in memory shared by the processes (MAP_SHARED), each on a cache line of its
- * own; zeroed memory is an unposted signal.
+ * own; zeroed memory is an unposted signal. A waiter is private to the process that waits.
  */
 #ifndef MG_SIGNAL_H
 #define MG_SIGNAL_H
@@ -20,16 +34,29 @@ typedef struct {
     uint32_t sleepers; /* waiters inside futex_wait */
 } mg_signal;
 
+/* One waiting party's adaptive state and what its waits did (zeroed: a fresh waiter). */
+typedef struct {
+    int64_t ready;   /* waits that found the post already there */
+    int64_t spun;    /* waits that a poll ended */
+    int64_t slept;   /* waits that polled, then slept */
+    int64_t blocked; /* waits that slept at once (crowded machine or long waits) */
+    int64_t long_waits; /* consecutive waits that outlasted the spin time */
+} mg_waiter;
+
 /* Set the signal and wake its waiter if it sleeps. */
 void mg_signal_post(mg_signal *signal);
 
-/* Wait for a post and clear it. Polls for spin_ns nanoseconds (pausing the core; yielding it when
- * `yield` is non-zero, for when there may be more busy parties than cores), then sleeps.
+/* Wait for a post and clear it, polling for up to spin_ns nanoseconds when that pays (above),
+ * then sleeping. `waiter` may be NULL (no adaptation to this party's own waits).
  * timeout_ns < 0 waits forever. Returns 1 when a post was consumed, 0 on timeout. */
-int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, int yield);
+int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_waiter *waiter);
 
 /* Consume a post if there is one, without waiting: 1 if there was. */
 int mg_signal_try(mg_signal *signal);
+
+/* 1 while this process's waits sleep at once because the machine is crowded (re-read at most once
+ * a millisecond); for the pool's layout and tests. */
+int mg_machine_crowded(void);
 
 /* Nanoseconds of CLOCK_MONOTONIC. */
 int64_t mg_now_ns(void);

@@ -249,7 +249,7 @@ int64_t mg_step_batch(mg_batch *b) {
 
 int32_t mg_serve(mg_server *server) {
     for (;;) {
-        if (!mg_signal_wait(server->go, server->spin_ns, server->timeout_ns, server->yield_cpu))
+        if (!mg_signal_wait(server->go, server->spin_ns, server->timeout_ns, server->waiter))
             return MG_SERVE_TIMEOUT;
         int32_t code = *server->command;
         if (code != server->step_code || server->batch == NULL)
@@ -267,7 +267,7 @@ int32_t mg_collect(mg_collector *c) {
     int64_t seen = 0;
     int32_t status = MG_COLLECT_DONE;
     for (; seen < c->n_workers; seen++)
-        if (!mg_signal_wait(c->done[seen], c->spin_ns, c->timeout_ns, c->yield_cpu)) {
+        if (!mg_signal_wait(c->done[seen], c->spin_ns, c->timeout_ns, c->waiter)) {
             status = MG_COLLECT_SLOW;
             break;
         }

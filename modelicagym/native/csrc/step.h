@@ -18,6 +18,7 @@
 #include <stdint.h>
 
 #include "integrator.h"
+#include "signal.h"
 
 /* FMUInstance's time bookkeeping (modelicagym/fmu/clock.py): time = origin + steps * dt. */
 typedef struct {
@@ -121,8 +122,8 @@ typedef struct {
     const int32_t *command;
     int32_t *reply;
     int32_t step_code;
-    int32_t yield_cpu;
     int64_t spin_ns, timeout_ns;
+    mg_waiter *waiter; /* the adaptive state of the worker's waits for `go` (signal.h) */
 } mg_server;
 
 enum { MG_SERVE_TIMEOUT = -1, MG_SERVE_PYTHON_STEP = -2 };
@@ -140,7 +141,7 @@ typedef struct {
     void **done;           /* mg_signal of each worker */
     const int32_t *replies; /* reply slot of each worker (worker k: replies[k]) */
     int64_t spin_ns, timeout_ns;
-    int32_t yield_cpu;
+    mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
 } mg_collector;
 
 enum { MG_COLLECT_DONE = 0, MG_COLLECT_LOCAL_PYTHON = 1, MG_COLLECT_SLOW = 2 };
