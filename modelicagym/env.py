@@ -172,6 +172,13 @@ class FMUEnv(gym.Env):
         return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
 
     @property
+    def reset_is_deterministic(self) -> bool:
+        """Whether a reset without seed or options starts the same episode in every env made from
+        the same config: no parameter drawn at random, no overridden ``reset``. The pool may then
+        move the env between processes at an episode boundary (``modelicagym.vector.placement``)."""
+        return type(self).reset is FMUEnv.reset and not any(callable(v) for v in self.config.parameters.values())
+
+    @property
     def native_step(self) -> NativeStep | None:
         """This env's native step (its C struct and single-env step), ``None`` on the Python path."""
         return self._native

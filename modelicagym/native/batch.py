@@ -25,7 +25,7 @@ from modelicagym.errors import ArgumentError
 from modelicagym.native.library import load_library
 from modelicagym.native.step import Flags, MgEnv
 
-__all__ = ["MgBatch", "MgWaiter", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
+__all__ = ["NO_RESET", "RESET_THEN_REPORT", "RESET_THEN_STEP", "MgBatch", "MgWaiter", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
 
 #: flags of an env that Python must finish after ``mg_step_batch``
 NEEDS_PYTHON = Flags.FMU_ERROR | Flags.PYTHON_RESET | Flags.MODEL_ENDED | Flags.BAD_ACTION
@@ -36,6 +36,9 @@ _AUTORESET_CODES = {AutoresetMode.NEXT_STEP: 0, AutoresetMode.SAME_STEP: 1, Auto
 SERVE_TIMEOUT, SERVE_PYTHON_STEP = -1, -2
 #: ``mg_collect`` return values
 COLLECT_DONE, COLLECT_LOCAL_PYTHON, COLLECT_SLOW = 0, 1, 2
+#: values of ``needs_reset`` (``mg_batch``): none; the env ended and its next step is its reset
+#: (``NEXT_STEP``); it moved to this process at an episode boundary (``SAME_STEP``): reset it, then step it
+NO_RESET, RESET_THEN_REPORT, RESET_THEN_STEP = 0, 1, 2
 
 
 class MgBatch(ctypes.Structure):
@@ -55,6 +58,8 @@ class MgBatch(ctypes.Structure):
         ("truncations", ctypes.c_void_p),
         ("needs_reset", ctypes.c_void_p),
         ("active", ctypes.c_void_p),
+        ("in_caller", ctypes.c_void_p),
+        ("caller", ctypes.c_int32),
         ("flags", ctypes.c_void_p),
         ("current_env", ctypes.c_void_p),
         ("first_env", ctypes.c_int64),
@@ -99,9 +104,13 @@ class MgCollector(ctypes.Structure):
         ("n_workers", ctypes.c_int64),
         ("done", ctypes.c_void_p),
         ("replies", ctypes.c_void_p),
+        ("stepping", ctypes.c_void_p),
         ("spin_ns", ctypes.c_int64),
         ("timeout_ns", ctypes.c_int64),
         ("waiter", ctypes.c_void_p),
+        ("calls", ctypes.c_int64),
+        ("local_ns", ctypes.c_int64),
+        ("wait_ns", ctypes.c_int64),
     ]
 
 
@@ -129,9 +138,10 @@ class NativeBatch:
         first_env: the pool index of ``envs[0]``: the row of the shared arrays it uses.
         autoreset_mode: the pool's autoreset mode.
         arrays: the pool's shared arrays by name: ``actions``, ``observations``, ``rewards``,
-            ``terminations``, ``truncations``, ``step_mask`` (all envs), ``current_env`` and ``timing`` (this
-            slice's slot), ``timing_enabled``.
-        needs_reset: per env of the slice, uint8: it ended and is reset by its next step.
+            ``terminations``, ``truncations``, ``step_mask``, ``in_caller``, ``needs_reset`` (all envs),
+            ``current_env`` and ``timing`` (this slice's slot), ``timing_enabled``.
+        caller: the slice is the calling process's: it steps the envs marked ``in_caller`` (a
+            worker's those not marked).
     """
 
     def __init__(
@@ -140,7 +150,7 @@ class NativeBatch:
         first_env: int,
         autoreset_mode: AutoresetMode,
         arrays: dict[str, np.ndarray],
-        needs_reset: np.ndarray,
+        caller: bool,
     ) -> None:
         self.library = load_library()
         n = len(envs)
@@ -149,7 +159,6 @@ class NativeBatch:
         self.final_obs = np.zeros((n, *observations.shape[1:]), dtype=observations.dtype)
         self.flags = np.zeros(n, dtype=np.int32)
         self._env_pointers = (ctypes.POINTER(MgEnv) * n)(*(ctypes.pointer(native.state) for native in self.natives))
-        self._needs_reset = needs_reset
         self.state = batch = MgBatch()
         batch.envs = ctypes.addressof(self._env_pointers)
         batch.n = n
@@ -163,8 +172,10 @@ class NativeBatch:
         batch.rewards = _row_address(arrays["rewards"], first_env)
         batch.terminations = _row_address(arrays["terminations"], first_env)
         batch.truncations = _row_address(arrays["truncations"], first_env)
-        batch.needs_reset = needs_reset.ctypes.data
+        batch.needs_reset = _row_address(arrays["needs_reset"], first_env)
         batch.active = _row_address(arrays["step_mask"], first_env)
+        batch.in_caller = _row_address(arrays["in_caller"], first_env)
+        batch.caller = int(caller)
         batch.flags = self.flags.ctypes.data
         batch.current_env = arrays["current_env"].ctypes.data
         batch.first_env = first_env
@@ -234,6 +245,7 @@ class NativeCollector:
         local: the calling process's native slice, or ``None``.
         done: addresses of the workers' ``done`` signals, in worker order.
         replies: the workers' reply slots (worker ``k`` at index ``k``).
+        stepping: per worker, uint8: it was woken for the step (only those are waited for).
         spin_time, timeout: as for :class:`NativeServer`.
         waiter: the adaptive state of the parent's waits for the workers.
     """
@@ -243,11 +255,13 @@ class NativeCollector:
         local: NativeBatch | None,
         done: list[int],
         replies: np.ndarray,
+        stepping: np.ndarray,
         spin_time: float,
         timeout: float,
         waiter: MgWaiter,
     ) -> None:
         self.library = load_library()
+        self.stepping = stepping
         self.waiter = waiter
         self._done = (ctypes.c_void_p * max(len(done), 1))(*done)
         self._replies = replies
@@ -256,6 +270,7 @@ class NativeCollector:
         collector.n_workers = len(done)
         collector.done = ctypes.addressof(self._done)
         collector.replies = replies.ctypes.data
+        collector.stepping = stepping.ctypes.data
         collector.spin_ns, collector.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
         collector.waiter = ctypes.addressof(waiter)
         self._collect = self.library.mg_collect
@@ -264,3 +279,11 @@ class NativeCollector:
     def collect(self) -> int:
         """`COLLECT_DONE`, `COLLECT_LOCAL_PYTHON` or `COLLECT_SLOW` (see ``mg_collect``)."""
         return self._collect(self._ref)
+
+    def take_times(self) -> tuple[int, int, int]:
+        """Calls of :meth:`collect` since the last take, and the nanoseconds they spent stepping
+        the local slice, then waiting for the workers; the sums start again from zero."""
+        state = self.state
+        taken = state.calls, state.local_ns, state.wait_ns
+        state.calls = state.local_ns = state.wait_ns = 0
+        return taken

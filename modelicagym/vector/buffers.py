@@ -281,6 +281,12 @@ class SharedBuffers:
         self.reset_mask = allocator.array(np.bool_, (n,))
         #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.batches`)
         self.step_mask = allocator.array(np.uint8, (n,))
+        #: 1 where the calling process steps the env, 0 where its worker does (the placement; an
+        #: adaptive pool moves envs at episode boundaries: `modelicagym.vector.placement`)
+        self.in_caller = allocator.array(np.uint8, (n,))
+        #: per env, written only by the process that steps it: ``native.batch.RESET_THEN_REPORT``
+        #: (it ended; its next step is its reset) or ``RESET_THEN_STEP`` (it moved at a boundary)
+        self.needs_reset = allocator.array(np.uint8, (n,))
         self.command = allocator.array(np.int32, (w,))
         self.reply = allocator.array(np.int32, (w,))
         self.current_env = allocator.array(np.int64, (w,))
@@ -305,6 +311,8 @@ class SharedBuffers:
             "terminations": self.terminations,
             "truncations": self.truncations,
             "step_mask": self.step_mask,
+            "in_caller": self.in_caller,
+            "needs_reset": self.needs_reset,
             "current_env": self.current_env[slot : slot + 1],
             "timing": self.timing[slot],
             "timing_enabled": self.timing_enabled,

@@ -49,6 +49,8 @@ class Dispatcher:
         buffers: the pool's shared memory.
         spin_time: seconds a wait polls before it blocks (see :mod:`~modelicagym.vector.sync`).
         step_timeout: default timeout of a gather; ``None`` waits as long as the workers live.
+        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.placement`);
+            a step wakes only those. Call :meth:`stepping_changed` after it changes.
     """
 
     def __init__(
@@ -58,8 +60,10 @@ class Dispatcher:
         buffers: SharedBuffers,
         spin_time: float,
         step_timeout: float | None,
+        stepping: np.ndarray,
     ) -> None:
         self.handles = handles
+        self.stepping = stepping
         self.local = local
         self.buffers = buffers
         self.spin_time = spin_time
@@ -67,7 +71,9 @@ class Dispatcher:
         self.pending: list[PendingCommand] = []
         #: every party in slot order: the workers, then the local slice
         self._parties = [*handles, local] if local is not None else list(handles)
-        self._step_all = [PendingCommand(party, Command.STEP) for party in self._parties]
+        self._step_all: list[PendingCommand] = []
+        self._stepping_handles: list[WorkerHandle] = []
+        self.stepping_changed()
         #: the command slots hold STEP for every worker (so a step need not write them again)
         self._slots_say_step = False
         self._replies = memoryview(buffers.reply)
@@ -91,10 +97,22 @@ class Dispatcher:
             None if self.local is None else self.local.native,
             [handle.done.address for handle in self.handles],
             self.buffers.reply[: len(self.handles)],
+            self.stepping,
             self.spin_time,
             timeout,
             self.waiter,
         )
+
+    def stepping_changed(self) -> None:
+        """Take in which workers step envs now (``stepping``): a step wakes only those."""
+        self._stepping_handles = [handle for handle in self.handles if self.stepping[handle.index]]
+        parties = [*self._stepping_handles, self.local] if self.local is not None else self._stepping_handles
+        self._step_all = [PendingCommand(party, Command.STEP) for party in parties]
+
+    def take_collect_times(self) -> tuple[int, int, int] | None:
+        """Native collections since the last take, and their nanoseconds on the local slice, then
+        waiting for the workers; ``None`` on the Python path."""
+        return None if self._collector is None else self._collector.take_times()
 
     def release(self) -> None:
         """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""
@@ -118,7 +136,7 @@ class Dispatcher:
         if not self._slots_say_step:
             self.buffers.command[:] = Command.STEP
             self._slots_say_step = True
-        for handle in self.handles:
+        for handle in self._stepping_handles:
             handle.go.post()
         self.pending = self._step_all
         if self.local is not None:
@@ -244,11 +262,12 @@ class Dispatcher:
         else:
             self._local_reply = self.local.run(command.code, command.message)
 
-    @staticmethod
-    def call_results(outcomes: list[Outcome], doing: str) -> list[Any]:
+    def call_results(self, outcomes: list[Outcome], doing: str) -> list[Any]:
         """The results of ``call`` (or ``set_attr``) in env order, from outcomes without failures;
-        raises the first env's exception (the original one when it could be pickled)."""
-        results: list[Any] = []
+        raises the first env's exception (the original one when it could be pickled). Where an
+        env has two copies (an adaptive layout), the result is that of the copy stepped now."""
+        in_caller = self.buffers.in_caller
+        results: dict[int, Any] = {}
         for outcome in outcomes:
             message = outcome.message
             if message is None:
@@ -257,8 +276,11 @@ class Dispatcher:
                 remote = message.data
                 original = remote.original()
                 raise original if original is not None else remote.to_env_error(outcome.handle.index, doing)
-            results += message.data
-        return results
+            here = outcome.handle is self.local
+            for index, value in zip(outcome.handle.env_indices, message.data):
+                if bool(in_caller[index]) == here:
+                    results[index] = value
+        return [results[index] for index in sorted(results)]
 
     def gather(self, timeout: float | None, doing: str) -> list[Outcome]:
         """Wait for every pending worker; per worker its reply message and/or its failure.

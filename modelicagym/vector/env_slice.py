@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.native.batch import NativeBatch, batch_path_reason
+from modelicagym.native.batch import NO_RESET, RESET_THEN_STEP, NativeBatch, batch_path_reason
 from modelicagym.native.step import Flags
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.errors import RemoteError
@@ -77,9 +77,15 @@ class EnvSlice:
         first_env: the pool index of ``envs[0]``.
         slot: this slice's row in the per-slice shared arrays (``current_env``, ``timing``).
         autoreset_mode: the pool's autoreset mode.
+        caller: the calling process runs the slice: a step steps its envs marked in the shared
+            ``in_caller`` array (a worker's slice steps those not marked). Resets, calls and
+            attributes reach every env of the slice, stepped here or not, so that two copies of
+            an env stay interchangeable (see `modelicagym.vector.placement`).
     """
 
-    def __init__(self, envs: list[gym.Env], first_env: int, slot: int, autoreset_mode: AutoresetMode) -> None:
+    def __init__(
+        self, envs: list[gym.Env], first_env: int, slot: int, autoreset_mode: AutoresetMode, caller: bool = False
+    ) -> None:
         self.envs = envs
         self.first = first_env
         self.slot = slot
@@ -90,6 +96,8 @@ class EnvSlice:
         self.autoreset_mode = autoreset_mode
         self._next_step = autoreset_mode is AutoresetMode.NEXT_STEP
         self._same_step = autoreset_mode is AutoresetMode.SAME_STEP
+        self.caller = caller
+        #: per env of the slice, a view of the shared ``needs_reset`` once attached
         self.needs_reset = np.zeros(len(envs), dtype=np.uint8)
         reason = batch_path_reason(envs)
         self.step_path = "python" if reason else "native"
@@ -107,7 +115,7 @@ class EnvSlice:
     def create(
         cls, env_fns: list[Callable[[], gym.Env]], indices: range, slot: int, autoreset_mode: AutoresetMode
     ) -> EnvSlice:
-        """Create the envs ``indices`` here (the calling process's slice); closes them on failure."""
+        """Create the envs ``indices`` here (the calling process's slice, ``caller``); closes them on failure."""
         envs: list[gym.Env] = []
         try:
             for fn in env_fns[indices.start : indices.stop]:
@@ -115,7 +123,7 @@ class EnvSlice:
         except BaseException:
             close_envs(envs)
             raise
-        return cls(envs, indices.start, slot, autoreset_mode)
+        return cls(envs, indices.start, slot, autoreset_mode, caller=True)
 
     def describe_envs(self) -> str:
         """``"4-7"`` or ``"4"``: the env indices of this slice, for messages."""
@@ -135,9 +143,10 @@ class EnvSlice:
     def attach(self, buffers: SharedBuffers, needs_reset: bool) -> None:
         """Work on ``buffers`` from now on; ``needs_reset``: the envs were never reset."""
         self.buffers = buffers
+        self.needs_reset = buffers.needs_reset[self.first : self.first + len(self.envs)]
         self.needs_reset[:] = needs_reset
         if self.step_path == "native":
-            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot), self.needs_reset)
+            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot), self.caller)
 
     def detach(self) -> None:
         """Stop using the shared buffers (the pool released them)."""
@@ -170,20 +179,16 @@ class EnvSlice:
         buffers = self.buffers
         actions, observations = buffers.actions, buffers.observations
         rewards, terminations, truncations = buffers.rewards, buffers.terminations, buffers.truncations
-        current_env, step_mask = buffers.current_env, buffers.step_mask
-        given = int(buffers.action_dtype[0])
-        as_given = np.dtype(chr(given)).type if given else None
+        current_env, step_mask, in_caller = buffers.current_env, buffers.step_mask, buffers.in_caller
         timed = bool(buffers.timing_enabled[0])
         env_ns = fmu_ns = 0
         for offset in range(start, len(self.envs)):
             index = self.first + offset
-            if not step_mask[index]:
+            if not step_mask[index] or in_caller[index] != self.caller:
                 continue
             env = self.envs[offset]
             current_env[self.slot] = index
-            action = actions.read(index)
-            if as_given is not None:  # the dtype the batch was given in, as SyncVectorEnv hands it over
-                action = as_given(action) if np.ndim(action) == 0 else action.astype(as_given)
+            action = self._action(index)
             if timed:
                 fmu_env = self._fmu_envs[offset]
                 fmu_start = 0 if fmu_env is None else fmu_env.fmu_time_ns
@@ -206,8 +211,20 @@ class EnvSlice:
             buffers.timing[self.slot] = (env_ns, fmu_ns)
         return Message(Kind.INFOS, infos) if infos else None
 
+    def _action(self, index: int) -> Any:
+        """Env ``index``'s action, in the dtype the batch was given in, as SyncVectorEnv hands it over."""
+        action = self.buffers.actions.read(index)
+        given = int(self.buffers.action_dtype[0])
+        if given:
+            as_given = np.dtype(chr(given)).type
+            action = as_given(action) if np.ndim(action) == 0 else action.astype(as_given)
+        return action
+
     def _step_env(self, offset: int, env: gym.Env, action: Any) -> _StepResult:
         """One env's part of a vector step, with the autoreset of the pool's mode."""
+        if self.needs_reset[offset] == RESET_THEN_STEP:  # it moved here at an episode boundary
+            env.reset()
+            self.needs_reset[offset] = NO_RESET
         if self._next_step and self.needs_reset[offset]:
             observation, info = env.reset()
             self.needs_reset[offset] = False
@@ -254,6 +271,8 @@ class EnvSlice:
         """One env's result, from what C did (``flags``) and what is left to do."""
         if flags & Flags.FMU_ERROR:
             return self._after_step(offset, env, env.native_step_failure())
+        if self.needs_reset[offset] == RESET_THEN_STEP:  # C could not reset it natively
+            return self._step_env(offset, env, self._action(self.first + offset))
         if self._next_step and flags & Flags.PYTHON_RESET:
             return self._step_env(offset, env, None)
         step_info = {"fmu_terminated": True} if flags & Flags.MODEL_ENDED else {}

@@ -56,8 +56,10 @@ from modelicagym.vector.checks import (
     values_per_env,
 )
 from modelicagym.vector.dispatch import Dispatcher
-from modelicagym.vector.env_slice import EnvSlice
+from modelicagym.native.batch import batch_path_reason
+from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError, PoolError
+from modelicagym.vector.placement import LayoutPolicy, LayoutState, Placement
 from modelicagym.vector.plan import default_start_method, plan_layout, usable_cores
 from modelicagym.vector.protocol import Outcome, StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
@@ -82,7 +84,7 @@ _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 POOL_OPTIONS = (
     "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
-    "observation_mode", "worker", "batch_size",
+    "observation_mode", "worker", "batch_size", "adapt_layout",
 )
 
 
@@ -167,6 +169,7 @@ class PoolVectorEnv(VectorEnv):
         observation_mode: str | tuple[Space, Space] = "same",
         worker: Callable[..., None] | None = None,
         batch_size: int | None = None,
+        adapt_layout: bool | None = None,
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -205,6 +208,14 @@ class PoolVectorEnv(VectorEnv):
             batch_size: how many envs :meth:`recv` returns, for EnvPool-style partial batches
                 (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.batches`);
                 every env then lives in a worker. ``None``: ``num_envs``.
+            adapt_layout: move envs between the workers and the calling process at episode
+                boundaries, measuring which layout is faster as the machine's load changes
+                (`modelicagym.vector.placement`; :attr:`layout` says what runs where and why).
+                ``None`` (default): when the pool plans its own layout with the caller stepping
+                (``caller_steps``), every env is an FMU env on the native step path whose reset
+                is deterministic; ``True`` insists (a `ConfigError` says why it cannot);
+                ``False``: a fixed layout. An adaptive pool keeps a copy of every worker env in
+                the calling process too.
         """
         self.env_fns = list(env_fns)
         start_method = check_async_vector_env_options(start_method, context, daemon, observation_mode, worker)
@@ -212,7 +223,7 @@ class PoolVectorEnv(VectorEnv):
         check_pool_options(
             num_workers, max_envs_per_worker, step_timeout, startup_timeout, spin_time, start_method,
             {"restart_dead_workers": restart_dead_workers, "measure_timing": measure_timing, "copy": copy,
-             "caller_steps": caller_steps, "shared_memory": shared_memory},
+             "caller_steps": caller_steps, "shared_memory": shared_memory, "adapt_layout": adapt_layout},
         )
         self.num_envs = len(self.env_fns)
         self.batch_size = check_batch_size(batch_size, self.num_envs, caller_steps)
@@ -254,12 +265,16 @@ class PoolVectorEnv(VectorEnv):
             startup_timeout,
         )
         self._workers.launch()
+        local = None
         try:
             local = None if local_slice is None else EnvSlice.create(
                 self.env_fns, local_slice, self.num_workers, self.autoreset_mode
             )
             first = self._workers.connect(local)
+            self._placement, local = self._place(local, slices, adapt_layout)
         except BaseException:
+            if local is not None:
+                close_envs(local.envs)
             self._workers.release()
             self.closed = True
             raise
@@ -280,7 +295,9 @@ class PoolVectorEnv(VectorEnv):
         self._actions = ActionWriter(
             self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library()
         )
-        self._dispatcher = Dispatcher(self._workers.handles, local, self._buffers, spin_time, step_timeout)
+        self._dispatcher = Dispatcher(
+            self._workers.handles, local, self._buffers, spin_time, step_timeout, self._placement.stepping
+        )
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
@@ -334,6 +351,8 @@ class PoolVectorEnv(VectorEnv):
                 entries += self._recovery.after_reset(handle, failure, command)
             elif message is not None:
                 entries += message.data
+        if self._placement.adaptive and self._placement.after_reset(self._buffers.reset_mask):
+            self._dispatcher.stepping_changed()
         return entries
 
     # ------------------------------------------------------------------ step
@@ -395,6 +414,8 @@ class PoolVectorEnv(VectorEnv):
                     restarted = True
                 elif message is not None:
                     entries += message.data
+        if complete and self._placement.due():
+            self._adapt_after_step()
         if self._timing_enabled and not restarted:
             timing = buffers.timing
             self._timing.add(
@@ -409,6 +430,19 @@ class PoolVectorEnv(VectorEnv):
             buffers.truncations.copy(),
             self._merge_infos(entries) if entries else {},
         )
+
+    def _adapt_after_step(self) -> None:
+        """Let the adaptive layout account the steps it measured and move envs this one ended."""
+        buffers, dispatcher = self._buffers, self._dispatcher
+        if self._placement.after_step(buffers.terminations, buffers.truncations, dispatcher.take_collect_times):
+            dispatcher.stepping_changed()
+
+    @property
+    def layout(self) -> LayoutState:
+        """Where the envs run now and why: adaptive or fixed, envs in the calling process,
+        workers stepping, and the measurement behind the last change (see
+        `modelicagym.vector.placement`)."""
+        return self._placement.state()
 
     # ------------------------------------------------------------------ partial batches
 
@@ -615,6 +649,54 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ internals
 
+    def _place(
+        self, local: EnvSlice | None, worker_slices: list[range], adapt_layout: bool | None
+    ) -> tuple[Placement, EnvSlice | None]:
+        """The placement of the envs, and the calling process's slice: for an adaptive layout,
+        every env (copies of the worker envs, then its own); raises if ``adapt_layout=True`` cannot be."""
+        buffers = self._workers.buffers
+        caller_slice = None if local is None else local.env_indices
+        reason = self._fixed_layout_reason(local, adapt_layout)
+        if reason is None:
+            copies: list[gym.Env] = []
+            try:
+                copies += [fn() for fn in self.env_fns[: local.first]]
+                reason = _movable_reason(copies, "a copy of env {} in the calling process")
+                if reason is None:
+                    local.detach()
+                    local = EnvSlice(copies + local.envs, 0, local.slot, self.autoreset_mode, caller=True)
+                    local.attach(buffers, needs_reset=False)
+            except BaseException:
+                close_envs(copies)
+                raise
+            if reason is not None:
+                close_envs(copies)
+        if reason is not None and adapt_layout:
+            raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+        policy = None
+        if reason is None:
+            policy = LayoutPolicy(usable_cores())
+            reason = "the pool planned it; its envs can move at episode boundaries"
+        placement = Placement(
+            buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, self.autoreset_mode, policy, reason
+        )
+        return placement, local
+
+    def _fixed_layout_reason(self, local: EnvSlice | None, adapt_layout: bool | None) -> str | None:
+        """Why the layout cannot adapt (``None``: it can), before any copy is made."""
+        if adapt_layout is False:
+            return "adapt_layout=False"
+        if local is None:
+            return "every env is in a worker (a layout, fault handling or partial batches were asked for)"
+        if not self._workers.handles:
+            return "num_workers=0: every env is in the calling process"
+        if futex_library() is None:
+            return "no native library: the pool signals through semaphores"
+        paths = {path for path in self._workers.step_paths if path.path != "native"}
+        if paths:
+            return f"an env steps on the Python path: {next(iter(paths)).reason}"
+        return _movable_reason(local.envs, "env {}", local.first)
+
     def _gather(self, timeout: float | None, doing: str) -> list[Outcome]:
         """Every pending worker's outcome. On any exception while waiting (e.g. ``KeyboardInterrupt``)
         the pool is stopped before it propagates: a half-finished batch cannot be resumed."""
@@ -672,3 +754,14 @@ class PoolVectorEnv(VectorEnv):
             infos = self._add_info(infos, info, index)
         return infos
 
+
+
+def _movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
+    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
+    reason = batch_path_reason(envs)
+    if reason is not None:
+        return reason
+    for offset, env in enumerate(envs):
+        if not getattr(env, "reset_is_deterministic", False):
+            return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
+    return None

@@ -46,6 +46,7 @@ static long futex(uint32_t *word, int op, uint32_t value, const struct timespec 
 }
 
 void mg_signal_post(mg_signal *signal) {
+    __atomic_store_n(&signal->posted_ns, mg_now_ns(), __ATOMIC_RELAXED);
     __atomic_store_n(&signal->posted, 1, __ATOMIC_SEQ_CST);
     if (__atomic_load_n(&signal->sleepers, __ATOMIC_SEQ_CST))
         futex(&signal->posted, FUTEX_WAKE, INT_MAX, NULL);
@@ -206,6 +207,7 @@ int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_wa
         waiter->slept++;
     else
         waiter->blocked++;
-    waiter->long_waits = !got || mg_now_ns() - start > spin_ns ? waiter->long_waits + 1 : 0;
+    int64_t posted_after = __atomic_load_n(&signal->posted_ns, __ATOMIC_RELAXED) - start;
+    waiter->long_waits = !got || posted_after > spin_ns ? waiter->long_waits + 1 : 0;
     return got;
 }

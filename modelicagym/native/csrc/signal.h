@@ -19,7 +19,9 @@
  *     process from polling for a hold time that doubles while crowding persists; or
  *   - this waiter's previous wait outlasted the spin time (its partner computes between posts:
  *     an agent thinking, an update epoch, a heavy step): polling would only burn a core. A wait
- *     that then ends within the spin time turns polling back on.
+ *     whose post then comes within the spin time turns polling back on. "Comes" is the post's own
+ *     time stamp, not the wake-up's: two parties that both sleep would otherwise count each
+ *     other's wake-up latency and never poll again.
  *
  * The struct lives in memory shared by the processes (MAP_SHARED), each on a cache line of its
  * own; zeroed memory is an unposted signal. A waiter is private to the process that waits.
@@ -32,6 +34,7 @@
 typedef struct {
     uint32_t posted;   /* 1 after post, 0 after a successful wait (the futex word) */
     uint32_t sleepers; /* waiters inside futex_wait */
+    int64_t posted_ns; /* CLOCK_MONOTONIC of the last post: would a poll have caught it? */
 } mg_signal;
 
 /* One waiting party's adaptive state and what its waits did (zeroed: a fresh waiter). */

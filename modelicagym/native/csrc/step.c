@@ -198,7 +198,7 @@ int64_t mg_step_batch(mg_batch *b) {
     bool next_step = b->autoreset_mode == MG_AUTORESET_NEXT_STEP;
     bool same_step = b->autoreset_mode == MG_AUTORESET_SAME_STEP;
     for (int64_t i = 0; i < b->n; i++) {
-        if (!b->active[i]) {
+        if (!b->active[i] || b->in_caller[i] != b->caller) {
             b->flags[i] = 0;
             continue;
         }
@@ -209,10 +209,18 @@ int64_t mg_step_batch(mg_batch *b) {
         int64_t fmu_before = env->clock->fmu_time_ns;
         int32_t f;
         double reward = 0.0;
+        if (b->needs_reset[i] == MG_RESET_THEN_STEP) {
+            if (!env->native_reset || mg_env_reset(env) != 0) {
+                b->flags[i] = MG_PYTHON_RESET;
+                for_python++;
+                continue;
+            }
+            b->needs_reset[i] = MG_NO_RESET;
+        }
         if (next_step && b->needs_reset[i]) {
             f = env->native_reset && mg_env_reset(env) == 0 ? MG_RESET_DONE : MG_PYTHON_RESET;
             if (f == MG_RESET_DONE)
-                b->needs_reset[i] = 0;
+                b->needs_reset[i] = MG_NO_RESET;
         } else {
             f = mg_env_step(env, b->actions + i * b->action_stride, &reward);
             if (f & MG_BAD_ACTION) {
@@ -262,21 +270,29 @@ int32_t mg_serve(mg_server *server) {
 }
 
 int32_t mg_collect(mg_collector *c) {
-    if (c->local && mg_step_batch(c->local))
+    int64_t started = mg_now_ns();
+    c->calls++;
+    if (c->local && mg_step_batch(c->local)) {
+        c->local_ns += mg_now_ns() - started;
         return MG_COLLECT_LOCAL_PYTHON;
+    }
+    int64_t stepped = mg_now_ns();
+    c->local_ns += stepped - started;
     int64_t seen = 0;
     int32_t status = MG_COLLECT_DONE;
     for (; seen < c->n_workers; seen++)
-        if (!mg_signal_wait(c->done[seen], c->spin_ns, c->timeout_ns, c->waiter)) {
+        if (c->stepping[seen] && !mg_signal_wait(c->done[seen], c->spin_ns, c->timeout_ns, c->waiter)) {
             status = MG_COLLECT_SLOW;
             break;
         }
     for (int64_t k = 0; status == MG_COLLECT_DONE && k < c->n_workers; k++)
-        if (c->replies[k])
+        if (c->stepping[k] && c->replies[k])
             status = MG_COLLECT_SLOW;
     if (status != MG_COLLECT_DONE)
         for (int64_t k = 0; k < seen; k++)
-            mg_signal_post(c->done[k]);
+            if (c->stepping[k])
+                mg_signal_post(c->done[k]);
+    c->wait_ns += mg_now_ns() - stepped;
     return status;
 }
 

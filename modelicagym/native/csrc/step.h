@@ -74,6 +74,9 @@ enum {
 enum { MG_CALL_SET_INPUTS = 1, MG_CALL_DO_STEP = 2, MG_CALL_GET_OUTPUTS = 3, MG_CALL_SET_STATE = 4, MG_CALL_INTEGRATE = 5 };
 enum { MG_AUTORESET_NEXT_STEP = 0, MG_AUTORESET_SAME_STEP = 1, MG_AUTORESET_DISABLED = 2 };
 
+/* mg_batch.needs_reset values */
+enum { MG_NO_RESET = 0, MG_RESET_THEN_REPORT = 1, MG_RESET_THEN_STEP = 2 };
+
 /* One step of one env. `action` points to an int64 (discrete) or n_inputs doubles. Returns the
  * flags; the reward is written to *reward. The outputs are in env->outputs afterwards. */
 int32_t mg_env_step(mg_env *env, const void *action, double *reward);
@@ -94,8 +97,13 @@ typedef struct {
     char *final_obs; /* SAME_STEP: the final observation of an env reset in this step (same stride) */
     double *rewards;
     uint8_t *terminations, *truncations;
-    uint8_t *needs_reset; /* NEXT_STEP: the env ended last step and is reset by this one */
+    uint8_t *needs_reset; /* MG_RESET_THEN_REPORT: the env ended last step (NEXT_STEP) and this step
+                             is its reset; MG_RESET_THEN_STEP: it moved here at an episode boundary
+                             (SAME_STEP): reset it silently, then step it */
     const uint8_t *active; /* per env: step it in this call (the pool's step mask); else flags 0 */
+    const uint8_t *in_caller; /* per env: 1 if the calling process steps it, 0 if its worker does */
+    int32_t caller;           /* this slice is the calling process's (1) or a worker's (0): an env
+                                 is stepped here when active and in_caller[i] == caller */
     int32_t *flags;       /* per env, the flags of this step */
     int64_t *current_env; /* the pool index of the env being stepped (to name it if the FMU crashes) */
     int64_t first_env;    /* the pool index of envs[0] */
@@ -140,8 +148,12 @@ typedef struct {
     int64_t n_workers;
     void **done;           /* mg_signal of each worker */
     const int32_t *replies; /* reply slot of each worker (worker k: replies[k]) */
+    const uint8_t *stepping; /* per worker: it was woken for this step (else it is not waited for) */
     int64_t spin_ns, timeout_ns;
     mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
+    /* out, summed over calls until Python clears them: calls, time stepping the local slice, then
+     * waiting for the workers (the adaptive layout's measurement, vector/placement.py) */
+    int64_t calls, local_ns, wait_ns;
 } mg_collector;
 
 enum { MG_COLLECT_DONE = 0, MG_COLLECT_LOCAL_PYTHON = 1, MG_COLLECT_SLOW = 2 };
