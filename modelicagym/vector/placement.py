@@ -227,6 +227,7 @@ class Placement:
             for indices in worker_slices:
                 self._movable[indices.start : indices.stop] = True
         self._settled = True
+        self._pending: np.ndarray | None = None
         #: steps until the next window of measurements is taken in; a fixed layout never is
         self._countdown = PART_BATCHES if policy is not None else 1 << 62
         self._caller_envs = int(in_caller.sum())
@@ -252,35 +253,54 @@ class Placement:
 
     def after_step(
         self, terminations: np.ndarray, truncations: np.ndarray, take_times: Callable[[], tuple[int, int, int] | None]
-    ) -> bool:
-        """Account the batches measured since the last call (``take_times``: the dispatcher's) and
-        move the envs this step ended that belong elsewhere; ``True`` when a worker starts or stops
-        stepping (the dispatcher must know)."""
+    ) -> None:
+        """Account the batches measured since the last call (``take_times``: the dispatcher's), and
+        plan to move the envs this step ended that belong elsewhere. The move happens when the next
+        step starts (:meth:`move_pending`): until then ``call`` and ``get_attr`` still see the copy
+        that ended the episode, as ``SyncVectorEnv`` would show it."""
         if self._countdown <= 0:
             self._countdown = PART_BATCHES
             times = take_times()
             if times is not None and self.policy.observe(*times, self._caller_envs, len(self.in_caller)):
                 self._settled = False
-        if self._settled or not self._at_steps:
-            return False
-        return self._move(terminations | truncations, RESET_THEN_STEP if self._same_step else None)
+        if not self._settled and self._at_steps:
+            self._pending = self._movers(terminations | truncations)
+
+    @property
+    def pending(self) -> bool:
+        """Whether envs wait to move when the next step starts."""
+        return self._pending is not None
+
+    def move_pending(self) -> bool:
+        """Move the envs planned by :meth:`after_step` (the next step is about to start); ``True``
+        when a worker starts or stops stepping (the dispatcher must know)."""
+        movers, self._pending = self._pending, None
+        return self._move(movers, RESET_THEN_STEP if self._same_step else None)
 
     def after_reset(self, reset: np.ndarray) -> bool:
-        """Move the envs just reset (both copies alike) that belong elsewhere; as :meth:`after_step`."""
+        """Move the envs just reset, both copies alike, that belong elsewhere (now: the copies are
+        the same); drops the moves planned after the last step. As :meth:`move_pending`."""
+        self._pending = None
         if self.policy is None or self._settled:
             return False
-        return self._move(reset, None)
+        return self._move(self._movers(reset), None)
 
-    def _move(self, at_boundary: np.ndarray, needs_reset: int | None) -> bool:
+    def _movers(self, at_boundary: np.ndarray) -> np.ndarray:
+        """The movable envs at a boundary that are not where the policy wants them; notes whether
+        any is left to move later."""
         want = 1 if self.policy.target == CALLER else 0
         away = self._movable & (self.in_caller != want)
         movers = away & at_boundary
-        if movers.any():
-            if needs_reset is not None:
-                self.needs_reset[movers] = needs_reset
-            self.in_caller[movers] = want
-            self._caller_envs = int(self.in_caller.sum())
         self._settled = not (away & ~movers).any()
+        return movers
+
+    def _move(self, movers: np.ndarray, needs_reset: int | None) -> bool:
+        if not movers.any():
+            return False
+        if needs_reset is not None:
+            self.needs_reset[movers] = needs_reset
+        self.in_caller[movers] = 1 if self.policy.target == CALLER else 0
+        self._caller_envs = int(self.in_caller.sum())
         stepping = np.array([not self.in_caller[s.start : s.stop].all() for s in self._worker_slices], dtype=np.uint8)
         if np.array_equal(stepping, self.stepping):
             return False

@@ -381,6 +381,8 @@ class PoolVectorEnv(VectorEnv):
     def _start_step(self, started_ns: int) -> None:
         """Wake the parties to step with the actions written (``started_ns``: for the timing)."""
         self._step_started_ns = started_ns
+        if self._placement.pending and self._placement.move_pending():
+            self._dispatcher.stepping_changed()
         try:
             self._dispatcher.step_all()
             self._state = AsyncState.WAITING_STEP
@@ -414,7 +416,7 @@ class PoolVectorEnv(VectorEnv):
                     restarted = True
                 elif message is not None:
                     entries += message.data
-        if complete and self._placement.due():
+        if self._placement.due():
             self._adapt_after_step()
         if self._timing_enabled and not restarted:
             timing = buffers.timing
@@ -433,9 +435,8 @@ class PoolVectorEnv(VectorEnv):
 
     def _adapt_after_step(self) -> None:
         """Let the adaptive layout account the steps it measured and move envs this one ended."""
-        buffers, dispatcher = self._buffers, self._dispatcher
-        if self._placement.after_step(buffers.terminations, buffers.truncations, dispatcher.take_collect_times):
-            dispatcher.stepping_changed()
+        buffers = self._buffers
+        self._placement.after_step(buffers.terminations, buffers.truncations, self._dispatcher.take_collect_times)
 
     @property
     def layout(self) -> LayoutState:

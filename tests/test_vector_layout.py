@@ -1,0 +1,192 @@
+"""The adaptive layout: envs move between their worker and the calling process at episode
+boundaries, every env's trajectory stays SyncVectorEnv's, and the policy moves them where batches
+are measured to be cheaper; idle workers sleep."""
+
+from __future__ import annotations
+
+import os
+import time
+from functools import partial
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from test_vector_native import cartpole_fns
+from vector_rollouts import assert_same
+
+import modelicagym
+import modelicagym.vector.placement as placement
+from modelicagym.errors import ConfigError
+from modelicagym.vector import PoolVectorEnv
+from modelicagym.vector.placement import CALLER, WORKERS, LayoutPolicy
+from modelicagym.vector.sync import futex_library
+
+pytestmark = [
+    pytest.mark.timeout(180),
+    pytest.mark.skipif(futex_library() is None, reason="the adaptive layout needs the native library"),
+]
+
+
+class Flipping:
+    """A policy that changes its target every ``every`` parts it observes (moves on demand)."""
+
+    def __init__(self, every: int) -> None:
+        self.target, self.switches, self.last_decision = WORKERS, 0, ""
+        self._every, self._seen = every, 0
+
+    def observe(self, *measured: Any) -> bool:
+        self._seen += 1
+        if self._seen % self._every:
+            return False
+        self.target = CALLER if self.target == WORKERS else WORKERS
+        self.switches += 1
+        self.last_decision = f"to {self.target}: scripted"
+        return True
+
+
+def _flipping(pool: PoolVectorEnv, every: int) -> Flipping:
+    policy = Flipping(every)
+    pool._placement.policy = policy
+    return policy
+
+
+def _rollout_recording_layouts(envs: Any, steps: int, seed: int = 7) -> tuple[list, set[int]]:
+    """As ``vector_rollouts.rollout``, and how many envs the calling process stepped after each step."""
+    records: list[Any] = [envs.reset(seed=seed)]
+    envs.action_space.seed(seed)
+    disabled = envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
+    in_caller = set()
+    for _ in range(steps):
+        result = envs.step(envs.action_space.sample())
+        records.append(result)
+        records.append(envs.get_attr("elapsed_steps"))
+        ended = result[2] | result[3]
+        if disabled and ended.any():
+            records.append(envs.reset(options={"reset_mask": ended}))
+        if isinstance(envs, PoolVectorEnv):
+            in_caller.add(envs.layout.envs_in_caller)
+    return records, in_caller
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode))
+def test_envs_moving_between_processes_keep_sync_results(monkeypatch: pytest.MonkeyPatch, mode: AutoresetMode) -> None:
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    native, python = cartpole_fns(6)
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, num_workers=None, autoreset_mode=mode) as pool:
+        assert pool.layout.adaptive, pool.layout
+        policy = _flipping(pool, every=7)
+        actual, in_caller = _rollout_recording_layouts(pool, 300)
+        layout = pool.layout
+    expected, _ = _rollout_recording_layouts(sync, 300)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 40
+    home = 6 // 2  # the caller's own slice: one worker and the caller on 2 cores
+    assert min(in_caller) == home and max(in_caller) == 6, in_caller  # every env moved both ways
+    assert "scripted" in str(layout)
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_moves_keep_sync_results_with_per_episode_parameters(monkeypatch: pytest.MonkeyPatch, mode: AutoresetMode) -> None:
+    """An explicit reset with options resets both copies alike, so an env may move right after it;
+    an env that moves after an autoreset (no options) must not keep the options' episode."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    native, python = cartpole_fns(4)
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+        _flipping(pool, every=1)
+        for k in range(6):
+            options = {"parameters": {"m_cart": 1.0 + k}}
+            assert_same(sync.reset(seed=k, options=options), pool.reset(seed=k, options=options))
+            for _ in range(14):
+                actions = np.array([0, 1, 1, 0])
+                assert_same(sync.step(actions), pool.step(actions))
+            assert_same(sync.get_attr("episode_parameters"), pool.get_attr("episode_parameters"))
+    sync.close()
+
+
+def test_the_policy_moves_envs_to_the_caller_when_workers_are_slow_and_back_when_a_core_is_idle() -> None:
+    now = [0.0]
+    idle = [0.0]
+    policy = LayoutPolicy(2, clock=lambda: now[0], idle_cores=lambda: idle[0])
+    # 4 envs in the caller at 1 us each, 8 in all: alone would take 8 us a batch
+    for _ in range(placement.WINDOW_PARTS):
+        now[0] += 0.01
+        assert not policy.observe(64, 64 * 4_000, 64 * 1_000, 4, 8)  # 5 us a batch: the workers pay
+    assert policy.target == WORKERS
+    for _ in range(placement.WINDOW_PARTS):
+        now[0] += 0.01
+        changed = policy.observe(64, 64 * 4_000, 64 * 30_000, 4, 8)  # 34 us a batch
+    assert changed and policy.target == CALLER
+    assert "34.0 us" in policy.last_decision and "8.0 us" in policy.last_decision
+    now[0] += 10.0
+    assert not policy.observe(64, 64 * 8_000, 0, 8, 8)  # no idle core: the caller keeps every env
+    idle[0] = 1.0
+    now[0] += 0.03
+    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == WORKERS
+    # the probe fails: back to the caller, and the next probe waits twice as long
+    for _ in range(placement.WINDOW_PARTS):
+        now[0] += 0.01
+        policy.observe(64, 64 * 4_000, 64 * 30_000, 4, 8)
+    assert policy.target == CALLER
+    now[0] += 1.5 * placement.PROBE_FIRST_SECONDS
+    assert not policy.observe(64, 64 * 8_000, 0, 8, 8)
+    now[0] += placement.PROBE_FIRST_SECONDS
+    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == WORKERS
+
+
+def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    native, _ = cartpole_fns(4)
+    with PoolVectorEnv(native) as pool:
+        policy = _flipping(pool, every=1)
+        pool.reset(seed=0)
+        pool.step(np.ones(4, dtype=np.int64))
+        assert policy.target == CALLER
+        policy._every = 10**9  # stay with the caller from this first flip on
+        for _ in range(200):
+            pool.step(np.ones(4, dtype=np.int64))
+        assert pool.layout.envs_in_caller == 4 and pool.layout.workers_stepping == 0, pool.layout
+        before = _cpu_seconds(pool.worker_pids[0])
+        for _ in range(20_000):
+            pool.step(np.ones(4, dtype=np.int64))
+        assert _cpu_seconds(pool.worker_pids[0]) - before < 0.05
+
+
+@pytest.mark.parametrize("options", [{"adapt_layout": False}, {}])
+def test_a_worker_waiting_for_a_command_sleeps(options: dict[str, Any]) -> None:
+    native, _ = cartpole_fns(4)
+    with PoolVectorEnv(native, **options) as pool:
+        pool.reset(seed=0)
+        for _ in range(100):
+            pool.step(np.zeros(4, dtype=np.int64))
+        pid = pool.worker_pids[0]
+        before = _cpu_seconds(pid)
+        time.sleep(1.0)
+        assert _cpu_seconds(pid) - before < 0.05  # asleep on its futex, not polling
+
+
+def test_the_layout_says_why_it_is_fixed_and_adapt_layout_true_says_why_it_cannot() -> None:
+    native, _ = cartpole_fns(4)
+    with PoolVectorEnv(native, num_workers=2) as pool:
+        assert not pool.layout.adaptive and "in a worker" in pool.layout.reason
+    with PoolVectorEnv(native, adapt_layout=False) as pool:
+        assert not pool.layout.adaptive and pool.layout.envs_in_caller == 2
+    random_mass = [partial(modelicagym.make, "cartpole", m_cart=_uniform_mass) for _ in range(4)]
+    with PoolVectorEnv(random_mass) as pool:
+        assert not pool.layout.adaptive and "does not reset deterministically" in pool.layout.reason
+    with pytest.raises(ConfigError, match="adapt_layout=True.*does not reset deterministically"):
+        PoolVectorEnv(random_mass, adapt_layout=True)
+
+
+def _uniform_mass(rng: np.random.Generator) -> float:
+    return float(rng.uniform(0.5, 1.5))
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User and system CPU time of process ``pid``."""
+    with open(f"/proc/{pid}/stat") as handle:
+        fields = handle.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
