@@ -104,7 +104,9 @@ class LayoutPolicy:
         idle_cores: idle cores since the last call (a parameter for tests; default reads ``/proc/stat``).
     """
 
-    def __init__(self, cores: int, clock=time.monotonic, idle_cores=None) -> None:
+    def __init__(
+        self, cores: int, clock: Callable[[], float] = time.monotonic, idle_cores: Callable[[], float] | None = None
+    ) -> None:
         self.target = WORKERS
         self.switches = 0
         self.last_decision = ""
@@ -168,6 +170,7 @@ class IdleCores:
 
     def __init__(self, cores: int) -> None:
         self._cores = cores
+        self._machine_cores = os.cpu_count() or cores
         self._last = self._read()
 
     def __call__(self) -> float:
@@ -185,7 +188,6 @@ class IdleCores:
         except OSError:
             return None
         values = [int(f) for f in fields]
-        self._machine_cores = os.cpu_count() or self._cores
         return values[3] + values[4], sum(values[:8])
 
 
