@@ -19,7 +19,7 @@ import modelicagym
 import modelicagym.vector.placement as placement
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.placement import CALLER, WORKERS, LayoutPolicy
+from modelicagym.vector.placement import LayoutPolicy
 from modelicagym.vector.sync import futex_library
 
 pytestmark = [
@@ -29,24 +29,24 @@ pytestmark = [
 
 
 class Flipping:
-    """A policy that changes its target every ``every`` parts it observes (moves on demand)."""
+    """A policy that moves every movable env to the other side every ``every`` parts it observes."""
 
-    def __init__(self, every: int) -> None:
-        self.target, self.switches, self.last_decision = WORKERS, 0, ""
+    def __init__(self, movable: int, every: int) -> None:
+        self.movable, self.target, self.switches, self.last_decision = movable, 0, 0, ""
         self._every, self._seen = every, 0
 
     def observe(self, *measured: Any) -> bool:
         self._seen += 1
         if self._seen % self._every:
             return False
-        self.target = CALLER if self.target == WORKERS else WORKERS
+        self.target = self.movable - self.target
         self.switches += 1
-        self.last_decision = f"to {self.target}: scripted"
+        self.last_decision = f"{self.target} movable envs to the calling process: scripted"
         return True
 
 
 def _flipping(pool: PoolVectorEnv, every: int) -> Flipping:
-    policy = Flipping(every)
+    policy = Flipping(pool._placement.policy.movable, every)
     pool._placement.policy = policy
     return policy
 
@@ -107,34 +107,50 @@ def test_moves_keep_sync_results_with_per_episode_parameters(monkeypatch: pytest
     sync.close()
 
 
-def test_the_policy_moves_envs_to_the_caller_when_workers_are_slow_and_back_when_a_core_is_idle() -> None:
+def _window(policy: LayoutPolicy, now: list[float], batch_ns: int, env_ns: int, local: int, total: int) -> bool:
+    """Feed ``policy`` a window of parts where a batch takes ``batch_ns`` and an env of the
+    caller's ``local`` ones ``env_ns``; whether the target changed."""
+    changed = False
+    for _ in range(placement.WINDOW_PARTS):
+        now[0] += 0.01
+        changed |= policy.observe(64, 64 * env_ns * local, 64 * (batch_ns - env_ns * local), local, total)
+    return changed
+
+
+def test_the_policy_keeps_the_planned_layout_while_the_workers_keep_up() -> None:
     now = [0.0]
-    idle = [0.0]
-    policy = LayoutPolicy(2, clock=lambda: now[0], idle_cores=lambda: idle[0])
-    # 4 envs in the caller at 1 us each, 8 in all: alone would take 8 us a batch
-    for _ in range(placement.WINDOW_PARTS):
-        now[0] += 0.01
-        assert not policy.observe(64, 64 * 4_000, 64 * 1_000, 4, 8)  # 5 us a batch: the workers pay
-    assert policy.target == WORKERS
-    for _ in range(placement.WINDOW_PARTS):
-        now[0] += 0.01
-        changed = policy.observe(64, 64 * 4_000, 64 * 30_000, 4, 8)  # 34 us a batch
-    assert changed and policy.target == CALLER
+    policy = LayoutPolicy(4, 4, 2, clock=lambda: now[0], idle_cores=lambda: 0.0)
+    assert not _window(policy, now, 5_000, 1_000, 4, 8)  # the workers' 4 envs take 5 us: about the caller's 4
+    assert policy.target == 0
+
+
+def test_the_policy_moves_light_envs_to_the_caller_and_probes_the_workers_when_a_core_is_idle() -> None:
+    now, idle = [0.0], [0.0]
+    policy = LayoutPolicy(4, 4, 2, clock=lambda: now[0], idle_cores=lambda: idle[0])
+    assert _window(policy, now, 34_000, 1_000, 4, 8)  # waking the workers costs 30 us: 8 us alone wins
+    assert policy.target == 4
     assert "34.0 us" in policy.last_decision and "8.0 us" in policy.last_decision
     now[0] += 10.0
     assert not policy.observe(64, 64 * 8_000, 0, 8, 8)  # no idle core: the caller keeps every env
     idle[0] = 1.0
     now[0] += 0.03
-    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == WORKERS
+    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == 0
     # the probe fails: back to the caller, and the next probe waits twice as long
-    for _ in range(placement.WINDOW_PARTS):
-        now[0] += 0.01
-        policy.observe(64, 64 * 4_000, 64 * 30_000, 4, 8)
-    assert policy.target == CALLER
+    assert _window(policy, now, 34_000, 1_000, 4, 8) and policy.target == 4
     now[0] += 1.5 * placement.PROBE_FIRST_SECONDS
     assert not policy.observe(64, 64 * 8_000, 0, 8, 8)
     now[0] += placement.PROBE_FIRST_SECONDS
-    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == WORKERS
+    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == 0
+
+
+def test_the_policy_balances_heavy_envs_when_the_workers_have_half_a_core() -> None:
+    now = [0.0]
+    policy = LayoutPolicy(4, 4, 2, clock=lambda: now[0], idle_cores=lambda: 0.0)
+    # 95 us an env in the caller; the worker's 4 envs take twice as long (half a core)
+    assert _window(policy, now, 760_000, 95_000, 4, 8)
+    assert policy.target == 1, policy.last_decision  # 5 in the caller, 3 in the worker: 570 us a batch
+    assert "5/8 envs" in policy.last_decision
+    assert not _window(policy, now, 570_000, 95_000, 5, 8)  # balanced: stays
 
 
 def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -144,7 +160,7 @@ def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch
         policy = _flipping(pool, every=1)
         pool.reset(seed=0)
         pool.step(np.ones(4, dtype=np.int64))
-        assert policy.target == CALLER
+        assert policy.target == policy.movable
         policy._every = 10**9  # stay with the caller from this first flip on
         for _ in range(200):
             pool.step(np.ones(4, dtype=np.int64))

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import logging
 import os
+import statistics
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -44,12 +45,9 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.batch import RESET_THEN_STEP
 
-__all__ = ["CALLER", "WORKERS", "LayoutPolicy", "LayoutState", "Placement"]
+__all__ = ["LayoutPolicy", "LayoutState", "Placement"]
 
 logger = logging.getLogger(__name__)
-
-#: the policy's targets: every movable env in its worker, or every env in the calling process
-WORKERS, CALLER = "workers", "caller"
 
 #: the policy measures in parts of this many batches (summed in C), and decides on the median part
 #: of a window of at least this many parts and seconds (a median, so that one batch that met a
@@ -74,8 +72,8 @@ class LayoutState:
     adaptive: bool
     #: why the layout adapts, or why it cannot
     reason: str
-    #: ``"workers"`` or ``"caller"``: where movable envs are going (or are)
-    target: str
+    #: envs the calling process is to step (it gets them at their next episode boundaries)
+    target_in_caller: int
     #: envs the calling process steps now, of ``num_envs``
     envs_in_caller: int
     num_envs: int
@@ -96,18 +94,33 @@ class LayoutState:
 
 
 class LayoutPolicy:
-    """Decides, from what batches cost, whether movable envs belong in their workers or in the caller.
+    """Decides, from what batches cost, how many movable envs the calling process steps.
+
+    ``target`` is that number: 0 is the planned layout (every movable env in its worker),
+    ``movable`` is every env in the caller. From a window's median part it estimates the cost of an
+    env in the caller (its own slice's time per env) and in the workers (the batch's time, when the
+    caller waited for them, over their envs: their share of a core and the wake-ups included), and
+    picks the split that balances both sides; every env goes to the caller unless a split is
+    predicted faster by `MARGIN`. A light env on a crowded machine ends there (its workers' time is
+    mostly waking up); a heavy one beside a busy process ends balanced (its worker has half a core).
 
     Args:
+        movable: envs that may move (the workers' envs); ``home``: the caller's own.
         cores: the cores this process may use (for the idle-core reading).
         clock: seconds, monotonic (a parameter for tests).
         idle_cores: idle cores since the last call (a parameter for tests; default reads ``/proc/stat``).
     """
 
     def __init__(
-        self, cores: int, clock: Callable[[], float] = time.monotonic, idle_cores: Callable[[], float] | None = None
+        self,
+        movable: int,
+        home: int,
+        cores: int,
+        clock: Callable[[], float] = time.monotonic,
+        idle_cores: Callable[[], float] | None = None,
     ) -> None:
-        self.target = WORKERS
+        self.movable, self.home = movable, home
+        self.target = 0
         self.switches = 0
         self.last_decision = ""
         self._clock = clock
@@ -118,49 +131,77 @@ class LayoutPolicy:
         self._window()
 
     def _window(self) -> None:
-        #: per part: (microseconds a batch took with the workers, what the caller alone would take)
+        #: per part: (microseconds a batch took, microseconds an env took in the caller)
         self._parts: list[tuple[float, float]] = []
+        self._envs = (0, 0)
         self._window_start = self._clock()
 
     def observe(self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int) -> bool:
         """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
         in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all;
         ``True`` when the target changed."""
-        if batches and 0 < local_envs < all_envs:
-            per_env_ns = local_ns / (local_envs * batches)
-            self._parts.append(((local_ns + wait_ns) / batches / 1e3, per_env_ns * all_envs / 1e3))
+        if batches and local_envs:
+            self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_ns / (local_envs * batches) / 1e3))
+            self._envs = (local_envs, all_envs)
         now = self._clock()
-        if now - self._window_start < WINDOW_SECONDS or (self.target == WORKERS and len(self._parts) < WINDOW_PARTS):
+        in_caller = self.target == self.movable
+        if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
             return False
-        changed = self._decide(now)
+        changed = self._probe(now) if in_caller else self._balance(now)
         self._window()
         return changed
 
-    def _decide(self, now: float) -> bool:
-        if self.target == CALLER:
-            if now - self._switched_at < self._probe_wait:
-                return False
-            idle = self._idle_cores()
-            if idle < IDLE_CORES_TO_PROBE:
-                return False
-            self._probing = True
-            return self._switch(WORKERS, now, f"{idle:.1f} idle cores: the workers are tried again")
-        split_us, alone_us = sorted(self._parts, key=lambda part: part[0] / part[1])[len(self._parts) // 2]
-        if split_us <= MARGIN * alone_us:
-            if self._probing:
-                self._probing, self._probe_wait = False, PROBE_FIRST_SECONDS
+    def _probe(self, now: float) -> bool:
+        """Every env is in the caller: try the workers again once a core has been idle."""
+        if now - self._switched_at < self._probe_wait:
             return False
-        if self._probing:
-            self._probing, self._probe_wait = False, min(2 * self._probe_wait, PROBE_MAX_SECONDS)
-        self._idle_cores()  # start the idle-core reading from now
-        return self._switch(CALLER, now, f"a batch took {split_us:.1f} us with the workers; the calling "
-                                         f"process alone would take {alone_us:.1f} us")
+        idle = self._idle_cores()
+        if idle < IDLE_CORES_TO_PROBE:
+            return False
+        self._probing = True
+        return self._switch(0, now, f"{idle:.1f} idle cores: the workers are tried again")
 
-    def _switch(self, target: str, now: float, why: str) -> bool:
+    def _balance(self, now: float) -> bool:
+        """The split of the window's median part's costs that gives the shortest batch."""
+        local_envs, all_envs = self._envs
+        worker_envs = all_envs - local_envs
+        if not self._parts or worker_envs <= 0:
+            return False
+        batch_us = statistics.median(part[0] for part in self._parts)
+        env_us = statistics.median(part[1] for part in self._parts)
+        local_us = env_us * local_envs
+        # the workers' time per env: the batch's, if the caller waited for them; else at most the caller's
+        worker_env_us = (batch_us if batch_us > 1.05 * local_us else local_us) / worker_envs
+        alone_us = env_us * all_envs
+
+        def batch(in_caller: int) -> float:
+            return max(in_caller * env_us, (all_envs - in_caller) * worker_env_us)
+
+        balanced = all_envs * worker_env_us / (env_us + worker_env_us)
+        in_caller = min(max(round(balanced), self.home), all_envs)
+        if in_caller < all_envs and MARGIN * batch(in_caller) >= alone_us:
+            in_caller = all_envs
+        target = in_caller - self.home
+        if target == self.movable:
+            if self._probing:
+                self._probing, self._probe_wait = False, min(2 * self._probe_wait, PROBE_MAX_SECONDS)
+            self._idle_cores()  # the idle-core reading starts now
+            return self._switch(target, now, f"a batch took {batch_us:.1f} us with the workers; the calling "
+                                             f"process alone would take {alone_us:.1f} us")
+        if self._probing:
+            self._probing, self._probe_wait = False, PROBE_FIRST_SECONDS
+        current = self.home + self.target
+        if target == self.target or batch(in_caller) > 0.95 * batch(current):
+            return False
+        return self._switch(target, now, f"an env takes {env_us:.1f} us in the calling process and "
+                                         f"{worker_env_us:.1f} us in the workers: {in_caller}/{all_envs} envs "
+                                         f"in the calling process balance them")
+
+    def _switch(self, target: int, now: float, why: str) -> bool:
         self.target, self._switched_at = target, now
         self.switches += 1
-        self.last_decision = f"to {target}: {why}"
-        logger.debug("pool layout %s", self.last_decision)
+        self.last_decision = f"{self.home + target} envs to the calling process: {why}"
+        logger.debug("pool layout: %s", self.last_decision)
         return True
 
 
@@ -225,9 +266,14 @@ class Placement:
         #: per worker, uint8: it steps at least one env (only those are woken for a step)
         self.stepping = np.ones(len(worker_slices), dtype=np.uint8)
         self._movable = np.zeros(len(in_caller), dtype=np.bool_)
+        #: the movable envs in the order they go to the caller: the last env of every worker, then
+        #: the one before, ... (so that the workers give up envs evenly)
+        self._order = np.array([s[-1 - k] for k in range(max(map(len, worker_slices), default=0))
+                                for s in worker_slices if k < len(s)], dtype=np.int64)
+        #: per env, 1 where the policy wants it in the caller
+        self._want = in_caller.copy()
         if policy is not None:
-            for indices in worker_slices:
-                self._movable[indices.start : indices.stop] = True
+            self._movable[self._order] = True
         self._settled = True
         self._pending: np.ndarray | None = None
         #: steps until the next window of measurements is taken in; a fixed layout never is
@@ -242,7 +288,7 @@ class Placement:
         """What runs where now, and why."""
         policy = self.policy
         return LayoutState(
-            self.adaptive, self.reason, WORKERS if policy is None else policy.target, int(self.in_caller.sum()),
+            self.adaptive, self.reason, int(self._want.sum()), int(self.in_caller.sum()),
             len(self.in_caller), int(self.stepping.sum()), len(self.stepping),
             0 if policy is None else policy.switches, "" if policy is None else policy.last_decision,
         )
@@ -264,7 +310,7 @@ class Placement:
             self._countdown = PART_BATCHES
             times = take_times()
             if times is not None and self.policy.observe(*times, self._caller_envs, len(self.in_caller)):
-                self._settled = False
+                self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
 
@@ -287,11 +333,16 @@ class Placement:
             return False
         return self._move(self._movers(reset), None)
 
+    def _retarget(self) -> None:
+        """Take in the policy's new target: the first ``target`` envs of the order go to the caller."""
+        self._want[self._order] = 0
+        self._want[self._order[: self.policy.target]] = 1
+        self._settled = False
+
     def _movers(self, at_boundary: np.ndarray) -> np.ndarray:
         """The movable envs at a boundary that are not where the policy wants them; notes whether
         any is left to move later."""
-        want = 1 if self.policy.target == CALLER else 0
-        away = self._movable & (self.in_caller != want)
+        away = self._movable & (self.in_caller != self._want)
         movers = away & at_boundary
         self._settled = not (away & ~movers).any()
         return movers
@@ -301,7 +352,7 @@ class Placement:
             return False
         if needs_reset is not None:
             self.needs_reset[movers] = needs_reset
-        self.in_caller[movers] = 1 if self.policy.target == CALLER else 0
+        self.in_caller[movers] = self._want[movers]
         self._caller_envs = int(self.in_caller.sum())
         stepping = np.array([not self.in_caller[s.start : s.stop].all() for s in self._worker_slices], dtype=np.uint8)
         if np.array_equal(stepping, self.stepping):

@@ -676,7 +676,7 @@ class PoolVectorEnv(VectorEnv):
             raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
         policy = None
         if reason is None:
-            policy = LayoutPolicy(usable_cores())
+            policy = LayoutPolicy(len(local.envs) - len(caller_slice), len(caller_slice), usable_cores())
             reason = "the pool planned it; its envs can move at episode boundaries"
         placement = Placement(
             buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, self.autoreset_mode, policy, reason
