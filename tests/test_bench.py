@@ -5,6 +5,7 @@ test never asserts a duration — only that a benchmark nobody ran lately still 
 from __future__ import annotations
 
 import json
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +18,8 @@ BENCHMARKS = {
     "model-exchange": (["--steps", "50", "--python-steps", "5", "--repeats", "1", "--target-steps", "20",
                         "--target-rounds", "3"], {"seconds_per_step", "rate_vs_co_simulation", "target"}),
     "throughput": (["--n", "2", "--settings", "default", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
+    "shared": (["--n", "2", "--settings", "light", "--repeats", "1", "--seconds", "0.05"],
+               {"cores", "results", "targets"}),
     "partial-batches": (["--n", "4", "--workers", "2", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "solver-accuracy": (["--repeats", "1"], {"rows"}),
 }
@@ -47,3 +50,28 @@ def test_the_model_exchange_target_is_a_median_of_paired_ratios(tmp_path: Path) 
     low, high = target["quartiles"]
     assert 0 < low <= target["rate_vs_co_simulation"] <= high
     assert f"median of 3 back-to-back pairs: {target['rate_vs_co_simulation']:.2f}" in out
+
+
+def _processes_with(marker: str) -> list[int]:
+    """Pids of the processes whose command line holds ``marker``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and marker in (entry / "cmdline").read_bytes().decode(errors="replace"):
+                found.append(int(entry.name))
+        except OSError:
+            continue
+    return found
+
+
+def test_the_shared_machine_benchmark_leaves_no_load_behind(tmp_path: Path) -> None:
+    from modelicagym.bench.shared_machine import BUSY_MARKER
+
+    args = ["--loads", "busy", "two", "--n", "2", "--settings", "light", "--repeats", "2", "--seconds", "0.05"]
+    run_bench("shared", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert [group["load"] for group in result["results"]] == ["busy", "two"]
+    two = result["results"][1]
+    assert len(two["pairs"]["pool"]) == 2 and all(len(pair) == 2 for pair in two["pairs"]["pool"])
+    assert two["steps_per_second"]["pool"] == statistics.median(map(sum, two["pairs"]["pool"]))  # the pair's sum
+    assert _processes_with(BUSY_MARKER) == [] and _processes_with("modelicagym.bench.shared_machine") == []

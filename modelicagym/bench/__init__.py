@@ -76,11 +76,15 @@ def write_json(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
 
 
 def add_arguments(parser: Any) -> None:
-    """``modelicagym bench {fmi-calls,model-exchange,throughput,partial-batches,runner,solver-accuracy,ray}``: their arguments."""
-    from modelicagym.bench import fmi_calls, model_exchange, partial_batches, ray, runner, solver_accuracy, throughput
+    """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,partial-batches,runner,solver-accuracy,ray}``:
+    their arguments."""
+    from modelicagym.bench import (
+        fmi_calls, model_exchange, partial_batches, ray, runner, shared_machine, solver_accuracy, throughput,
+    )
 
     which = parser.add_subparsers(dest="benchmark", required=True)
-    benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput), ("partial-batches", partial_batches),
+    benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput),
+                  ("shared", shared_machine), ("partial-batches", partial_batches),
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])

@@ -104,7 +104,7 @@ def _vector_loop(envs: gym.vector.VectorEnv, n: int, seed: int) -> Run:
     return run
 
 
-def _make_vector(candidate: str, n: int, options: dict[str, Any]) -> gym.vector.VectorEnv:
+def make_vector(candidate: str, n: int, options: dict[str, Any]) -> gym.vector.VectorEnv:
     if candidate == "pool":
         return modelicagym.make_vec("cartpole", n=n, **options)
     fns = [EnvFactory("modelicagym.envs.cartpole:CartPoleEnv", options) for _ in range(n)]
@@ -141,7 +141,7 @@ def measure_group(setting: str, n: int, repeats: int, seconds: float) -> dict[st
         for candidate in VECTORS:
             if candidate == "async" and n > ASYNC_MAX_N:
                 continue
-            envs = _make_vector(candidate, n, options)
+            envs = make_vector(candidate, n, options)
             closers.append(envs)
             runs[candidate] = _vector_loop(envs, n, seed=n)
         pool = envs
