@@ -165,10 +165,14 @@ def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch
         for _ in range(200):
             pool.step(np.ones(4, dtype=np.int64))
         assert pool.layout.envs_in_caller == 4 and pool.layout.workers_stepping == 0, pool.layout
+        pool.set_timing(True)
         before = _cpu_seconds(pool.worker_pids[0])
         for _ in range(20_000):
             pool.step(np.ones(4, dtype=np.int64))
         assert _cpu_seconds(pool.worker_pids[0]) - before < 0.05
+        timing = pool.timing()
+        assert "4/4 envs in the calling process, 0/1 workers stepping" in timing.layout
+        assert 0 < timing.fmu_s <= timing.fmu_total_s  # the caller's slice is the critical one, all of it
 
 
 @pytest.mark.parametrize("options", [{"adapt_layout": False}, {}])

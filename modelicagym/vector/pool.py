@@ -26,6 +26,7 @@ Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vec
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import multiprocessing
 import time
@@ -420,6 +421,9 @@ class PoolVectorEnv(VectorEnv):
             self._adapt_after_step()
         if self._timing_enabled and not restarted:
             timing = buffers.timing
+            idle = self._placement.stepping == 0
+            if idle.any():  # workers not woken left their last step's times
+                timing[: len(idle)][idle] = 0
             self._timing.add(
                 time.perf_counter_ns() - self._step_started_ns,
                 timing[:, SharedBuffers.ENV_NS],
@@ -607,7 +611,7 @@ class PoolVectorEnv(VectorEnv):
         See :mod:`modelicagym.vector.timing` for the exact definitions; ``reset`` starts a new
         measurement after reading this one.
         """
-        summary = self._timing.summary()
+        summary = dataclasses.replace(self._timing.summary(), layout=str(self.layout))
         if reset:
             self._timing.clear()
         return summary

@@ -38,6 +38,8 @@ class StepTiming:
     pool_overhead_s: float
     fmu_total_s: float
     env_python_total_s: float
+    #: what runs where and why (``PoolVectorEnv.layout``), when read
+    layout: str = ""
 
 
 class TimingRecorder:
