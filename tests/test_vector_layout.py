@@ -16,9 +16,8 @@ from test_vector_native import cartpole_fns
 from vector_rollouts import assert_same
 
 import modelicagym
-import modelicagym.vector.placement as placement
 from modelicagym.errors import ConfigError
-from modelicagym.vector import PoolVectorEnv
+from modelicagym.vector import PoolVectorEnv, placement
 from modelicagym.vector.placement import LayoutPolicy
 from modelicagym.vector.sync import futex_library
 

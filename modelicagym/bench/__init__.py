@@ -75,11 +75,35 @@ def write_json(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
     return path
 
 
+def add_round_arguments(parser: Any, name: str) -> None:
+    """``--n``, ``--repeats``, ``--seconds`` and ``--json`` (default ``bench-results/<name>.json``)
+    of a benchmark that runs its candidates for interleaved rounds at several numbers of envs."""
+    parser.add_argument("--n", type=int, nargs="+", default=[2, 8, 64], help="numbers of envs")
+    parser.add_argument("--repeats", type=int, default=3, help="interleaved rounds (median reported)")
+    parser.add_argument("--seconds", type=float, default=0.5, help="seconds per round and candidate")
+    parser.add_argument("--json", default=f"bench-results/{name}.json", help="where to write the JSON")
+
+
+def conditions(load_before: tuple[float, float, float], repeats: int, seconds: float) -> tuple[str, dict[str, Any]]:
+    """The line that says under what conditions a benchmark ran, and the same for its JSON."""
+    load_after = os.getloadavg()
+    line = (f"cores: {os.cpu_count()}; load average (1 min) before {load_before[0]:.2f}, after {load_after[0]:.2f}; "
+            f"medians of {repeats} interleaved rounds of {seconds} s")
+    return line, {"cores": os.cpu_count(), "load_average": {"before": load_before, "after": load_after}}
+
+
 def add_arguments(parser: Any) -> None:
     """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,partial-batches,runner,solver-accuracy,ray}``:
     their arguments."""
     from modelicagym.bench import (
-        fmi_calls, model_exchange, partial_batches, ray, runner, shared_machine, solver_accuracy, throughput,
+        fmi_calls,
+        model_exchange,
+        partial_batches,
+        ray,
+        runner,
+        shared_machine,
+        solver_accuracy,
+        throughput,
     )
 
     which = parser.add_subparsers(dest="benchmark", required=True)

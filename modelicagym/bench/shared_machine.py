@@ -30,13 +30,13 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
-from modelicagym.bench import format_table, median, write_json
+from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
 from modelicagym.bench.throughput import EPISODE_STEPS, c_loop, make_vector
 
 logger = logging.getLogger(__name__)
@@ -134,6 +134,7 @@ def learner_work() -> Callable[[], None]:
     size = 64
     while True:
         a = np.random.default_rng(0).random((size, size))
+        a @ a  # the first product starts BLAS's threads: not part of the work
         started = time.perf_counter()
         for _ in range(5):
             a @ a
@@ -286,10 +287,7 @@ def report(results: list[dict[str, Any]], target_rows: list[dict[str, Any]]) -> 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--loads", nargs="+", default=list(LOADS), choices=LOADS)
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
-    parser.add_argument("--n", type=int, nargs="+", default=[2, 8, 64], help="numbers of envs")
-    parser.add_argument("--repeats", type=int, default=3, help="interleaved rounds (median reported)")
-    parser.add_argument("--seconds", type=float, default=0.5, help="seconds per round and candidate")
-    parser.add_argument("--json", default="bench-results/shared.json", help="where to write the JSON")
+    add_round_arguments(parser, "shared")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -300,14 +298,11 @@ def run(args: argparse.Namespace) -> int:
             for n in args.n:
                 logger.info("measuring %s, %s, n=%d", load, setting, n)
                 results.append(measure_group(load, setting, n, args.repeats, args.seconds))
-    load_after = os.getloadavg()
+    line, data = conditions(load_before, args.repeats, args.seconds)
     target_rows = targets(results)
     print(report(results, target_rows))
-    print(f"\ncores: {os.cpu_count()}; load average (1 min) before {load_before[0]:.2f}, after {load_after[0]:.2f}; "
-          f"medians of {args.repeats} interleaved rounds of {args.seconds} s")
-    data = {"cores": os.cpu_count(), "load_average": {"before": load_before, "after": load_after},
-            "results": results, "targets": target_rows}
-    print(f"wrote {write_json(args.json, data)}")
+    print(f"\n{line}")
+    print(f"wrote {write_json(args.json, {**data, 'results': results, 'targets': target_rows})}")
     return 0
 
 

@@ -34,7 +34,7 @@ import gymnasium as gym
 import numpy as np
 
 import modelicagym
-from modelicagym.bench import format_table, median, write_json
+from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import FMUError
 from modelicagym.registry import EnvFactory
@@ -200,11 +200,8 @@ def report(results: list[dict[str, Any]]) -> str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--n", type=int, nargs="+", default=[2, 8, 64], help="numbers of envs")
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
-    parser.add_argument("--repeats", type=int, default=3, help="interleaved rounds (median reported)")
-    parser.add_argument("--seconds", type=float, default=0.5, help="seconds per round and candidate")
-    parser.add_argument("--json", default="bench-results/throughput.json", help="where to write the JSON")
+    add_round_arguments(parser, "throughput")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -214,10 +211,8 @@ def run(args: argparse.Namespace) -> int:
         for n in args.n:
             logger.info("measuring %s, n=%d", setting, n)
             results.append(measure_group(setting, n, args.repeats, args.seconds))
-    load_after = os.getloadavg()
+    line, data = conditions(load_before, args.repeats, args.seconds)
     print(report(results))
-    print(f"\ncores: {os.cpu_count()}; load average (1 min) before {load_before[0]:.2f}, after {load_after[0]:.2f}; "
-          f"medians of {args.repeats} interleaved rounds of {args.seconds} s")
-    data = {"cores": os.cpu_count(), "load_average": {"before": load_before, "after": load_after}, "results": results}
-    print(f"wrote {write_json(args.json, data)}")
+    print(f"\n{line}")
+    print(f"wrote {write_json(args.json, {**data, 'results': results})}")
     return 0

@@ -177,7 +177,7 @@ class EnvSlice:
     def _step_python(self, start: int, infos: list[tuple[int, dict[str, Any]]]) -> Message | None:
         """Step the envs from offset ``start`` on, on the Python path."""
         buffers = self.buffers
-        actions, observations = buffers.actions, buffers.observations
+        observations = buffers.observations
         rewards, terminations, truncations = buffers.rewards, buffers.terminations, buffers.truncations
         current_env, step_mask, in_caller = buffers.current_env, buffers.step_mask, buffers.in_caller
         timed = bool(buffers.timing_enabled[0])

@@ -42,6 +42,7 @@ from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
+from modelicagym.native.batch import batch_path_reason
 from modelicagym.vector.actions import ActionWriter
 from modelicagym.vector.batches import PartialBatches
 from modelicagym.vector.buffers import SharedBuffers
@@ -57,7 +58,6 @@ from modelicagym.vector.checks import (
     values_per_env,
 )
 from modelicagym.vector.dispatch import Dispatcher
-from modelicagym.native.batch import batch_path_reason
 from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError, PoolError
 from modelicagym.vector.placement import LayoutPolicy, LayoutState, Placement
