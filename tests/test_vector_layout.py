@@ -18,7 +18,7 @@ from vector_rollouts import assert_same
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv, placement
-from modelicagym.vector.placement import LayoutPolicy
+from modelicagym.vector.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, LayoutPolicy
 from modelicagym.vector.sync import futex_library
 
 pytestmark = [
@@ -110,7 +110,7 @@ def _window(policy: LayoutPolicy, now: list[float], batch_ns: int, env_ns: int, 
     """Feed ``policy`` a window of parts where a batch takes ``batch_ns`` and an env of the
     caller's ``local`` ones ``env_ns``; whether the target changed."""
     changed = False
-    for _ in range(placement.WINDOW_PARTS):
+    for _ in range(WINDOW_PARTS):
         now[0] += 0.01
         changed |= policy.observe(64, 64 * env_ns * local, 64 * (batch_ns - env_ns * local), local, total)
     return changed
@@ -136,9 +136,9 @@ def test_the_policy_moves_light_envs_to_the_caller_and_probes_the_workers_when_a
     assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == 0
     # the probe fails: back to the caller, and the next probe waits twice as long
     assert _window(policy, now, 34_000, 1_000, 4, 8) and policy.target == 4
-    now[0] += 1.5 * placement.PROBE_FIRST_SECONDS
+    now[0] += 1.5 * PROBE_FIRST_SECONDS
     assert not policy.observe(64, 64 * 8_000, 0, 8, 8)
-    now[0] += placement.PROBE_FIRST_SECONDS
+    now[0] += PROBE_FIRST_SECONDS
     assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == 0
 
 

@@ -22,7 +22,7 @@ is already set); in ``SAME_STEP`` mode the old copy has already reset, so the ne
 silently before its next step (`RESET_THEN_STEP`). ``DISABLED`` moves envs only at resets. Every
 env's trajectory is therefore exactly the one `SyncVectorEnv` gives it, whatever layout runs.
 
-**The policy** (`LayoutPolicy`; docs/design.md, "The adaptive layout", has the measurements): while
+**The policy** (`modelicagym.vector.layout_policy.LayoutPolicy`; docs/design.md, "The adaptive layout", has the measurements): while
 workers step, the parent measures each batch's time stepping its own slice and then waiting for the
 workers, in C. Over a window of batches, the time per env of its own slice predicts what stepping
 every env itself would cost; if the batches took more than that (by a margin), every env moves to
@@ -33,35 +33,25 @@ measurement decides again. A probe that fails waits twice as long before the nex
 
 from __future__ import annotations
 
-import logging
-import os
-import statistics
-import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.native.batch import RESET_THEN_STEP
+from modelicagym.errors import ConfigError
+from modelicagym.native.batch import RESET_THEN_STEP, batch_path_reason
+from modelicagym.vector.env_slice import EnvSlice, close_envs
+from modelicagym.vector.layout_policy import LayoutPolicy
+from modelicagym.vector.plan import usable_cores
+from modelicagym.vector.sync import futex_library
+from modelicagym.vector.workers import WorkerSet
 
-__all__ = ["LayoutPolicy", "LayoutState", "Placement"]
+__all__ = ["LayoutState", "Placement", "place_envs"]
 
-logger = logging.getLogger(__name__)
-
-#: the policy measures in parts of this many batches (summed in C), and decides on the median part
-#: of a window of at least this many parts and seconds (a median, so that one batch that met a
-#: page fault or a preemption cannot decide)
+#: the policy's measurements come in parts of this many batches (summed in C)
 PART_BATCHES = 64
-WINDOW_PARTS = 5
-WINDOW_SECONDS = 0.02
-#: the workers' batches must cost more than this times the caller's own estimate to be given up
-MARGIN = 1.1
-#: seconds the caller steps everything before the first probe of the workers, and at most
-PROBE_FIRST_SECONDS = 0.5
-PROBE_MAX_SECONDS = 30.0
-#: idle cores (averaged since the last look) that make a probe of the workers worth it
-IDLE_CORES_TO_PROBE = 0.5
 
 
 @dataclass(frozen=True)
@@ -91,145 +81,6 @@ class LayoutState:
                  f"{self.workers_stepping}/{self.num_workers} workers stepping")
         decision = f"; last change: {self.last_decision}" if self.last_decision else ""
         return f"{kind} layout ({self.reason}): {where}{decision}"
-
-
-class LayoutPolicy:
-    """Decides, from what batches cost, how many movable envs the calling process steps.
-
-    ``target`` is that number: 0 is the planned layout (every movable env in its worker),
-    ``movable`` is every env in the caller. From a window's median part it estimates the cost of an
-    env in the caller (its own slice's time per env) and in the workers (the batch's time, when the
-    caller waited for them, over their envs: their share of a core and the wake-ups included), and
-    picks the split that balances both sides; every env goes to the caller unless a split is
-    predicted faster by `MARGIN`. A light env on a crowded machine ends there (its workers' time is
-    mostly waking up); a heavy one beside a busy process ends balanced (its worker has half a core).
-
-    Args:
-        movable: envs that may move (the workers' envs); ``home``: the caller's own.
-        cores: the cores this process may use (for the idle-core reading).
-        clock: seconds, monotonic (a parameter for tests).
-        idle_cores: idle cores since the last call (a parameter for tests; default reads ``/proc/stat``).
-    """
-
-    def __init__(
-        self,
-        movable: int,
-        home: int,
-        cores: int,
-        clock: Callable[[], float] = time.monotonic,
-        idle_cores: Callable[[], float] | None = None,
-    ) -> None:
-        self.movable, self.home = movable, home
-        self.target = 0
-        self.switches = 0
-        self.last_decision = ""
-        self._clock = clock
-        self._idle_cores = idle_cores or IdleCores(cores)
-        self._probe_wait = PROBE_FIRST_SECONDS
-        self._probing = False
-        self._switched_at = clock()
-        self._window()
-
-    def _window(self) -> None:
-        #: per part: (microseconds a batch took, microseconds an env took in the caller)
-        self._parts: list[tuple[float, float]] = []
-        self._envs = (0, 0)
-        self._window_start = self._clock()
-
-    def observe(self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int) -> bool:
-        """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
-        in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all;
-        ``True`` when the target changed."""
-        if batches and local_envs:
-            self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_ns / (local_envs * batches) / 1e3))
-            self._envs = (local_envs, all_envs)
-        now = self._clock()
-        in_caller = self.target == self.movable
-        if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
-            return False
-        changed = self._probe(now) if in_caller else self._balance(now)
-        self._window()
-        return changed
-
-    def _probe(self, now: float) -> bool:
-        """Every env is in the caller: try the workers again once a core has been idle."""
-        if now - self._switched_at < self._probe_wait:
-            return False
-        idle = self._idle_cores()
-        if idle < IDLE_CORES_TO_PROBE:
-            return False
-        self._probing = True
-        return self._switch(0, now, f"{idle:.1f} idle cores: the workers are tried again")
-
-    def _balance(self, now: float) -> bool:
-        """The split of the window's median part's costs that gives the shortest batch."""
-        local_envs, all_envs = self._envs
-        worker_envs = all_envs - local_envs
-        if not self._parts or worker_envs <= 0:
-            return False
-        batch_us = statistics.median(part[0] for part in self._parts)
-        env_us = statistics.median(part[1] for part in self._parts)
-        local_us = env_us * local_envs
-        # the workers' time per env: the batch's, if the caller waited for them; else at most the caller's
-        worker_env_us = (batch_us if batch_us > 1.05 * local_us else local_us) / worker_envs
-        alone_us = env_us * all_envs
-
-        def batch(in_caller: int) -> float:
-            return max(in_caller * env_us, (all_envs - in_caller) * worker_env_us)
-
-        balanced = all_envs * worker_env_us / (env_us + worker_env_us)
-        in_caller = min(max(round(balanced), self.home), all_envs)
-        if in_caller < all_envs and MARGIN * batch(in_caller) >= alone_us:
-            in_caller = all_envs
-        target = in_caller - self.home
-        if target == self.movable:
-            if self._probing:
-                self._probing, self._probe_wait = False, min(2 * self._probe_wait, PROBE_MAX_SECONDS)
-            self._idle_cores()  # the idle-core reading starts now
-            return self._switch(target, now, f"a batch took {batch_us:.1f} us with the workers; the calling "
-                                             f"process alone would take {alone_us:.1f} us")
-        if self._probing:
-            self._probing, self._probe_wait = False, PROBE_FIRST_SECONDS
-        current = self.home + self.target
-        if target == self.target or batch(in_caller) > 0.95 * batch(current):
-            return False
-        return self._switch(target, now, f"an env takes {env_us:.1f} us in the calling process and "
-                                         f"{worker_env_us:.1f} us in the workers: {in_caller}/{all_envs} envs "
-                                         f"in the calling process balance them")
-
-    def _switch(self, target: int, now: float, why: str) -> bool:
-        self.target, self._switched_at = target, now
-        self.switches += 1
-        self.last_decision = f"{self.home + target} envs to the calling process: {why}"
-        logger.debug("pool layout: %s", self.last_decision)
-        return True
-
-
-class IdleCores:
-    """Idle cores of the machine since the last call, averaged (``/proc/stat``; all of them where it
-    cannot be read, so that the policy still probes, as its back-off allows)."""
-
-    def __init__(self, cores: int) -> None:
-        self._cores = cores
-        self._machine_cores = os.cpu_count() or cores
-        self._last = self._read()
-
-    def __call__(self) -> float:
-        now = self._read()
-        last, self._last = self._last, now
-        if now is None or last is None or now[1] <= last[1]:
-            return float(self._cores)
-        return self._machine_cores * (now[0] - last[0]) / (now[1] - last[1])
-
-    def _read(self) -> tuple[int, int] | None:
-        """(idle, total) jiffies of all CPUs."""
-        try:
-            with open("/proc/stat", "rb") as handle:
-                fields = handle.readline().split()[1:]
-        except OSError:
-            return None
-        values = [int(f) for f in fields]
-        return values[3] + values[4], sum(values[:8])
 
 
 class Placement:
@@ -359,3 +210,70 @@ class Placement:
             return False
         self.stepping[:] = stepping
         return True
+
+
+def place_envs(
+    env_fns: Sequence[Callable[[], gym.Env]],
+    workers: WorkerSet,
+    local: EnvSlice | None,
+    autoreset_mode: AutoresetMode,
+    adapt_layout: bool | None,
+) -> tuple[Placement, EnvSlice | None]:
+    """The placement of a pool's envs, and the calling process's slice: for an adaptive layout,
+    every env (copies of the worker envs, then its own). Raises `ConfigError` if
+    ``adapt_layout=True`` cannot be, saying why."""
+    buffers = workers.buffers
+    caller_slice = None if local is None else local.env_indices
+    reason = _fixed_layout_reason(workers, local, adapt_layout)
+    if reason is None:
+        copies: list[gym.Env] = []
+        try:
+            copies += [fn() for fn in env_fns[: local.first]]
+            reason = _movable_reason(copies, "a copy of env {} in the calling process")
+            if reason is None:
+                local.detach()
+                local = EnvSlice(copies + local.envs, 0, local.slot, autoreset_mode, caller=True)
+                local.attach(buffers, needs_reset=False)
+        except BaseException:
+            close_envs(copies)
+            raise
+        if reason is not None:
+            close_envs(copies)
+    if reason is not None and adapt_layout:
+        raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+    policy = None
+    if reason is None:
+        policy = LayoutPolicy(len(local.envs) - len(caller_slice), len(caller_slice), usable_cores())
+        reason = "the pool planned it; its envs can move at episode boundaries"
+    worker_slices = [handle.env_indices for handle in workers.handles]
+    placement = Placement(
+        buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, autoreset_mode, policy, reason
+    )
+    return placement, local
+
+
+def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice | None, adapt_layout: bool | None) -> str | None:
+    """Why the layout cannot adapt (``None``: it can), before any copy is made."""
+    if adapt_layout is False:
+        return "adapt_layout=False"
+    if local is None:
+        return "every env is in a worker (a layout, fault handling or partial batches were asked for)"
+    if not workers.handles:
+        return "num_workers=0: every env is in the calling process"
+    if futex_library() is None:
+        return "no native library: the pool signals through semaphores"
+    paths = {path for path in workers.step_paths if path.path != "native"}
+    if paths:
+        return f"an env steps on the Python path: {next(iter(paths)).reason}"
+    return _movable_reason(local.envs, "env {}", local.first)
+
+
+def _movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
+    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
+    reason = batch_path_reason(envs)
+    if reason is not None:
+        return reason
+    for offset, env in enumerate(envs):
+        if not getattr(env, "reset_is_deterministic", False):
+            return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
+    return None

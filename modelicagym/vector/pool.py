@@ -19,7 +19,9 @@ This module is the public API only. The path of one ``step``, and where each par
 
 Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.workers`
 (one :mod:`~modelicagym.vector.handle` per process); the layout of envs over workers is
-:mod:`~modelicagym.vector.plan`; where step time goes is :mod:`~modelicagym.vector.timing`.
+:mod:`~modelicagym.vector.plan`, and which process steps each env now (the adaptive layout, which
+moves envs between the workers and the calling process at episode boundaries) is
+:mod:`~modelicagym.vector.placement`; where step time goes is :mod:`~modelicagym.vector.timing`.
 ``step_envs`` is a ``step`` whose shared step mask leaves some envs out; EnvPool's ``send``/``recv``
 (partial batches) is :mod:`~modelicagym.vector.batches`.
 """
@@ -42,7 +44,6 @@ from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
-from modelicagym.native.batch import batch_path_reason
 from modelicagym.vector.actions import ActionWriter
 from modelicagym.vector.batches import PartialBatches
 from modelicagym.vector.buffers import SharedBuffers
@@ -60,8 +61,8 @@ from modelicagym.vector.checks import (
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError, PoolError
-from modelicagym.vector.placement import LayoutPolicy, LayoutState, Placement
-from modelicagym.vector.plan import default_start_method, plan_layout, usable_cores
+from modelicagym.vector.placement import LayoutState, place_envs
+from modelicagym.vector.plan import default_start_method, plan_layout
 from modelicagym.vector.protocol import Outcome, StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
 from modelicagym.vector.sync import futex_library
@@ -272,7 +273,7 @@ class PoolVectorEnv(VectorEnv):
                 self.env_fns, local_slice, self.num_workers, self.autoreset_mode
             )
             first = self._workers.connect(local)
-            self._placement, local = self._place(local, slices, adapt_layout)
+            self._placement, local = place_envs(self.env_fns, self._workers, local, self.autoreset_mode, adapt_layout)
         except BaseException:
             if local is not None:
                 close_envs(local.envs)
@@ -654,54 +655,6 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ internals
 
-    def _place(
-        self, local: EnvSlice | None, worker_slices: list[range], adapt_layout: bool | None
-    ) -> tuple[Placement, EnvSlice | None]:
-        """The placement of the envs, and the calling process's slice: for an adaptive layout,
-        every env (copies of the worker envs, then its own); raises if ``adapt_layout=True`` cannot be."""
-        buffers = self._workers.buffers
-        caller_slice = None if local is None else local.env_indices
-        reason = self._fixed_layout_reason(local, adapt_layout)
-        if reason is None:
-            copies: list[gym.Env] = []
-            try:
-                copies += [fn() for fn in self.env_fns[: local.first]]
-                reason = _movable_reason(copies, "a copy of env {} in the calling process")
-                if reason is None:
-                    local.detach()
-                    local = EnvSlice(copies + local.envs, 0, local.slot, self.autoreset_mode, caller=True)
-                    local.attach(buffers, needs_reset=False)
-            except BaseException:
-                close_envs(copies)
-                raise
-            if reason is not None:
-                close_envs(copies)
-        if reason is not None and adapt_layout:
-            raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
-        policy = None
-        if reason is None:
-            policy = LayoutPolicy(len(local.envs) - len(caller_slice), len(caller_slice), usable_cores())
-            reason = "the pool planned it; its envs can move at episode boundaries"
-        placement = Placement(
-            buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, self.autoreset_mode, policy, reason
-        )
-        return placement, local
-
-    def _fixed_layout_reason(self, local: EnvSlice | None, adapt_layout: bool | None) -> str | None:
-        """Why the layout cannot adapt (``None``: it can), before any copy is made."""
-        if adapt_layout is False:
-            return "adapt_layout=False"
-        if local is None:
-            return "every env is in a worker (a layout, fault handling or partial batches were asked for)"
-        if not self._workers.handles:
-            return "num_workers=0: every env is in the calling process"
-        if futex_library() is None:
-            return "no native library: the pool signals through semaphores"
-        paths = {path for path in self._workers.step_paths if path.path != "native"}
-        if paths:
-            return f"an env steps on the Python path: {next(iter(paths)).reason}"
-        return _movable_reason(local.envs, "env {}", local.first)
-
     def _gather(self, timeout: float | None, doing: str) -> list[Outcome]:
         """Every pending worker's outcome. On any exception while waiting (e.g. ``KeyboardInterrupt``)
         the pool is stopped before it propagates: a half-finished batch cannot be resumed."""
@@ -760,13 +713,3 @@ class PoolVectorEnv(VectorEnv):
         return infos
 
 
-
-def _movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
-    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
-    reason = batch_path_reason(envs)
-    if reason is not None:
-        return reason
-    for offset, env in enumerate(envs):
-        if not getattr(env, "reset_is_deterministic", False):
-            return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
-    return None

@@ -1,0 +1,171 @@
+"""How many envs the calling process of an adaptive pool should step: measured, not assumed.
+
+`LayoutPolicy` is the decision half of the adaptive layout (`modelicagym.vector.placement` moves
+the envs): it takes in what batches cost, part by part, and says how many of the workers' envs
+the calling process should step. docs/design.md ("The adaptive layout") has the measurements
+behind it.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import statistics
+import time
+from collections.abc import Callable
+
+__all__ = ["IdleCores", "LayoutPolicy"]
+
+logger = logging.getLogger(__name__)
+
+#: the policy decides on the median part (of `modelicagym.vector.placement.PART_BATCHES` batches)
+#: of a window of at least this many parts and seconds (a median, so that one batch that met a
+#: page fault or a preemption cannot decide)
+WINDOW_PARTS = 5
+WINDOW_SECONDS = 0.02
+#: the workers' batches must cost more than this times the caller's own estimate to be given up
+MARGIN = 1.1
+#: seconds the caller steps everything before the first probe of the workers, and at most
+PROBE_FIRST_SECONDS = 0.5
+PROBE_MAX_SECONDS = 30.0
+#: idle cores (averaged since the last look) that make a probe of the workers worth it
+IDLE_CORES_TO_PROBE = 0.5
+
+
+class LayoutPolicy:
+    """Decides, from what batches cost, how many movable envs the calling process steps.
+
+    ``target`` is that number: 0 is the planned layout (every movable env in its worker),
+    ``movable`` is every env in the caller. From a window's median part it estimates the cost of an
+    env in the caller (its own slice's time per env) and in the workers (the batch's time, when the
+    caller waited for them, over their envs: their share of a core and the wake-ups included), and
+    picks the split that balances both sides; every env goes to the caller unless a split is
+    predicted faster by `MARGIN`. A light env on a crowded machine ends there (its workers' time is
+    mostly waking up); a heavy one beside a busy process ends balanced (its worker has half a core).
+
+    Args:
+        movable: envs that may move (the workers' envs); ``home``: the caller's own.
+        cores: the cores this process may use (for the idle-core reading).
+        clock: seconds, monotonic (a parameter for tests).
+        idle_cores: idle cores since the last call (a parameter for tests; default reads ``/proc/stat``).
+    """
+
+    def __init__(
+        self,
+        movable: int,
+        home: int,
+        cores: int,
+        clock: Callable[[], float] = time.monotonic,
+        idle_cores: Callable[[], float] | None = None,
+    ) -> None:
+        self.movable, self.home = movable, home
+        self.target = 0
+        self.switches = 0
+        self.last_decision = ""
+        self._clock = clock
+        self._idle_cores = idle_cores or IdleCores(cores)
+        self._probe_wait = PROBE_FIRST_SECONDS
+        self._probing = False
+        self._switched_at = clock()
+        self._window()
+
+    def _window(self) -> None:
+        #: per part: (microseconds a batch took, microseconds an env took in the caller)
+        self._parts: list[tuple[float, float]] = []
+        self._envs = (0, 0)
+        self._window_start = self._clock()
+
+    def observe(self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int) -> bool:
+        """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
+        in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all;
+        ``True`` when the target changed."""
+        if batches and local_envs:
+            self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_ns / (local_envs * batches) / 1e3))
+            self._envs = (local_envs, all_envs)
+        now = self._clock()
+        in_caller = self.target == self.movable
+        if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
+            return False
+        changed = self._probe(now) if in_caller else self._balance(now)
+        self._window()
+        return changed
+
+    def _probe(self, now: float) -> bool:
+        """Every env is in the caller: try the workers again once a core has been idle."""
+        if now - self._switched_at < self._probe_wait:
+            return False
+        idle = self._idle_cores()
+        if idle < IDLE_CORES_TO_PROBE:
+            return False
+        self._probing = True
+        return self._switch(0, now, f"{idle:.1f} idle cores: the workers are tried again")
+
+    def _balance(self, now: float) -> bool:
+        """The split of the window's median part's costs that gives the shortest batch."""
+        local_envs, all_envs = self._envs
+        worker_envs = all_envs - local_envs
+        if not self._parts or worker_envs <= 0:
+            return False
+        batch_us = statistics.median(part[0] for part in self._parts)
+        env_us = statistics.median(part[1] for part in self._parts)
+        local_us = env_us * local_envs
+        # the workers' time per env: the batch's, if the caller waited for them; else at most the caller's
+        worker_env_us = (batch_us if batch_us > 1.05 * local_us else local_us) / worker_envs
+        alone_us = env_us * all_envs
+
+        def batch(in_caller: int) -> float:
+            return max(in_caller * env_us, (all_envs - in_caller) * worker_env_us)
+
+        balanced = all_envs * worker_env_us / (env_us + worker_env_us)
+        in_caller = min(max(round(balanced), self.home), all_envs)
+        if in_caller < all_envs and MARGIN * batch(in_caller) >= alone_us:
+            in_caller = all_envs
+        target = in_caller - self.home
+        if target == self.movable:
+            if self._probing:
+                self._probing, self._probe_wait = False, min(2 * self._probe_wait, PROBE_MAX_SECONDS)
+            self._idle_cores()  # the idle-core reading starts now
+            return self._switch(target, now, f"a batch took {batch_us:.1f} us with the workers; the calling "
+                                             f"process alone would take {alone_us:.1f} us")
+        if self._probing:
+            self._probing, self._probe_wait = False, PROBE_FIRST_SECONDS
+        current = self.home + self.target
+        if target == self.target or batch(in_caller) > 0.95 * batch(current):
+            return False
+        return self._switch(target, now, f"an env takes {env_us:.1f} us in the calling process and "
+                                         f"{worker_env_us:.1f} us in the workers: {in_caller}/{all_envs} envs "
+                                         f"in the calling process balance them")
+
+    def _switch(self, target: int, now: float, why: str) -> bool:
+        self.target, self._switched_at = target, now
+        self.switches += 1
+        self.last_decision = f"{self.home + target} envs to the calling process: {why}"
+        logger.debug("pool layout: %s", self.last_decision)
+        return True
+
+
+class IdleCores:
+    """Idle cores of the machine since the last call, averaged (``/proc/stat``; all of them where it
+    cannot be read, so that the policy still probes, as its back-off allows)."""
+
+    def __init__(self, cores: int) -> None:
+        self._cores = cores
+        self._machine_cores = os.cpu_count() or cores
+        self._last = self._read()
+
+    def __call__(self) -> float:
+        now = self._read()
+        last, self._last = self._last, now
+        if now is None or last is None or now[1] <= last[1]:
+            return float(self._cores)
+        return self._machine_cores * (now[0] - last[0]) / (now[1] - last[1])
+
+    def _read(self) -> tuple[int, int] | None:
+        """(idle, total) jiffies of all CPUs."""
+        try:
+            with open("/proc/stat", "rb") as handle:
+                fields = handle.readline().split()[1:]
+        except OSError:
+            return None
+        values = [int(f) for f in fields]
+        return values[3] + values[4], sum(values[:8])
