@@ -14,11 +14,12 @@ import inspect
 from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from functools import partial
+from numbers import Integral
 from typing import Any
 
 import gymnasium as gym
 
-from modelicagym.errors import ArgumentError
+from modelicagym.errors import ArgumentError, ArgumentTypeError
 from modelicagym.fmu import open_fmu
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
@@ -112,6 +113,8 @@ def make_vec(
     """
     from modelicagym.vector.pool import POOL_OPTIONS
 
+    if isinstance(n, bool) or not isinstance(n, Integral):
+        raise ArgumentTypeError(f"n must be an int, got {type(n).__name__} {n!r}")
     if n < 1:
         raise ArgumentError(f"n must be at least 1, got {n}")
     if options_per_env is not None and len(options_per_env) != n:

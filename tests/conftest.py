@@ -22,6 +22,7 @@ from vector_leaks import Snapshot
 
 from modelicagym.models.cartpole import cartpole_fmu as build_cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
+from modelicagym.vector.sync import machine_crowded
 
 
 @pytest.fixture(params=FMI_VERSIONS, ids=[f"fmi{v}" for v in FMI_VERSIONS])
@@ -50,11 +51,13 @@ def family_fmu() -> Callable[[str, int], Path]:
 
 @pytest.fixture(scope="session")
 def pool_services() -> None:
-    """Start the fork server and the resource tracker once, so they are not counted as leaks.
+    """Start the fork server and the resource tracker once, and open the native library's reading
+    of the machine's load (one descriptor a process keeps), so they are not counted as leaks.
 
     ``num_workers=1``: a single env alone would be stepped by the calling process, starting nothing.
     """
     PoolVectorEnv([CountEnv], num_workers=1).close()
+    machine_crowded()
 
 
 @pytest.fixture

@@ -45,6 +45,12 @@ def test_a_misspelt_pool_option_is_named_as_one() -> None:
         modelicagym.make_vec("cartpole", n=2, pool_options={"step_timout": 1.0})
 
 
+@pytest.mark.parametrize("n", ["4", 2.0, True, None])
+def test_n_must_be_an_int(n: object) -> None:
+    with pytest.raises(TypeError, match=f"n must be an int, got {type(n).__name__}"):
+        modelicagym.make_vec("cartpole", n=n)
+
+
 def test_an_option_both_accept_must_be_placed(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(registry.ENVIRONMENTS, "colliding", ("ModelicaGym/Colliding-v0", f"{__name__}:CollidingEnv"))
     with pytest.raises(ArgumentError, match="'copy' is an option of both the env and the pool.*env_options"):

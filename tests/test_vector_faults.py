@@ -22,7 +22,9 @@ from vector_envs import CountEnv, FaultyEnv, MalformedEnv
 from vector_leaks import Snapshot, descendants, process_state
 
 from modelicagym.errors import ConfigError, ConfigTypeError
-from modelicagym.vector import RESTART_INFO_KEY, EnvError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
+from modelicagym.vector import (
+    RESTART_INFO_KEY, EnvError, PoolClosedError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError,
+)
 
 pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("pool_services")]
 
@@ -350,11 +352,15 @@ def test_an_env_fn_that_cannot_be_pickled_is_named_with_the_reason() -> None:
 @pytest.mark.usefixtures("no_leaks")
 def test_a_bad_seed_is_refused_and_the_pool_stays_usable() -> None:
     with PoolVectorEnv([CountEnv] * 2, num_workers=2) as pool:
-        for seed in (1.5, "seed", [1, 2, 3], [1.0, 2.0]):
+        for seed in (1.5, "seed", [1, 2, 3], [1.0, 2.0], -1, [0, -5]):
             with pytest.raises((TypeError, ValueError), match="seed"):
                 pool.reset(seed=seed)
+        with pytest.raises(TypeError, match="options must be None or a dict, got int 5"):
+            pool.reset(seed=0, options=5)
         pool.reset(seed=[1, None])
         pool.step(np.zeros(2, dtype=np.int64))
+    with pytest.raises(PoolClosedError, match="after a call to `close"):
+        pool.worker_pids  # noqa: B018 - the property raises
 
 
 def test_a_step_timeout_names_the_limit_and_the_option() -> None:

@@ -21,20 +21,32 @@ __all__ = ["check_async_vector_env_options", "check_env_fns", "check_pool_option
 
 
 def seeds_per_env(seed: int | list[int | None] | None, num_envs: int) -> list[int | None]:
-    """One seed per env: ``None`` for all, ``seed + i`` for env ``i``, or the list as given."""
+    """One seed per env: ``None`` for all, ``seed + i`` for env ``i``, or the list as given; a
+    negative seed is refused here, before any env sees it (numpy's seeds are non-negative)."""
     if seed is None:
         return [None] * num_envs
     if isinstance(seed, Integral) and not isinstance(seed, bool):
-        return [int(seed) + i for i in range(num_envs)]
-    if not isinstance(seed, (list, tuple)) or not all(
+        seeds: list[int | None] = [int(seed) + i for i in range(num_envs)]
+    elif not isinstance(seed, (list, tuple)) or not all(
         s is None or (isinstance(s, Integral) and not isinstance(s, bool)) for s in seed
     ):
         raise ArgumentTypeError(f"seed must be None, an int or a list of ints (or None) per env, got {seed!r}")
-    if len(seed) != num_envs:
+    elif len(seed) != num_envs:
         raise ArgumentError(
             f"If seeds are passed as a list the length must match num_envs={num_envs} but got length={len(seed)}."
         )
-    return list(seed)
+    else:
+        seeds = [None if s is None else int(s) for s in seed]
+    negative = next((k for k, s in enumerate(seeds) if s is not None and s < 0), None)
+    if negative is not None:
+        raise ArgumentError(f"seeds must be >= 0 (numpy's are), got {seeds[negative]} for env {negative}")
+    return seeds
+
+
+def check_reset_options(options: Any) -> None:
+    """``reset``'s ``options``: ``None`` or a dict, refused before any env sees them."""
+    if options is not None and not isinstance(options, dict):
+        raise ArgumentTypeError(f"options must be None or a dict, got {type(options).__name__} {options!r}")
 
 
 def values_per_env(values: list[Any] | tuple[Any, ...] | Any, num_envs: int) -> list[Any]:

@@ -53,6 +53,7 @@ from modelicagym.vector.checks import (
     check_env_fns,
     check_env_ids,
     check_pool_options,
+    check_reset_options,
     check_reset_mask,
     seeds_per_env,
     select_infos,
@@ -328,6 +329,7 @@ class PoolVectorEnv(VectorEnv):
         """Start resetting; collect the result with :meth:`reset_wait`."""
         self._assert_is_running()
         seeds = seeds_per_env(seed, self.num_envs)
+        check_reset_options(options)
         self._assert_idle("reset_async")
         mask = np.ones(self.num_envs, dtype=np.bool_)
         if options is not None and "reset_mask" in options:
@@ -585,6 +587,7 @@ class PoolVectorEnv(VectorEnv):
     @property
     def worker_pids(self) -> tuple[int, ...]:
         """The process ids of the workers, in worker order (a restarted worker has a new one)."""
+        self._assert_is_running()
         return tuple(handle.process.pid for handle in self._workers.handles)
 
     @property
