@@ -269,6 +269,45 @@ def test_workers_exit_when_the_parent_is_killed(start_method: str) -> None:
     assert not alive, f"orphaned workers still running: {alive}"
 
 
+@pytest.mark.parametrize("fault", ["hang_in_c", "hang"])
+@pytest.mark.parametrize("start_method", ["forkserver", "fork"])
+def test_no_process_outlives_a_killed_parent_whose_worker_is_stuck(start_method: str, fault: str, tmp_path: Path) -> None:
+    """The parent is SIGKILLed while a worker is stuck inside a step (a C call that never returns,
+    or a Python one): the workers, the fork server and the resource tracker all go."""
+    script = textwrap.dedent(
+        f"""
+        import functools, os, sys, time
+        sys.path.insert(0, {str(TESTS_DIR)!r})
+        from vector_envs import CountEnv, FaultyEnv
+        from modelicagym.vector import PoolVectorEnv
+        if __name__ == "__main__":
+            marker = sys.argv[1]
+            fns = [CountEnv, functools.partial(FaultyEnv, {fault!r}, at_step=1, marker=marker)]
+            pool = PoolVectorEnv(fns, num_workers=2, start_method={start_method!r})
+            pool.reset(seed=0)
+            pool.step_async([0, 0])
+            while not os.path.exists(marker):
+                time.sleep(0.01)
+            print("stuck", flush=True)
+            time.sleep(60)
+        """
+    )
+    marker = tmp_path / "struck"
+    parent = subprocess.Popen([sys.executable, "-c", script, str(marker)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert parent.stdout.readline().strip() == "stuck"
+        orphans = descendants(parent.pid)
+        assert len(orphans) >= 2
+    finally:
+        parent.kill()
+        parent.wait()
+    deadline = time.monotonic() + 10.0
+    while {pid for pid in orphans if process_state(pid) not in (None, "Z")} and time.monotonic() < deadline:
+        time.sleep(0.05)
+    alive = {pid: process_state(pid) for pid in orphans if process_state(pid) not in (None, "Z")}
+    assert not alive, f"still running after their parent was killed: {alive}"
+
+
 @pytest.mark.parametrize("caller_steps", [True, False])
 def test_a_ctrl_c_at_any_moment_leaves_the_pool_consistent(caller_steps: bool) -> None:
     """Interrupts land at random points of step/step_async/step_wait: afterwards the pool is

@@ -173,6 +173,8 @@ class FaultyEnv(CountEnv):
             os.kill(os.getpid(), signal.SIGKILL)
         elif self.fault == "hang":
             time.sleep(3600)
+        elif self.fault == "hang_in_c":  # blocked inside a C call, as a doStep that never returns
+            ctypes.CDLL(None).pause()
         elif self.fault == "raise":
             raise ValueError(f"{self.fault} at step {self.steps + 1}")
         else:

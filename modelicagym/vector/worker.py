@@ -12,7 +12,9 @@ Life of a worker:
    and comes back to Python only for what Python must do.
 
 SIGINT is ignored: on Ctrl-C the parent, not every worker, decides what happens (it stops the pool).
-The worker exits when told to close, or when it notices its parent has died.
+The worker exits when told to close, or when its parent dies: its command loop notices between
+commands, and a watchdog thread (:func:`exit_with_parent`) ends the process even while an env is
+stuck inside a C call (ctypes releases the GIL) or a Python loop.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ import logging
 import multiprocessing
 import os
 import signal
-from multiprocessing.connection import Connection
+import threading
+from multiprocessing.connection import Connection, wait
 from multiprocessing.reduction import ForkingPickler, recv_handle
 
 import gymnasium as gym
@@ -38,6 +41,9 @@ __all__ = ["run_worker"]
 
 logger = logging.getLogger(__name__)
 
+#: the exit code of a worker whose parent died (its watchdog ended it)
+PARENT_DIED_EXIT_CODE = 70
+
 
 def run_worker(
     worker_index: int,
@@ -50,6 +56,7 @@ def run_worker(
 ) -> None:
     """Entry point of a worker process (the ``target`` of its ``multiprocessing.Process``)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    exit_with_parent()
     envs: list[gym.Env] = []
     try:
         try:
@@ -68,6 +75,21 @@ def run_worker(
         logger.debug("worker %d: pipe to the parent closed, exiting", worker_index)
     finally:
         close_envs(envs)
+
+
+def exit_with_parent() -> None:
+    """End this process as soon as the process that started it dies, whatever the main thread is
+    doing: a daemon thread waits on the parent's sentinel (with ``forkserver`` and ``spawn`` too,
+    where the operating system's parent is the fork server) and calls ``os._exit``."""
+    parent = multiprocessing.parent_process()
+    if parent is None:
+        return
+
+    def watch() -> None:
+        wait([parent.sentinel])
+        os._exit(PARENT_DIED_EXIT_CODE)
+
+    threading.Thread(target=watch, name="modelicagym-parent-watch", daemon=True).start()
 
 
 class Worker:
