@@ -23,7 +23,7 @@ from vector_leaks import Snapshot, descendants, process_state
 
 from modelicagym.errors import ConfigError, ConfigTypeError
 from modelicagym.vector import (
-    RESTART_INFO_KEY, EnvError, PoolClosedError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError,
+    RESTART_INFO_KEY, ConcurrentUseError, EnvError, PoolClosedError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError,
 )
 
 pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("pool_services")]
@@ -325,13 +325,17 @@ def test_a_ctrl_c_at_any_moment_leaves_the_pool_consistent(caller_steps: bool) -
             if pool is None or pool.closed:
                 pool = PoolVectorEnv([CountEnv] * 3, caller_steps=caller_steps, num_workers=None if caller_steps else 2)
                 pool.reset(seed=0)
-            try:
-                signal.setitimer(signal.ITIMER_REAL, float(rng.uniform(1e-5, 2e-3)))
-                while True:
-                    pool.step(np.zeros(3, dtype=np.int64))
-            except KeyboardInterrupt:
-                pass
-            signal.setitimer(signal.ITIMER_REAL, 0)
+            interrupted = False
+            while not interrupted:
+                try:
+                    signal.setitimer(signal.ITIMER_REAL, float(rng.uniform(1e-5, 2e-3)))
+                    deadline = time.monotonic() + 1.0
+                    while time.monotonic() < deadline:
+                        pool.step(np.zeros(3, dtype=np.int64))
+                    # CPython drops a KeyboardInterrupt raised inside a finalizer: the alarm was lost, arm again
+                except KeyboardInterrupt:
+                    interrupted = True
+                signal.setitimer(signal.ITIMER_REAL, 0)
             if pool.closed:
                 outcomes["stopped"] += 1
             else:
@@ -428,3 +432,33 @@ def test_a_failure_releases_the_shared_memory_at_once(pool_services: None) -> No
         step_until_failure(pool)
     assert info.value.__traceback__ is not None
     before.assert_restored()
+
+
+@pytest.mark.parametrize("options", [{"num_workers": 2}, {}], ids=["workers", "default layout"])
+def test_a_second_thread_gets_a_clear_error_and_the_pool_stays_usable(options: dict[str, Any]) -> None:
+    """Two threads stepping one pool used to hang both (and the next reset); now the second is told."""
+    with PoolVectorEnv([CountEnv] * 4, **options) as pool:
+        pool.reset(seed=0)
+        errors: list[BaseException] = []
+        start = threading.Barrier(2)
+
+        def hammer() -> None:
+            start.wait()
+            for _ in range(3000):
+                try:
+                    pool.step(np.zeros(4, dtype=np.int64))
+                    pool.get_attr("steps")
+                except ConcurrentUseError as error:
+                    errors.append(error)
+
+        threads = [threading.Thread(target=hammer) for _ in range(2)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(60)
+        assert not any(thread.is_alive() for thread in threads), "a thread hung"
+        assert errors and "from a second thread" in str(errors[0])
+        assert not pool.closed
+        pool.reset(seed=1)
+        observations, *_ = pool.step(np.zeros(4, dtype=np.int64))
+        assert observations.shape[0] == 4

@@ -22,6 +22,7 @@ offer it, by these names:
 """
 
 from modelicagym.vector.errors import (
+    ConcurrentUseError,
     EnvError,
     NoPendingCallError,
     PendingCallError,
@@ -37,6 +38,7 @@ from modelicagym.vector.timing import StepTiming
 
 __all__ = [
     "RESTART_INFO_KEY",
+    "ConcurrentUseError",
     "EnvError",
     "NoPendingCallError",
     "PendingCallError",

@@ -22,9 +22,10 @@ from gymnasium.error import AlreadyPendingCallError, ClosedEnvironmentError, NoA
 from modelicagym.errors import ModelicaGymError
 
 __all__ = [
+    "ConcurrentUseError",
     "EnvError",
-    "PendingCallError",
     "NoPendingCallError",
+    "PendingCallError",
     "PoolClosedError",
     "PoolError",
     "RemoteError",
@@ -52,6 +53,11 @@ class PendingCallError(ModelicaGymError, AlreadyPendingCallError):
 
 class NoPendingCallError(ModelicaGymError, NoAsyncCallError):
     """A ``*_wait`` was called without the ``*_async`` call it collects."""
+
+
+class ConcurrentUseError(ModelicaGymError, RuntimeError):
+    """A second thread called into a pool while another thread was inside a call to it; the pool
+    is left as the first thread has it."""
 
 
 class PoolClosedError(ModelicaGymError, ClosedEnvironmentError):

@@ -29,8 +29,10 @@ moves envs between the workers and the calling process at episode boundaries) is
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import multiprocessing
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -53,15 +55,21 @@ from modelicagym.vector.checks import (
     check_env_fns,
     check_env_ids,
     check_pool_options,
-    check_reset_options,
     check_reset_mask,
+    check_reset_options,
     seeds_per_env,
     select_infos,
     values_per_env,
 )
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.env_slice import EnvSlice, close_envs
-from modelicagym.vector.errors import NoPendingCallError, PendingCallError, PoolClosedError, PoolError
+from modelicagym.vector.errors import (
+    ConcurrentUseError,
+    NoPendingCallError,
+    PendingCallError,
+    PoolClosedError,
+    PoolError,
+)
 from modelicagym.vector.placement import LayoutState, place_envs
 from modelicagym.vector.plan import default_start_method, plan_layout
 from modelicagym.vector.protocol import Outcome, StepPath, WorkerConfig
@@ -89,6 +97,32 @@ POOL_OPTIONS = (
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
     "observation_mode", "worker", "batch_size", "adapt_layout",
 )
+
+
+def one_thread_at_a_time(method: Callable[..., Any]) -> Callable[..., Any]:
+    """``method`` as a public call of the pool: a second thread that calls while another is inside a
+    call gets `ConcurrentUseError` at once (a pool's calls share one state and one set of workers;
+    two threads interleaving them hung). The calling thread claims the pool with one atomic
+    ``dict.setdefault`` (~0.15 us), not a lock: a Ctrl-C that lands between claiming and the
+    ``try`` leaves a claim only this same thread holds, which its next call clears, where a lock
+    would stay taken."""
+    name = method.__name__.lstrip("_")
+
+    @functools.wraps(method)
+    def exclusive(self: PoolVectorEnv, *args: Any, **kwargs: Any) -> Any:
+        me = threading.get_ident()
+        if self._user.setdefault("thread", me) != me:
+            raise ConcurrentUseError(
+                f"`{name}` was called from a second thread while another thread is inside a call to this pool; "
+                "a pool is used from one thread at a time (give each thread its own pool, or a lock)"
+            )
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            self._user.pop("thread", None)
+
+    exclusive.__name__ = exclusive.__qualname__ = name
+    return exclusive
 
 
 class PoolVectorEnv(VectorEnv):
@@ -220,6 +254,8 @@ class PoolVectorEnv(VectorEnv):
                 ``False``: a fixed layout. An adaptive pool keeps a copy of every worker env in
                 the calling process too.
         """
+        #: ``{"thread": ident}`` while a thread is inside a public call (`one_thread_at_a_time`)
+        self._user: dict[str, int] = {}
         self.env_fns = list(env_fns)
         start_method = check_async_vector_env_options(start_method, context, daemon, observation_mode, worker)
         check_env_fns(self.env_fns)
@@ -305,11 +341,11 @@ class PoolVectorEnv(VectorEnv):
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
         self._partial: PartialBatches | None = None
-        self.set_timing(measure_timing)
+        self._set_timing(measure_timing)
 
     # ------------------------------------------------------------------ reset
 
-    def reset(
+    def _reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         """Reset all envs (or those in ``options["reset_mask"]``); see ``AsyncVectorEnv.reset``.
@@ -322,10 +358,12 @@ class PoolVectorEnv(VectorEnv):
         Returns:
             The batch of observations and the merged infos of the reset envs.
         """
-        self.reset_async(seed=seed, options=options)
-        return self.reset_wait()
+        self._reset_async(seed=seed, options=options)
+        return self._reset_wait()
 
-    def reset_async(self, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
+    reset = one_thread_at_a_time(_reset)
+
+    def _reset_async(self, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Start resetting; collect the result with :meth:`reset_wait`."""
         self._assert_is_running()
         seeds = seeds_per_env(seed, self.num_envs)
@@ -339,10 +377,14 @@ class PoolVectorEnv(VectorEnv):
             self._dispatcher.reset(seeds, options, mask)
             self._state = AsyncState.WAITING_RESET
 
-    def reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
+    reset_async = one_thread_at_a_time(_reset_async)
+
+    def _reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
         entries = self._reset_entries(timeout)
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
+
+    reset_wait = one_thread_at_a_time(_reset_wait)
 
     def _reset_entries(self, timeout: float | None) -> Entries:
         """Collect the pending reset; the ``(env index, info)`` of the reset envs' non-empty infos."""
@@ -361,19 +403,21 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ step
 
-    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    def _step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every env with its action; returns batched ``(obs, rewards, terminations,
         truncations, infos)`` as :class:`~gymnasium.vector.SyncVectorEnv` does. A Ctrl-C while it
         runs leaves the pool as it was (the step never started) or stopped, never half-way."""
         try:
-            self.step_async(actions)
-            return self.step_wait()
+            self._step_async(actions)
+            return self._step_wait()
         except (KeyboardInterrupt, SystemExit):
             if self._state is not AsyncState.DEFAULT:
                 self._abort()
             raise
 
-    def step_async(self, actions: Any) -> None:
+    step = one_thread_at_a_time(_step)
+
+    def _step_async(self, actions: Any) -> None:
         """Check the actions (`modelicagym.vector.actions`: an `ActionError` naming the env leaves
         the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
         self._assert_is_running()
@@ -381,6 +425,8 @@ class PoolVectorEnv(VectorEnv):
         started_ns = time.perf_counter_ns() if self._timing_enabled else 0
         self._actions.write(actions)
         self._start_step(started_ns)
+
+    step_async = one_thread_at_a_time(_step_async)
 
     def _start_step(self, started_ns: int) -> None:
         """Wake the parties to step with the actions written (``started_ns``: for the timing)."""
@@ -394,7 +440,7 @@ class PoolVectorEnv(VectorEnv):
             self._abort()
             raise
 
-    def step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    def _step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Wait for the step started by :meth:`step_async`; ``timeout`` defaults to ``step_timeout``."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
@@ -440,6 +486,8 @@ class PoolVectorEnv(VectorEnv):
             self._merge_infos(entries) if entries else {},
         )
 
+    step_wait = one_thread_at_a_time(_step_wait)
+
     def _adapt_after_step(self) -> None:
         """Let the adaptive layout account the steps it measured and move envs this one ended."""
         buffers = self._buffers
@@ -454,27 +502,33 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ partial batches
 
-    def async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
+    def _async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Reset every env and make their results the first to come back from :meth:`recv`
         (EnvPool's ``async_reset``; see `modelicagym.vector.batches`)."""
-        self.reset_async(seed=seed, options=options)
+        self._reset_async(seed=seed, options=options)
         entries = self._reset_entries(None)
         self._partial_batches(None).start(entries)
 
-    def send(self, actions: Any, env_ids: Any) -> None:
+    async_reset = one_thread_at_a_time(_async_reset)
+
+    def _send(self, actions: Any, env_ids: Any) -> None:
         """Step envs ``env_ids`` (returned by :meth:`recv` since they were last sent) with
         ``actions``, one per id, and return at once (EnvPool's ``send``)."""
         self._assert_is_running()
         with self._stopped_on_interrupt():
             self._partial_batches("send").send(actions, env_ids)
 
-    def recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    send = one_thread_at_a_time(_send)
+
+    def _recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The first ``batch_size`` envs whose results are in, as a batch of that many; their
         indices are in ``infos["env_id"]`` (EnvPool's ``recv``)."""
         self._assert_is_running()
         return self._collected(self._partial_batches("recv").recv)
 
-    def step_envs(self, actions: Any, env_ids: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    recv = one_thread_at_a_time(_recv)
+
+    def _step_envs(self, actions: Any, env_ids: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step only envs ``env_ids`` (the others keep their state) and return their results, in
         the order of ``env_ids``, as a batch of that many; ``infos["env_id"]`` repeats the ids.
         ``env_ids`` may also be a boolean mask over all envs (the ids are then in increasing order).
@@ -493,7 +547,7 @@ class PoolVectorEnv(VectorEnv):
         mask[ids] = 1
         try:
             self._start_step(started_ns)
-            observations, rewards, terminations, truncations, infos = self.step_wait()
+            observations, rewards, terminations, truncations, infos = self._step_wait()
         except (KeyboardInterrupt, SystemExit):
             if self._state is not AsyncState.DEFAULT:
                 self._abort()
@@ -503,6 +557,8 @@ class PoolVectorEnv(VectorEnv):
         infos = select_infos(infos, ids)
         infos["env_id"] = ids.astype(np.int32)
         return observations[ids], rewards[ids], terminations[ids], truncations[ids], infos
+
+    step_envs = one_thread_at_a_time(_step_envs)
 
     def _collected(self, collect: Callable[[], Any]) -> Any:
         """``collect()`` results of partial batches; a worker's failure (or Ctrl-C) while
@@ -526,12 +582,14 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ call, attributes, render
 
-    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+    def _call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call method ``name`` of every env (or read attribute ``name``); one result per env."""
-        self.call_async(name, *args, **kwargs)
-        return self.call_wait()
+        self._call_async(name, *args, **kwargs)
+        return self._call_wait()
 
-    def call_async(self, name: str, *args: Any, **kwargs: Any) -> None:
+    call = one_thread_at_a_time(_call)
+
+    def _call_async(self, name: str, *args: Any, **kwargs: Any) -> None:
         """Start :meth:`call`; collect the results with :meth:`call_wait`."""
         self._assert_is_running()
         self._assert_idle("call_async")
@@ -541,17 +599,21 @@ class PoolVectorEnv(VectorEnv):
             self._dispatcher.call(name, args, kwargs)
             self._state = AsyncState.WAITING_CALL
 
-    def call_wait(self, timeout: float | None = None) -> tuple[Any, ...]:
+    call_async = one_thread_at_a_time(_call_async)
+
+    def _call_wait(self, timeout: float | None = None) -> tuple[Any, ...]:
         """Wait for :meth:`call_async`; ``timeout`` defaults to ``step_timeout``."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_CALL, "call_wait", "call_async")
         return tuple(self._collect_calls(timeout, "call"))
 
+    call_wait = one_thread_at_a_time(_call_wait)
+
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Attribute ``name`` of every env (through wrappers, like ``env.get_wrapper_attr``)."""
         return self.call(name)
 
-    def set_attr(self, name: str, values: list[Any] | tuple[Any, ...] | Any) -> None:
+    def _set_attr(self, name: str, values: list[Any] | tuple[Any, ...] | Any) -> None:
         """Set attribute ``name`` of every env: a list/tuple gives one value per env, anything
         else is set on all of them."""
         self._assert_is_running()
@@ -561,6 +623,8 @@ class PoolVectorEnv(VectorEnv):
             self._dispatcher.set_attr(name, values)
             self._state = AsyncState.WAITING_CALL
         self._collect_calls(None, "set_attr")
+
+    set_attr = one_thread_at_a_time(_set_attr)
 
     def render(self) -> tuple[Any, ...] | None:
         """The rendered frames of the envs (``render_mode`` applies)."""
@@ -598,7 +662,7 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ timing
 
-    def set_timing(self, enabled: bool) -> None:
+    def _set_timing(self, enabled: bool) -> None:
         """Switch step-time measurement on or off (and forget what was measured so far).
 
         When off, the only cost is one flag check per worker and step.
@@ -608,6 +672,8 @@ class PoolVectorEnv(VectorEnv):
         self._timing_enabled = bool(enabled)
         self._buffers.timing_enabled[0] = self._timing_enabled
         self._timing.clear()
+
+    set_timing = one_thread_at_a_time(_set_timing)
 
     def timing(self, reset: bool = False) -> StepTiming:
         """Where step time went, as means per batch step since timing was switched on.
