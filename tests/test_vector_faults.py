@@ -23,7 +23,13 @@ from vector_leaks import Snapshot, descendants, process_state
 
 from modelicagym.errors import ConfigError, ConfigTypeError
 from modelicagym.vector import (
-    RESTART_INFO_KEY, ConcurrentUseError, EnvError, PoolClosedError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError,
+    RESTART_INFO_KEY,
+    ConcurrentUseError,
+    EnvError,
+    PoolClosedError,
+    PoolVectorEnv,
+    WorkerDiedError,
+    WorkerTimeoutError,
 )
 
 pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("pool_services")]
