@@ -260,19 +260,25 @@ def test_workers_exit_when_the_parent_is_killed(start_method: str) -> None:
             time.sleep(60)
         """
     )
-    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    assert_nothing_survives_killing([sys.executable, "-c", script], "ready")
+
+
+def assert_nothing_survives_killing(command: list[str], ready: str) -> None:
+    """Run ``command`` until it prints ``ready``, SIGKILL it, and check that every process it had
+    started (workers, fork server, resource tracker) is gone within 10 s."""
+    parent = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
     try:
-        assert parent.stdout.readline().strip() == "ready"
+        assert parent.stdout.readline().strip() == ready
         orphans = descendants(parent.pid)
         assert len(orphans) >= 2
     finally:
         parent.kill()
         parent.wait()
     deadline = time.monotonic() + 10.0
-    while orphans & descendants(1) and time.monotonic() < deadline:
+    while {pid for pid in orphans if process_state(pid) not in (None, "Z")} and time.monotonic() < deadline:
         time.sleep(0.05)
-    alive = {pid for pid in orphans if process_state(pid) not in (None, "Z")}
-    assert not alive, f"orphaned workers still running: {alive}"
+    alive = {pid: process_state(pid) for pid in orphans if process_state(pid) not in (None, "Z")}
+    assert not alive, f"still running after their parent was killed: {alive}"
 
 
 @pytest.mark.parametrize("fault", ["hang_in_c", "hang"])
@@ -298,20 +304,7 @@ def test_no_process_outlives_a_killed_parent_whose_worker_is_stuck(start_method:
             time.sleep(60)
         """
     )
-    marker = tmp_path / "struck"
-    parent = subprocess.Popen([sys.executable, "-c", script, str(marker)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert parent.stdout.readline().strip() == "stuck"
-        orphans = descendants(parent.pid)
-        assert len(orphans) >= 2
-    finally:
-        parent.kill()
-        parent.wait()
-    deadline = time.monotonic() + 10.0
-    while {pid for pid in orphans if process_state(pid) not in (None, "Z")} and time.monotonic() < deadline:
-        time.sleep(0.05)
-    alive = {pid: process_state(pid) for pid in orphans if process_state(pid) not in (None, "Z")}
-    assert not alive, f"still running after their parent was killed: {alive}"
+    assert_nothing_survives_killing([sys.executable, "-c", script, str(tmp_path / "struck")], "stuck")
 
 
 @pytest.mark.parametrize("caller_steps", [True, False])
