@@ -136,3 +136,52 @@ def test_discrete_actions_of_any_dtype_are_range_checked_in_their_dtype() -> Non
             pool.step(np.array([1, 4, 0], dtype=np.int32))
         assert_same(pool.step(good)[:4], sync.step(good)[:4])
     sync.close()
+
+
+def actions_ignored_by_resetting_envs(good: Any, bad: Any, ended: np.ndarray) -> Any:
+    """``good`` with ``bad`` for the envs that ``ended`` (next-step autoreset ignores their actions)."""
+    if isinstance(good, dict):
+        return {key: np.where(ended.reshape((-1,) + (1,) * (value.ndim - 1)), bad[key], value)
+                for key, value in good.items()}
+    return np.where(ended.reshape((-1,) + (1,) * (good.ndim - 1)), bad, good)
+
+
+@pytest.mark.parametrize("caller_steps", [True, False])
+@pytest.mark.parametrize("make, good, bad", [
+    (partial(modelicagym.make, "cartpole"), np.array([1, 1, 1]), 7),
+    (partial(CountEnv, act="dict"), {"position": np.zeros((3, 2)), "mode": np.array([0, 1, 2])},
+     {"position": np.full(2, np.nan), "mode": 9}),
+])
+def test_next_step_autoreset_ignores_the_action_of_a_resetting_env_unchecked(
+    caller_steps: bool, make: Callable[[], Any], good: Any, bad: Any
+) -> None:
+    """As in ``SyncVectorEnv``: the step after an episode ended resets that env and ignores its
+    action, whatever it is; the other envs' actions are still checked."""
+    sync = SyncVectorEnv([make] * 3)
+    with PoolVectorEnv([make] * 3, caller_steps=caller_steps, num_workers=None if caller_steps else 2) as pool:
+        assert_same(pool.reset(seed=3), sync.reset(seed=3))
+        ended = np.zeros(3, dtype=bool)
+        resets = 0
+        for _ in range(40):
+            actions = actions_ignored_by_resetting_envs(good, bad, ended)
+            if ended.any() and not ended.all():
+                with pytest.raises(ActionError, match=f"env {int(np.flatnonzero(~ended)[0])}: "):
+                    pool.step(actions_ignored_by_resetting_envs(good, bad, np.ones(3, dtype=bool)))
+            result = pool.step(actions)
+            assert_same(result, sync.step(actions))
+            resets += int(ended.sum())
+            ended = result[2] | result[3]
+        assert resets >= 2
+    sync.close()
+
+
+def test_step_envs_ignores_the_action_of_a_resetting_env_unchecked() -> None:
+    with modelicagym.make_vec("cartpole", n=2) as pool:
+        pool.reset(seed=0)
+        ended = np.zeros(2, dtype=bool)
+        while not ended[0]:
+            *_, terminations, truncations, _ = pool.step_envs(np.array([1]), np.array([0]))
+            ended = terminations | truncations
+        observations, *_ = pool.step_envs(np.array([7]), np.array([0]))
+        with pytest.raises(ActionError, match="env 0: "):
+            pool.step_envs(np.array([7]), np.array([0]))

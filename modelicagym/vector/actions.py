@@ -7,6 +7,10 @@ small steps on the hot path: the batch is copied into the shared action array (w
 are asleep) and range-checked there by one native call (``mg_first_outside_*``, ~0.3 µs where
 numpy needs ~3 µs for a small batch). Other spaces are checked element by element; spaces
 `modelicagym.actions` does not know are left to the envs.
+
+In ``NEXT_STEP`` autoreset mode an env that ended resets on its next step and ignores the action
+it is given, as ``SyncVectorEnv`` does; such an action is not checked either (only the batch's
+shape is), so a policy may hand anything to an env that is resetting.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from gymnasium.vector.utils import batch_space, iterate
 
 from modelicagym.actions import CHECKED_SPACES, check_action
 from modelicagym.errors import ActionError, ActionTypeError
+from modelicagym.native.batch import RESET_THEN_REPORT
 from modelicagym.vector.buffers import PickledBatch, SharedBatch
 
 __all__ = ["ActionWriter"]
@@ -30,13 +35,23 @@ class ActionWriter:
 
     Args:
         shared: the shared actions (of the pool's ``single_action_space``, one per env).
+        given_dtype: the shared one-element array that tells the envs the dtype of the batch given.
         library: our native library, or ``None`` (numpy then does the range checks).
+        needs_reset: in ``NEXT_STEP`` autoreset mode, the pool's shared ``needs_reset`` array: an
+            env marked ``RESET_THEN_REPORT`` ignores its next action, which is then not checked.
     """
 
     def __init__(
-        self, shared: SharedBatch | PickledBatch, space: spaces.Space, given_dtype: np.ndarray, library: ctypes.CDLL | None
+        self,
+        shared: SharedBatch | PickledBatch,
+        space: spaces.Space,
+        given_dtype: np.ndarray,
+        library: ctypes.CDLL | None,
+        needs_reset: np.ndarray | None = None,
     ) -> None:
         self.space = space
+        self._needs_reset = needs_reset
+        self._all_envs = np.arange(shared.n)
         self.shared = shared
         self.num_envs = shared.n
         self._given_dtype = given_dtype
@@ -63,7 +78,7 @@ class ActionWriter:
         self._shape = (shared.n, *space.shape) if self._fast else None
         self._dtype = target.dtype if self._fast else None
         if self._range_check is None and self._fast:
-            self._range_check = self._numpy_range_check
+            self._range_check = lambda: self._first_used_outside(self._target, self._all_envs)
 
     def write(self, actions: Any) -> None:
         """Check ``actions`` and write them; raise `ActionError` (naming the env) if an env would
@@ -72,6 +87,8 @@ class ActionWriter:
         if self._fast and type(actions) is np.ndarray and actions.shape == self._shape and self._takes(actions.dtype):
             self._target[...] = actions
             bad = self._range_check()
+            if bad >= 0 and not self._is_used(bad):
+                bad = self._first_used_outside(self._target, self._all_envs)
             if bad >= 0:
                 raise self._refusal(actions[bad], bad)
             self._given_dtype[0] = self._dtype_code(actions)
@@ -109,6 +126,8 @@ class ActionWriter:
                 raise ActionError(f"a batch of actions of {self.space} is a dict of batches with keys "
                                   f"{sorted(self.space.keys())}; missing: {missing}, unknown: {extra}")
         for index, action in enumerate(iterate(self._batched, actions)):
+            if not self._is_used(index):
+                continue
             try:
                 check_action(self.space, action)
             except ActionError as error:
@@ -122,15 +141,15 @@ class ActionWriter:
         if self._fast and type(actions) is np.ndarray and self._takes(actions.dtype):
             low, high = self._bounds
             if actions.shape[1:] == self._shape[1:]:
-                rows = actions.reshape(len(env_ids), -1) if actions.size else actions
-                inside = (rows >= low) & (rows <= high)
-                if not inside.all():
-                    k = int(np.flatnonzero(~inside.reshape(len(env_ids), -1).all(axis=1))[0])
+                k = self._first_used_outside(actions, env_ids)
+                if k >= 0:
                     raise self._refusal(actions[k], int(env_ids[k]))
                 self._target[env_ids] = actions
                 self._given_dtype[0] = self._dtype_code(actions)
                 return
         for env, action in zip(env_ids.tolist(), actions):
+            if not self._is_used(env):
+                continue
             try:
                 check_action(self.space, action)
             except ActionError as error:
@@ -139,6 +158,23 @@ class ActionWriter:
             self.shared.write(env, action)
         self._given_dtype[0] = self._dtype_code(actions)
 
+    def _is_used(self, env: int) -> bool:
+        """Whether env ``env`` will act on its action (not an env resetting in ``NEXT_STEP`` mode)."""
+        return self._needs_reset is None or self._needs_reset[env] != RESET_THEN_REPORT
+
+    def _first_used_outside(self, actions: np.ndarray, env_ids: np.ndarray) -> int:
+        """The position in ``actions`` (the actions of envs ``env_ids``) of the first one out of
+        range that its env will use, or -1."""
+        if not actions.size:
+            return -1
+        rows = actions.reshape(len(env_ids), -1)
+        low, high = self._bounds
+        refused = ~((rows >= low) & (rows <= high)).all(axis=1)
+        if self._needs_reset is not None:
+            refused &= self._needs_reset[env_ids] != RESET_THEN_REPORT
+        outside = np.flatnonzero(refused)
+        return int(outside[0]) if outside.size else -1
+
     def _refusal(self, action: Any, index: int) -> ActionError:
         """The error for env ``index``'s refused ``action``, with the single env's message."""
         try:
@@ -146,12 +182,6 @@ class ActionWriter:
         except ActionError as error:
             return ActionError(f"env {index}: {error}")
         return ActionError(f"env {index}: invalid action {action!r} for {self.space}")
-
-    def _numpy_range_check(self) -> int:
-        rows = self._target.reshape(self.num_envs, -1)
-        low, high = self._bounds
-        outside = np.flatnonzero(~((rows >= low) & (rows <= high)).all(axis=1))
-        return int(outside[0]) if outside.size else -1
 
 
 def _is_scalar(actions: Any) -> bool:

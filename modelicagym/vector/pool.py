@@ -332,7 +332,8 @@ class PoolVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._buffers: SharedBuffers = self._workers.buffers
         self._actions = ActionWriter(
-            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library()
+            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library(),
+            self._buffers.needs_reset if self.autoreset_mode is AutoresetMode.NEXT_STEP else None,
         )
         self._dispatcher = Dispatcher(
             self._workers.handles, local, self._buffers, spin_time, step_timeout, self._placement.stepping
