@@ -4,6 +4,7 @@ arguments and its warnings (the rest of the contract is tested against SyncVecto
 from __future__ import annotations
 
 import logging
+import multiprocessing
 from functools import partial
 
 import numpy as np
@@ -151,3 +152,32 @@ def test_custom_spaces_are_said_once_and_env_errors_still_name_the_env(caplog: p
         with pytest.raises(ValueError, match="not a word over 'ab'") as info:
             pool.step(("a", "c"))
         assert isinstance(info.value, EnvError) and info.value.env_index == 1
+
+
+class Slow(CountEnv):
+    """Resets, and works when called, in ``cost`` seconds of busy CPU, as its steps take."""
+
+    def reset(self, *, seed=None, options=None):
+        self._spend()
+        return super().reset(seed=seed, options=options)
+
+    def work(self) -> None:
+        self._spend()
+
+
+@pytest.mark.parametrize("wait", ["step_wait", "reset_wait", "call_wait"])
+def test_a_timeout_given_to_a_wait_bounds_the_callers_own_envs_too(wait: str) -> None:
+    """The calling process runs env 1 itself (0.3 s a call): a 0.1 s timeout raises a
+    TimeoutError, as AsyncVectorEnv's does, and the pool stays usable."""
+    fns = [Slow, partial(Slow, cost=0.3)]
+    with PoolVectorEnv(fns, num_workers=1, caller_steps=True, adapt_layout=False) as pool:
+        pool.reset(seed=0)
+        start = {"step_wait": partial(pool.step_async, np.zeros(2, dtype=np.int64)),
+                 "reset_wait": partial(pool.reset_async, seed=1), "call_wait": partial(pool.call_async, "work")}
+        start[wait]()
+        with pytest.raises(multiprocessing.TimeoutError, match=f"`{wait}` has timed out after 0.1 second"):
+            getattr(pool, wait)(timeout=0.1)
+        start[wait]()
+        getattr(pool, wait)(timeout=30.0)
+        observations, rewards, *_ = pool.step(np.zeros(2, dtype=np.int64))
+        assert observations.shape[0] == 2

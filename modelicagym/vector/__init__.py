@@ -22,6 +22,7 @@ offer it, by these names:
 """
 
 from modelicagym.vector.errors import (
+    CallerTimeoutError,
     ConcurrentUseError,
     EnvError,
     NoPendingCallError,
@@ -38,6 +39,7 @@ from modelicagym.vector.timing import StepTiming
 
 __all__ = [
     "RESTART_INFO_KEY",
+    "CallerTimeoutError",
     "ConcurrentUseError",
     "EnvError",
     "NoPendingCallError",

@@ -22,6 +22,7 @@ from gymnasium.error import AlreadyPendingCallError, ClosedEnvironmentError, NoA
 from modelicagym.errors import ModelicaGymError
 
 __all__ = [
+    "CallerTimeoutError",
     "ConcurrentUseError",
     "EnvError",
     "NoPendingCallError",
@@ -141,6 +142,14 @@ class WorkerTimeoutError(PoolError, multiprocessing.TimeoutError):
     """A worker did not answer within the timeout; it was killed.
 
     It is also a :class:`multiprocessing.TimeoutError`, what ``AsyncVectorEnv`` raises on timeouts.
+    """
+
+
+class CallerTimeoutError(ModelicaGymError, multiprocessing.TimeoutError):
+    """The ``timeout`` given to a ``*_wait`` passed while the calling process ran its own envs.
+
+    The call completed and the pool is usable; its results are dropped, as ``AsyncVectorEnv``
+    drops them after a timeout. It is a :class:`multiprocessing.TimeoutError`, as there.
     """
 
 

@@ -64,6 +64,7 @@ from modelicagym.vector.checks import (
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.env_slice import EnvSlice, close_envs
 from modelicagym.vector.errors import (
+    CallerTimeoutError,
     ConcurrentUseError,
     NoPendingCallError,
     PendingCallError,
@@ -160,8 +161,9 @@ class PoolVectorEnv(VectorEnv):
     ``Graph``, ``Sequence``) travel pickled whatever ``shared_memory`` says, instead of being
     refused; an env's exception is raised once, as its own type carrying the env index and the
     remote traceback, rather than also logged per worker; and while the calling process steps a
-    slice itself (``caller_steps``), a ``timeout`` given to ``step_wait``/``reset_wait`` bounds the
-    wait for the workers, not the caller's own envs (``caller_steps=False`` bounds them all).
+    slice itself (``caller_steps``), a ``timeout`` given to ``step_wait``/``reset_wait``/``call_wait``
+    cannot interrupt the caller's own envs: it raises `CallerTimeoutError` once they are done, if
+    the deadline has passed (``caller_steps=False`` interrupts them all).
 
     Example:
         >>> import gymnasium as gym
@@ -382,7 +384,9 @@ class PoolVectorEnv(VectorEnv):
 
     def _reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
+        deadline = self._callers_deadline(timeout)
         entries = self._reset_entries(timeout)
+        self._raise_if_past(deadline, timeout, "reset_wait")
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
 
     reset_wait = one_thread_at_a_time(_reset_wait)
@@ -448,6 +452,7 @@ class PoolVectorEnv(VectorEnv):
         buffers = self._buffers
         entries: Entries = []
         restarted = False
+        deadline = self._callers_deadline(timeout)
         if timeout is None:
             timeout = self.step_timeout
         started = None if timeout is None else time.monotonic()
@@ -479,6 +484,7 @@ class PoolVectorEnv(VectorEnv):
                 timing[:, SharedBuffers.ENV_NS],
                 timing[:, SharedBuffers.FMU_NS],
             )
+        self._raise_if_past(deadline, timeout, "step_wait")
         return (
             buffers.observations.read_batch(self.copy),
             buffers.rewards.copy(),
@@ -606,7 +612,10 @@ class PoolVectorEnv(VectorEnv):
         """Wait for :meth:`call_async`; ``timeout`` defaults to ``step_timeout``."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_CALL, "call_wait", "call_async")
-        return tuple(self._collect_calls(timeout, "call"))
+        deadline = self._callers_deadline(timeout)
+        results = tuple(self._collect_calls(timeout, "call"))
+        self._raise_if_past(deadline, timeout, "call_wait")
+        return results
 
     call_wait = one_thread_at_a_time(_call_wait)
 
@@ -724,6 +733,22 @@ class PoolVectorEnv(VectorEnv):
         self.close()
 
     # ------------------------------------------------------------------ internals
+
+    def _callers_deadline(self, timeout: float | None) -> float | None:
+        """When a ``timeout`` given to a ``*_wait`` ends, if the calling process runs envs itself
+        (it cannot interrupt them: :meth:`_raise_if_past` says so after); else ``None``."""
+        if timeout is None or self._dispatcher.local is None:
+            return None
+        return time.monotonic() + timeout
+
+    def _raise_if_past(self, deadline: float | None, timeout: float | None, doing: str) -> None:
+        """Raise `CallerTimeoutError` if ``deadline`` (:meth:`_callers_deadline`) has passed."""
+        if deadline is not None and time.monotonic() > deadline:
+            raise CallerTimeoutError(
+                f"The call to `{doing}` has timed out after {timeout} second(s): the envs the calling process "
+                f"runs itself could not be interrupted; the call completed and the pool is usable, but its results "
+                f"are dropped, as AsyncVectorEnv drops them (caller_steps=False makes every env interruptible)"
+            )
 
     def _gather(self, timeout: float | None, doing: str) -> list[Outcome]:
         """Every pending worker's outcome. On any exception while waiting (e.g. ``KeyboardInterrupt``)
