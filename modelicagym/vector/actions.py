@@ -139,7 +139,6 @@ class ActionWriter:
         if len(actions) != len(env_ids):
             raise ActionError(f"expected {len(env_ids)} actions, one per env id, got {len(actions)}")
         if self._fast and type(actions) is np.ndarray and self._takes(actions.dtype):
-            low, high = self._bounds
             if actions.shape[1:] == self._shape[1:]:
                 k = self._first_used_outside(actions, env_ids)
                 if k >= 0:

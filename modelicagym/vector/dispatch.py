@@ -20,7 +20,8 @@ import numpy as np
 
 from modelicagym.native.batch import COLLECT_DONE, COLLECT_LOCAL_PYTHON, MgWaiter, NativeCollector
 from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.env_slice import EnvSlice, close_envs
+from modelicagym.vector.creation import close_envs
+from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import PoolError
 from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import (

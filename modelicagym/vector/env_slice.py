@@ -28,11 +28,12 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.native.batch import NO_RESET, RESET_THEN_STEP, NativeBatch, batch_path_reason
 from modelicagym.native.step import Flags
 from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.creation import create_envs
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
 from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 
-__all__ = ["EnvSlice", "close_envs", "describe_envs"]
+__all__ = ["EnvSlice", "describe_envs"]
 
 logger = logging.getLogger(__name__)
 
@@ -58,15 +59,6 @@ def describe_envs(envs: list[gym.Env], first_env: int, observation_mode: str = "
     except Exception:
         description = dataclasses.replace(description, spec=None)
     return description
-
-
-def close_envs(envs: list[gym.Env]) -> None:
-    """Close every env, logging (not raising) what fails."""
-    for env in envs:
-        try:
-            env.close()
-        except Exception:
-            logger.exception("closing an env failed")
 
 
 class EnvSlice:
@@ -113,16 +105,16 @@ class EnvSlice:
 
     @classmethod
     def create(
-        cls, env_fns: list[Callable[[], gym.Env]], indices: range, slot: int, autoreset_mode: AutoresetMode
+        cls,
+        env_fns: list[Callable[[], gym.Env]],
+        indices: range,
+        slot: int,
+        autoreset_mode: AutoresetMode,
+        share: float = 1.0,
     ) -> EnvSlice:
-        """Create the envs ``indices`` here (the calling process's slice, ``caller``); closes them on failure."""
-        envs: list[gym.Env] = []
-        try:
-            for fn in env_fns[indices.start : indices.stop]:
-                envs.append(fn())
-        except BaseException:
-            close_envs(envs)
-            raise
+        """Create the envs ``indices`` here (the calling process's slice, ``caller``) with
+        `create_envs`, whose memory ``share`` they may take; closes them on failure."""
+        envs = create_envs(env_fns[indices.start : indices.stop], indices.start, "the calling process", share)
         return cls(envs, indices.start, slot, autoreset_mode, caller=True)
 
     def describe_envs(self) -> str:

@@ -29,6 +29,7 @@ __all__ = [
     "PendingCallError",
     "PoolClosedError",
     "PoolError",
+    "PoolMemoryError",
     "RemoteError",
     "RemoteTraceback",
     "SpaceMismatchError",
@@ -63,6 +64,11 @@ class ConcurrentUseError(ModelicaGymError, RuntimeError):
 
 class PoolClosedError(ModelicaGymError, ClosedEnvironmentError):
     """The pool was used after ``close()`` (or after a failure that stopped it)."""
+
+
+class PoolMemoryError(ModelicaGymError, MemoryError):
+    """The envs of a pool would not fit in the memory the machine has available (measured as
+    they are created: `modelicagym.vector.creation`)."""
 
 
 class SpaceMismatchError(ModelicaGymError, RuntimeError):

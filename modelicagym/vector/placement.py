@@ -42,7 +42,9 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ConfigError
 from modelicagym.native.batch import RESET_THEN_STEP, batch_path_reason
-from modelicagym.vector.env_slice import EnvSlice, close_envs
+from modelicagym.vector.creation import close_envs, create_envs
+from modelicagym.vector.env_slice import EnvSlice
+from modelicagym.vector.errors import PoolMemoryError
 from modelicagym.vector.layout_policy import LayoutPolicy
 from modelicagym.vector.plan import usable_cores
 from modelicagym.vector.sync import futex_library
@@ -228,12 +230,14 @@ def place_envs(
     if reason is None:
         copies: list[gym.Env] = []
         try:
-            copies += [fn() for fn in env_fns[: local.first]]
+            copies = create_envs(env_fns[: local.first], 0, "the calling process (copies of the workers' envs)")
             reason = _movable_reason(copies, "a copy of env {} in the calling process")
             if reason is None:
                 local.detach()
                 local = EnvSlice(copies + local.envs, 0, local.slot, autoreset_mode, caller=True)
                 local.attach(buffers, needs_reset=False)
+        except PoolMemoryError as error:
+            reason = f"copies of the workers' envs in the calling process would not fit in memory: {error}"
         except BaseException:
             close_envs(copies)
             raise

@@ -61,8 +61,9 @@ from modelicagym.vector.checks import (
     select_infos,
     values_per_env,
 )
+from modelicagym.vector.creation import close_envs
 from modelicagym.vector.dispatch import Dispatcher
-from modelicagym.vector.env_slice import EnvSlice, close_envs
+from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import (
     CallerTimeoutError,
     ConcurrentUseError,
@@ -302,6 +303,7 @@ class PoolVectorEnv(VectorEnv):
                 step_timeout=step_timeout,
                 startup_timeout=startup_timeout,
                 observation_mode="same" if observation_mode == "same" else "different",
+                num_envs=self.num_envs,
             ),
             startup_timeout,
         )
@@ -309,7 +311,7 @@ class PoolVectorEnv(VectorEnv):
         local = None
         try:
             local = None if local_slice is None else EnvSlice.create(
-                self.env_fns, local_slice, self.num_workers, self.autoreset_mode
+                self.env_fns, local_slice, self.num_workers, self.autoreset_mode, len(local_slice) / self.num_envs
             )
             first = self._workers.connect(local)
             self._placement, local = place_envs(self.env_fns, self._workers, local, self.autoreset_mode, adapt_layout)

@@ -131,6 +131,9 @@ class WorkerConfig:
     startup_timeout: float | None = None
     #: ``"same"`` or ``"different"`` (`modelicagym.vector.space_checks`)
     observation_mode: str = "same"
+    #: the pool's envs, created at once by its parties: each may take its part of the memory
+    #: the machine has available (`modelicagym.vector.creation`); 0: unchecked
+    num_envs: int = 0
 
 
 #: what a worker is doing before it serves commands (named in messages; ``startup_timeout`` applies)
