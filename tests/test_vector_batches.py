@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from gymnasium.vector import SyncVectorEnv
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from test_vector_native import cartpole_fns
 from vector_envs import CountEnv, FaultyEnv, GatedEnv, count_fns
 
@@ -27,8 +27,14 @@ def action_of(env: int, t: int, space: Any) -> int:
     return int(space.start) + (env * 7 + t * 3 + t // 4) % int(space.n)
 
 
+def final_observation(infos: dict, k: int) -> np.ndarray | None:
+    """Row ``k``'s ``final_obs`` info (``SAME_STEP``), or ``None``."""
+    return infos["final_obs"][k] if "_final_obs" in infos and infos["_final_obs"][k] else None
+
+
 def partial_trajectories(pool: PoolVectorEnv, rounds: int, seed: int) -> dict[int, list[tuple]]:
-    """Per env, what ``recv`` returned for it, while actions follow `action_of`."""
+    """Per env, what ``recv`` returned for it (with its final observation where it ended in
+    ``SAME_STEP`` mode), while actions follow `action_of`."""
     space = pool.single_action_space
     pool.async_reset(seed=seed)
     seen: dict[int, list[tuple]] = {}
@@ -37,25 +43,26 @@ def partial_trajectories(pool: PoolVectorEnv, rounds: int, seed: int) -> dict[in
         ids = infos["env_id"]
         assert len(ids) == pool.batch_size
         for k, env in enumerate(ids.tolist()):
-            seen.setdefault(env, []).append(
-                (observations[k].copy(), float(rewards[k]), bool(terminations[k]), bool(truncations[k]))
-            )
+            seen.setdefault(env, []).append((observations[k].copy(), float(rewards[k]), bool(terminations[k]),
+                                             bool(truncations[k]), final_observation(infos, k)))
         pool.send(np.array([action_of(env, len(seen[env]) - 1, space) for env in ids.tolist()]), ids)
     return seen
 
 
-def sync_trajectories(fns: list[Callable[[], Any]], steps: int, seed: int) -> dict[int, list[tuple]]:
+def sync_trajectories(
+    fns: list[Callable[[], Any]], steps: int, seed: int, autoreset_mode: AutoresetMode = AutoresetMode.NEXT_STEP
+) -> dict[int, list[tuple]]:
     """Per env, ``steps + 1`` results of SyncVectorEnv (the reset, then steps) with `action_of`."""
-    sync = SyncVectorEnv(fns)
+    sync = SyncVectorEnv(fns, autoreset_mode=autoreset_mode)
     space = sync.single_action_space
     observations, _ = sync.reset(seed=seed)
-    records: dict[int, list[tuple]] = {env: [(observations[env].copy(), 0.0, False, False)] for env in range(len(fns))}
+    records = {env: [(observations[env].copy(), 0.0, False, False, None)] for env in range(len(fns))}
     for t in range(steps):
         actions = np.array([action_of(env, t, space) for env in range(len(fns))])
-        observations, rewards, terminations, truncations, _ = sync.step(actions)
+        observations, rewards, terminations, truncations, infos = sync.step(actions)
         for env in range(len(fns)):
             records[env].append((observations[env].copy(), float(rewards[env]), bool(terminations[env]),
-                                 bool(truncations[env])))
+                                 bool(truncations[env]), final_observation(infos, env)))
     sync.close()
     return records
 
@@ -66,7 +73,24 @@ def assert_prefixes_agree(partial_runs: dict[int, list[tuple]], sync_runs: dict[
         assert len(expected) == len(records), f"env {env} stepped more than the reference"
         for t, (got, want) in enumerate(zip(records, expected)):
             np.testing.assert_array_equal(got[0], want[0], err_msg=f"env {env}, step {t}")
-            assert got[1:] == want[1:], f"env {env}, step {t}: {got[1:]} != {want[1:]}"
+            assert got[1:4] == want[1:4], f"env {env}, step {t}: {got[1:4]} != {want[1:4]}"
+            assert (got[4] is None) == (want[4] is None), f"env {env}, step {t}: final_obs {got[4]} != {want[4]}"
+            if got[4] is not None:
+                np.testing.assert_array_equal(got[4], want[4], err_msg=f"env {env}, step {t}: final_obs")
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_native_same_step_resets_report_their_final_observation(mode: AutoresetMode) -> None:
+    """Cart-poles on the native step: an env reset in the step that ended it has its final
+    observation in the batch that returns it, as in SyncVectorEnv."""
+    native, python = cartpole_fns(6)
+    with PoolVectorEnv(native, num_workers=2, batch_size=3, autoreset_mode=mode) as pool:
+        assert {path for path, _ in pool.step_paths} == {"native"}
+        runs = partial_trajectories(pool, 120, seed=5)
+    expected = sync_trajectories(python, max(map(len, runs.values())), seed=5, autoreset_mode=mode)
+    assert_prefixes_agree(runs, expected)
+    assert sum(record[4] is not None for records in runs.values() for record in records) >= (
+        3 if mode is AutoresetMode.SAME_STEP else 0)
 
 
 @pytest.mark.parametrize("batch_size", [1, 2, 5])

@@ -32,6 +32,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.vector import AutoresetMode
 
 import modelicagym
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
@@ -91,29 +92,38 @@ def c_loop(env: gym.Env) -> Run:
     return run
 
 
-def _vector_loop(envs: gym.vector.VectorEnv, n: int, seed: int) -> Run:
+def vector_loop(
+    envs: gym.vector.VectorEnv, n: int, seed: int, autoreset: AutoresetMode = AutoresetMode.NEXT_STEP
+) -> Run:
+    """Steps ``envs`` with random pushes; with ``autoreset=DISABLED`` it resets the envs that
+    ended itself (``reset_mask``), as a user of that mode does."""
     rng = np.random.default_rng(seed)
     envs.reset(seed=seed)
+    by_hand = autoreset is AutoresetMode.DISABLED
 
     def run(steps: int) -> int:
         batches = max(1, steps // n)
         for actions in rng.integers(0, 2, size=(batches, n)):
-            envs.step(actions)
+            _, _, terminations, truncations, _ = envs.step(actions)
+            if by_hand and (ended := terminations | truncations).any():
+                envs.reset(options={"reset_mask": ended})
         return batches * n
 
     return run
 
 
-def make_vector(candidate: str, n: int, options: dict[str, Any]) -> gym.vector.VectorEnv:
+def make_vector(candidate: str, n: int, options: dict[str, Any],
+                autoreset_mode: AutoresetMode = AutoresetMode.NEXT_STEP) -> gym.vector.VectorEnv:
+    """``candidate`` ("pool", "sync" or "async") of ``n`` cart-poles made with ``options``."""
     if candidate == "pool":
-        return modelicagym.make_vec("cartpole", n=n, **options)
+        return modelicagym.make_vec("cartpole", n=n, autoreset_mode=autoreset_mode, **options)
     fns = [EnvFactory("modelicagym.envs.cartpole:CartPoleEnv", options) for _ in range(n)]
     if candidate == "sync":
-        return gym.vector.SyncVectorEnv(fns)
-    return gym.vector.AsyncVectorEnv(fns, shared_memory=True)
+        return gym.vector.SyncVectorEnv(fns, autoreset_mode=autoreset_mode)
+    return gym.vector.AsyncVectorEnv(fns, shared_memory=True, autoreset_mode=autoreset_mode)
 
 
-def _calibrate(run: Run, seconds: float) -> int:
+def calibrate(run: Run, seconds: float) -> int:
     """How many env steps take about ``seconds``."""
     steps, elapsed = 64, 0.0
     while elapsed < seconds / 4:
@@ -143,9 +153,9 @@ def measure_group(setting: str, n: int, repeats: int, seconds: float) -> dict[st
                 continue
             envs = make_vector(candidate, n, options)
             closers.append(envs)
-            runs[candidate] = _vector_loop(envs, n, seed=n)
+            runs[candidate] = vector_loop(envs, n, seed=n)
         pool = envs
-        steps = {name: _calibrate(run, seconds) for name, run in runs.items()}
+        steps = {name: calibrate(run, seconds) for name, run in runs.items()}
         samples: dict[str, list[float]] = {name: [] for name in runs}
         for _ in range(repeats):
             for name, run in runs.items():

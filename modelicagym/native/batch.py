@@ -53,6 +53,7 @@ class MgBatch(ctypes.Structure):
         ("observations", ctypes.c_void_p),
         ("obs_stride", ctypes.c_int64),
         ("final_obs", ctypes.c_void_p),
+        ("final_ready", ctypes.c_void_p),
         ("rewards", ctypes.c_void_p),
         ("terminations", ctypes.c_void_p),
         ("truncations", ctypes.c_void_p),
@@ -156,7 +157,8 @@ class NativeBatch:
         n = len(envs)
         self.natives = [env.native_step for env in envs]
         observations = arrays["observations"]
-        self.final_obs = np.zeros((n, *observations.shape[1:]), dtype=observations.dtype)
+        #: the final observations of the envs reset in the last same-step step (shared memory)
+        self.final_obs = arrays["final_observations"][first_env : first_env + n]
         self.flags = np.zeros(n, dtype=np.int32)
         self._env_pointers = (ctypes.POINTER(MgEnv) * n)(*(ctypes.pointer(native.state) for native in self.natives))
         self.state = batch = MgBatch()
@@ -169,6 +171,7 @@ class NativeBatch:
         if self.final_obs.strides[0] != observations.strides[0]:
             raise ArgumentError("final observations must have the stride of the shared observations")
         batch.final_obs = self.final_obs.ctypes.data
+        batch.final_ready = _row_address(arrays["final_ready"], first_env)
         batch.rewards = _row_address(arrays["rewards"], first_env)
         batch.terminations = _row_address(arrays["terminations"], first_env)
         batch.truncations = _row_address(arrays["truncations"], first_env)
@@ -188,12 +191,9 @@ class NativeBatch:
         """Step every env; returns how many need Python to finish (see ``flags``)."""
         return self._step(self.ref)
 
-    def to_finish(self, same_step: bool) -> np.ndarray:
+    def to_finish(self) -> np.ndarray:
         """Offsets of the envs Python must finish after the last :meth:`step`."""
-        mask = (self.flags & NEEDS_PYTHON) != 0
-        if same_step:
-            mask |= (self.flags & Flags.RESET_DONE) != 0
-        return np.flatnonzero(mask)
+        return np.flatnonzero((self.flags & NEEDS_PYTHON) != 0)
 
 
 class NativeServer:

@@ -221,6 +221,8 @@ class PartialBatches:
                 raise message.data.to_env_error(handle.index, "step", None)
             if message.kind is Kind.INFOS:
                 self._infos.update(message.data)
+        for index in buffers.take_final_ready(indices.start, indices.stop).tolist():
+            self._infos[index] = buffers.final_info(index)
         self._ready.extend(ids)
         if self._queued[k]:
             queued, self._queued[k] = self._queued[k], []

@@ -271,6 +271,10 @@ class SharedBuffers:
         allocator = _Allocator(buffer)
         self.spec = spec
         self.observations = _batch(spec.observation_space, n, allocator)
+        #: ``SAME_STEP``: the last observation of an env the native step reset, where
+        #: ``final_ready`` marks it (the pool builds its ``final_obs`` info from them)
+        self.final_observations = _batch(spec.observation_space, n, allocator)
+        self.final_ready = allocator.array(np.uint8, (n,))
         self.actions = _batch(action_storage_space(spec.action_space), n, allocator)
         #: the dtype (its ``char``) of the batch of actions last given, in which each env gets its
         #: action back as ``SyncVectorEnv`` would hand it; 0: as stored
@@ -298,6 +302,20 @@ class SharedBuffers:
 
     GO, DONE = 0, 1
 
+    def take_final_ready(self, first: int = 0, stop: int | None = None) -> np.ndarray:
+        """The indices among ``first..stop-1`` of the envs the native step reset in the last
+        ``SAME_STEP`` step (their ``final_ready`` marks, which taking clears)."""
+        ready = np.flatnonzero(self.final_ready[first:stop])
+        if ready.size:
+            ready += first
+            self.final_ready[ready] = 0
+        return ready
+
+    def final_info(self, index: int) -> dict[str, Any]:
+        """The info ``SyncVectorEnv`` reports for env ``index`` reset in a ``SAME_STEP`` step by
+        the native step (`take_final_ready`): its final observation and its (empty) final info."""
+        return {"final_obs": self.final_observations.read(index), "final_info": {}}
+
     def signal_address(self, slot: int, which: int) -> int:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""
         return self.signals.ctypes.data + self.signals[slot, which].nbytes * (2 * slot + which)
@@ -307,6 +325,8 @@ class SharedBuffers:
         return {
             "actions": self.actions.read_batch(copy_out=False),
             "observations": self.observations.read_batch(copy_out=False),
+            "final_observations": self.final_observations.read_batch(copy_out=False),
+            "final_ready": self.final_ready,
             "rewards": self.rewards,
             "terminations": self.terminations,
             "truncations": self.truncations,

@@ -22,7 +22,9 @@ import gymnasium as gym
 
 from modelicagym.vector.errors import PoolMemoryError
 
-__all__ = ["FIRST_MEASURE", "MEASURE_EVERY", "EnvFactory", "available_memory", "close_envs", "create_envs", "resident_memory"]
+__all__ = [
+    "FIRST_MEASURE", "MEASURE_EVERY", "EnvFactory", "available_memory", "close_envs", "create_envs", "resident_memory",
+]
 
 logger = logging.getLogger(__name__)
 

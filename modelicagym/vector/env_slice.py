@@ -240,7 +240,7 @@ class EnvSlice:
         infos: list[tuple[int, dict[str, Any]]] = []
         timed = bool(buffers.timing_enabled[0])
         started = perf_counter_ns() if timed else 0
-        for offset in native.to_finish(self._same_step).tolist():
+        for offset in native.to_finish().tolist():
             env, index, flags = self.envs[offset], self.first + offset, int(native.flags[offset])
             buffers.current_env[self.slot] = index
             if flags & Flags.BAD_ACTION:

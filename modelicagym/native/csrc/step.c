@@ -197,6 +197,10 @@ int64_t mg_step_batch(mg_batch *b) {
     bool timed = *b->timing_enabled;
     bool next_step = b->autoreset_mode == MG_AUTORESET_NEXT_STEP;
     bool same_step = b->autoreset_mode == MG_AUTORESET_SAME_STEP;
+    if (same_step) /* envs this call does not reach (a bad action stops it) must not keep a stale mark */
+        for (int64_t i = 0; i < b->n; i++)
+            if (!b->active[i] || b->in_caller[i] == b->caller)
+                b->final_ready[i] = 0;
     for (int64_t i = 0; i < b->n; i++) {
         if (!b->active[i] || b->in_caller[i] != b->caller) {
             b->flags[i] = 0;
@@ -237,8 +241,10 @@ int64_t mg_step_batch(mg_batch *b) {
         }
         if (!(f & (MG_FMU_ERROR | MG_PYTHON_RESET)))
             memcpy(b->observations + i * b->obs_stride, env->outputs, obs_bytes);
-        if ((f & (MG_FMU_ERROR | MG_PYTHON_RESET | MG_MODEL_ENDED)) || (same_step && (f & MG_RESET_DONE)))
+        if (f & (MG_FMU_ERROR | MG_PYTHON_RESET | MG_MODEL_ENDED))
             for_python++;
+        else if (same_step && (f & MG_RESET_DONE))
+            b->final_ready[i] = 1;
         b->rewards[i] = reward;
         b->terminations[i] = (f & MG_TERMINATED) != 0;
         b->truncations[i] = (f & MG_TRUNCATED) != 0;

@@ -95,6 +95,8 @@ typedef struct {
     char *observations;
     int64_t obs_stride;
     char *final_obs; /* SAME_STEP: the final observation of an env reset in this step (same stride) */
+    uint8_t *final_ready; /* SAME_STEP, per env: 1 if C reset it in this step and Python has nothing
+                             to add (its final_obs row and an empty final_info say it all), else 0 */
     double *rewards;
     uint8_t *terminations, *truncations;
     uint8_t *needs_reset; /* MG_RESET_THEN_REPORT: the env ended last step (NEXT_STEP) and this step
@@ -115,7 +117,7 @@ typedef struct {
  * MG_PYTHON_RESET (Python's reset ladder handles it). An env whose action is outside the space
  * stops the batch there (MG_BAD_ACTION; later envs are not stepped, as on the Python path).
  * Returns how many envs need Python: MG_FMU_ERROR, MG_PYTHON_RESET, MG_BAD_ACTION, or an info to
- * report (MG_MODEL_ENDED, or a same-step reset with its final observation). */
+ * report (MG_MODEL_ENDED). A plain same-step reset needs none: final_ready marks it. */
 int64_t mg_step_batch(mg_batch *batch);
 
 /* A worker's command loop, in C while the commands are steps Python need not see.
