@@ -24,6 +24,7 @@ from modelicagym.fmu import open_fmu
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
     "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.envs.cartpole:CartPoleEnv"),
+    "cartpole-continuous": ("ModelicaGym/CartPoleContinuous-v0", "modelicagym.envs.cartpole:CartPoleContinuousEnv"),
 }
 
 

@@ -174,3 +174,20 @@ def test_instance_rejects_unknown_or_unsettable_parameters(cartpole_fmu):
         instance.reset({"x": 1.0})
     instance.close()
     instance.close()
+
+
+def test_the_continuous_cart_pole_is_the_same_task_with_a_force_action():
+    """A force of +-15 N replays the discrete env's pushes; other forces in range are taken, a
+    force beyond ``force`` is refused; registered by short name and Gymnasium id."""
+    continuous, discrete = modelicagym.make("cartpole-continuous"), modelicagym.make("cartpole")
+    assert continuous.action_space == gym.spaces.Box(-15.0, 15.0, (1,), dtype=np.float64)
+    assert continuous.step_path == "native"
+    np.testing.assert_array_equal(rollout(continuous, PUSHES), rollout(discrete, PUSHES))
+    continuous.reset(seed=0)
+    gentle, *_ = continuous.step(np.array([2.5]))
+    assert 0 < gentle[1] < rollout(discrete, [1])[1][1]
+    with pytest.raises(modelicagym.errors.ActionError):
+        continuous.step(np.array([15.5]))
+    wrapped = gym.make("ModelicaGym/CartPoleContinuous-v0", force=5.0)
+    assert wrapped.action_space.high.tolist() == [5.0]
+    check_env(wrapped.unwrapped)

@@ -2,7 +2,8 @@
 
 Two actions push the cart left or right with a fixed force magnitude; the episode ends when the
 cart leaves the track (|x| > 2.4 m) or the pole falls more than 12 degrees from upright; rewards
-are +1 per step and -100 on failure, as in the paper.
+are +1 per step and -100 on failure, as in the paper. `CartPoleContinuousEnv` is the same task
+with a continuous force, for policies such as PPO's or SAC's Gaussian ones.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 
 from modelicagym.env import FMUEnv
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
@@ -55,6 +57,8 @@ class CartPoleEnv(FMUEnv):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
+    #: the action is a force in [-force, force] N (`CartPoleContinuousEnv`), not a push left or right
+    continuous = False
 
     def __init__(
         self,
@@ -101,11 +105,17 @@ class CartPoleEnv(FMUEnv):
             negative_reward=negative_reward,
             termination={"x": (-self.x_threshold, self.x_threshold),
                          "theta": (UPRIGHT - self.theta_threshold, UPRIGHT + self.theta_threshold)},
-            action_table=[[-self.force], [self.force]],
+            **self._actions(),
             mode=mode,
             render_mode=render_mode,
             **fmu_options,
         )
+
+    def _actions(self) -> dict[str, Any]:
+        """The config entry that makes the action space: two pushes, or a continuous force."""
+        if self.continuous:
+            return {"action_space": spaces.Box(-self.force, self.force, (1,), dtype=np.float64)}
+        return {"action_table": [[-self.force], [self.force]]}
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
@@ -115,3 +125,22 @@ class CartPoleEnv(FMUEnv):
         x, theta = float(self.fmu.outputs.views["x"]), float(self.fmu.outputs.views["theta"])
         pole = float(self.config.parameters["length"]) / 2
         return draw_cartpole(x, theta, pole, self.x_threshold)
+
+
+class CartPoleContinuousEnv(CartPoleEnv):
+    """`CartPoleEnv` with a continuous action: the force on the cart, in ``[-force, force]`` N.
+
+    Same model, observation, reward and termination; ``force`` (default 15 N) bounds the action
+    instead of fixing the push. Registered as ``ModelicaGym/CartPoleContinuous-v0``.
+
+    Example::
+
+        import numpy as np
+        import modelicagym
+
+        env = modelicagym.make("cartpole-continuous")
+        observation, info = env.reset(seed=0)
+        observation, reward, terminated, truncated, info = env.step(np.array([2.5]))
+    """
+
+    continuous = True
