@@ -52,3 +52,15 @@ def test_ray_rollouts_sample_on_a_local_ray():
     assert "episode length: mean 30.0, max 30 (truncated at 30)" in out
     left = [p for p in ray_cluster.wait_until_gone(None) if p not in before]
     assert not left, f"Ray processes left behind: {left}"
+
+
+@pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous"])
+def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
+    pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
+                        "then pip install 'modelicagym[rl]'")
+    plot = tmp_path / "curve.png"
+    out = run_example("sb3_ppo.py", "--env", env, "--envs", "4", "--steps", "4096", "--max-episode-steps", "100",
+                      "--eval-episodes", "2", "--plot", str(plot))
+    assert re.search(r"^\s+\d+ steps .* steps/s\s+mean return .* mean length", out, re.MULTILINE), out
+    assert "evaluation: 2 episodes" in out
+    assert plot.stat().st_size > 0
