@@ -12,7 +12,6 @@ Run: ``python examples/sb3_ppo.py [--env cartpole] [--envs 8] [--steps 200000]``
 
 import argparse
 import time
-from collections import deque
 
 import numpy as np
 import torch
@@ -134,7 +133,8 @@ def main():
 
     envs.training = False
     returns, lengths = evaluate_policy(model, envs, n_eval_episodes=args.eval_episodes, return_episode_rewards=True)
-    print(f"evaluation: {len(returns)} episodes, mean return {np.mean(returns):.1f}, mean length {np.mean(lengths):.1f}")
+    print(f"evaluation: {len(returns)} episodes, mean return {np.mean(returns):.1f}, "
+          f"mean length {np.mean(lengths):.1f}")
     if progress.curve:
         save_curve(progress.curve, args.plot, args.env)
     envs.close()

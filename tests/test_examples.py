@@ -64,3 +64,14 @@ def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
     assert re.search(r"^\s+\d+ steps .* steps/s\s+mean return .* mean length", out, re.MULTILINE), out
     assert "evaluation: 2 episodes" in out
     assert plot.stat().st_size > 0
+
+
+@pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous"])
+def test_one_file_ppo_trains_and_plots(tmp_path, env):
+    pytest.importorskip("torch", reason="torch is not installed: pip install torch==2.13.0")
+    plot = tmp_path / "curve.png"
+    out = run_example("ppo.py", "--env", env, "--num-envs", "4", "--total-steps", "4096", "--max-episode-steps", "100",
+                      "--plot", str(plot))
+    assert re.search(r"^\s+\d+ steps .* steps/s\s+mean return .* mean length", out, re.MULTILINE), out
+    assert "trained for 4096 steps" in out or "solved:" in out
+    assert plot.stat().st_size > 0
