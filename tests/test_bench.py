@@ -22,7 +22,19 @@ BENCHMARKS = {
                {"cores", "results", "targets"}),
     "partial-batches": (["--n", "4", "--workers", "2", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "solver-accuracy": (["--repeats", "1"], {"rows"}),
+    "autoreset": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
 }
+
+
+def test_the_training_benchmark_trains_every_vector_env(tmp_path: Path) -> None:
+    pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
+                        "then pip install 'modelicagym[rl]'")
+    args = ["--models", "cartpole", "--n", "2", "--threads", "1", "--repeats", "1", "--steps", "64"]
+    out = run_bench("training", args, tmp_path / "result.json")
+    for candidate in ("pool", "sync", "async", "dummy", "subproc"):
+        assert f" {candidate} " in out
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert set(result["results"][0]["results"]) == {"pool", "sync", "async", "dummy", "subproc"}
 
 
 def run_bench(name: str, args: list[str], json_path: Path) -> str:

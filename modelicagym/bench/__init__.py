@@ -93,8 +93,8 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 
 def add_arguments(parser: Any) -> None:
-    """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,partial-batches,runner,
-    solver-accuracy,ray}``: their arguments."""
+    """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
+    runner,solver-accuracy,ray}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
         fmi_calls,
@@ -105,11 +105,13 @@ def add_arguments(parser: Any) -> None:
         shared_machine,
         solver_accuracy,
         throughput,
+        training,
     )
 
     which = parser.add_subparsers(dest="benchmark", required=True)
     benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput),
-                  ("shared", shared_machine), ("autoreset", autoreset), ("partial-batches", partial_batches),
+                  ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
+                  ("partial-batches", partial_batches),
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
