@@ -2,14 +2,17 @@
 
 ``FMUEnv`` wraps any FMU from a few lines of config; ``make("cartpole")`` and
 ``make_vec("cartpole", n=8)`` are the front doors; ``modelicagym.vector`` holds the
-multi-process pool and ``modelicagym.fmu`` the FMI runtime underneath.
+multi-process pool and ``modelicagym.fmu`` the FMI runtime underneath. Every error raised is a
+``ModelicaGymError`` (its families are in ``modelicagym.errors``).
 """
 
+from modelicagym import errors
 from modelicagym.config import FMUEnvConfig
 from modelicagym.env import FMUEnv
+from modelicagym.errors import ModelicaGymError
 from modelicagym.registry import make, make_vec, register_environments
 
 register_environments()
 
 __version__ = "0.1.0"
-__all__ = ["FMUEnv", "FMUEnvConfig", "make", "make_vec", "register_environments"]
+__all__ = ["FMUEnv", "FMUEnvConfig", "ModelicaGymError", "errors", "make", "make_vec", "register_environments"]

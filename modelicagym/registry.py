@@ -19,13 +19,17 @@ from typing import Any
 
 import gymnasium as gym
 
-from modelicagym.errors import ArgumentError, ArgumentTypeError
+from modelicagym.errors import ArgumentError, ArgumentTypeError, ModelicaGymError
 from modelicagym.fmu import open_fmu
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
     "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.envs.cartpole:CartPoleEnv"),
     "cartpole-continuous": ("ModelicaGym/CartPoleContinuous-v0", "modelicagym.envs.cartpole:CartPoleContinuousEnv"),
 }
+
+
+class UnknownEnvironmentError(ModelicaGymError, gym.error.UnregisteredEnv):
+    """``make``/``make_vec`` got a name no modelicagym environment has (Gymnasium's own error too)."""
 
 
 #: the vector envs ``make_vec`` can make
@@ -40,7 +44,7 @@ def _entry_point(name: str) -> str:
     known = list(ENVIRONMENTS) + [gym_id for gym_id, _ in ENVIRONMENTS.values()]
     close = difflib.get_close_matches(name, known, n=2)
     hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
-    raise gym.error.UnregisteredEnv(f"no modelicagym environment named {name!r}.{hint} Known: {', '.join(known)}")
+    raise UnknownEnvironmentError(f"no modelicagym environment named {name!r}.{hint} Known: {', '.join(known)}")
 
 
 def _load(entry_point: str) -> Any:

@@ -100,3 +100,12 @@ def test_errors_of_the_pool_keep_gymnasiums_types() -> None:
     with pytest.raises(ClosedEnvironmentError) as info:
         pool.step(np.zeros(2, dtype=np.int64))
     assert isinstance(info.value, errors.ModelicaGymError)
+
+
+def test_the_error_root_is_where_users_look_for_it():
+    """``except modelicagym.ModelicaGymError`` catches a pool's, the FMU runtime's and a config's errors."""
+    import modelicagym
+
+    assert modelicagym.ModelicaGymError is errors.ModelicaGymError
+    with pytest.raises(modelicagym.ModelicaGymError, match="no modelicagym environment named 'cartpol'"):
+        modelicagym.make_vec("cartpol", n=2)
