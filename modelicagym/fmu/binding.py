@@ -61,6 +61,10 @@ class FunctionTable(dict):
         return function
 
 
+#: fmpy's objects for the libraries loaded in this process, by (fmpy class, library, model identifier)
+_LOADED: dict[tuple[type, str, str], Any] = {}
+
+
 class FMIBinding:
     """One loaded FMU library and at most one live instance of it.
 
@@ -96,13 +100,22 @@ class FMIBinding:
         self.log = FMULog(description.model_name, self.instance_name)
 
     def _load_library(self, library: str) -> Any:
-        return self.FMPY_CLASSES[self.mode](
-            guid=self.description.guid,
-            modelIdentifier=self.description.interface(self.mode).modelIdentifier,
-            unzipDirectory=str(self.description.unzip_dir),
-            instanceName=self.instance_name,
-            libraryPath=library,
-        )
+        """fmpy's object for ``library``, made once per process and mode: it declares the C
+        signatures on its ``dll``, which every instance of the library then shares (declaring them
+        costs ~2 ms, which a pool of many envs used to pay per env)."""
+        fmpy_class = self.FMPY_CLASSES[self.mode]
+        identifier = self.description.interface(self.mode).modelIdentifier
+        key = (fmpy_class, library, identifier)
+        loaded = _LOADED.get(key)
+        if loaded is None:
+            loaded = _LOADED[key] = fmpy_class(
+                guid=self.description.guid,
+                modelIdentifier=identifier,
+                unzipDirectory=str(self.description.unzip_dir),
+                instanceName=self.instance_name,
+                libraryPath=library,
+            )
+        return loaded
 
     def _check_instantiated(self, function: str) -> None:
         """Raise `FMUError` with the FMU's own messages if ``function`` returned no instance."""
