@@ -23,6 +23,7 @@ from torch import nn
 from torch.distributions import Categorical, Normal
 
 import modelicagym
+from modelicagym.experiments.plots import plot_learning_curve
 
 
 def parse_args():
@@ -112,28 +113,6 @@ class Agent(nn.Module):
         if not self.discrete:
             log_prob, entropy = log_prob.sum(-1), entropy.sum(-1)
         return action, log_prob, entropy, self.value(x)
-
-
-def save_curve(curve, path, title):
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib is not installed (pip install 'modelicagym[plots]'): no plot saved")
-        return
-    steps, returns, lengths = np.array(curve).T
-    figure, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-    top.plot(steps, returns)
-    top.set_ylabel("mean episode return")
-    bottom.plot(steps, lengths)
-    bottom.set_ylabel("mean episode length")
-    bottom.set_xlabel("env steps")
-    top.set_title(title)
-    figure.tight_layout()
-    figure.savefig(path)
-    print(f"saved the learning curve to {path}")
 
 
 def main():
@@ -236,7 +215,8 @@ def main():
 
     envs.close()
     if curve:
-        save_curve(curve, args.plot, f"PPO (one file) on {args.env}, last 20 episodes")
+        if plot_learning_curve(curve, args.plot, f"PPO (one file) on {args.env}, last 20 episodes"):
+            print(f"saved the learning curve to {args.plot}")
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ from stable_baselines3.common.evaluation import evaluate_policy
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 import modelicagym
+from modelicagym.experiments.plots import plot_learning_curve
 from modelicagym.sb3 import SB3VecEnv
 
 #: per env: the PPO settings that learn it, the step budget, and when to stop early
@@ -79,28 +80,6 @@ class StopTraining(Exception):
     """Raised between rollouts once the target is reached (SB3 checks callbacks only per step)."""
 
 
-def save_curve(curve, path, env_name):
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib is not installed (pip install 'modelicagym[plots]'): no plot saved")
-        return
-    steps, returns, lengths = np.array(curve).T
-    figure, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-    top.plot(steps, returns)
-    top.set_ylabel("mean episode return")
-    bottom.plot(steps, lengths)
-    bottom.set_ylabel("mean episode length")
-    bottom.set_xlabel("env steps")
-    top.set_title(f"PPO (Stable-Baselines3) on {env_name}, last 20 episodes")
-    figure.tight_layout()
-    figure.savefig(path)
-    print(f"saved the learning curve to {path}")
-
-
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--env", default="cartpole", choices=list(PRESETS))
@@ -136,7 +115,8 @@ def main():
     print(f"evaluation: {len(returns)} episodes, mean return {np.mean(returns):.1f}, "
           f"mean length {np.mean(lengths):.1f}")
     if progress.curve:
-        save_curve(progress.curve, args.plot, args.env)
+        if plot_learning_curve(progress.curve, args.plot, f"PPO (Stable-Baselines3) on {args.env}, last 20 episodes"):
+            print(f"saved the learning curve to {args.plot}")
     envs.close()
 
 

@@ -14,14 +14,13 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-import time
 from typing import Any
 
 import gymnasium as gym
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
-from modelicagym.bench.throughput import EPISODE_STEPS, calibrate, make_vector, vector_loop
+from modelicagym.bench.throughput import EPISODE_STEPS, interleaved_rates, make_vector, vector_loop
 
 logger = logging.getLogger(__name__)
 
@@ -47,13 +46,7 @@ def measure(n: int, repeats: int, seconds: float) -> dict[str, Any]:
             envs = make_vector(candidate, n, {"max_episode_steps": EPISODE_STEPS}, mode)
             closers.append(envs)
             runs[_name(candidate, mode)] = vector_loop(envs, n, seed=n, autoreset=mode)
-        steps = {name: calibrate(run, seconds) for name, run in runs.items()}
-        samples: dict[str, list[float]] = {name: [] for name in runs}
-        for _ in range(repeats):
-            for name, run in runs.items():
-                started = time.perf_counter()
-                done = run(steps[name])
-                samples[name].append(done / (time.perf_counter() - started))
+        samples, _ = interleaved_rates(runs, repeats, seconds)
     finally:
         for envs in closers:
             envs.close()

@@ -134,6 +134,21 @@ def calibrate(run: Run, seconds: float) -> int:
     return max(1, int(steps * seconds / elapsed))
 
 
+def interleaved_rates(
+    runs: dict[str, Run], repeats: int, seconds: float
+) -> tuple[dict[str, list[float]], dict[str, int]]:
+    """Steps per second of every run in each of ``repeats`` interleaved rounds of about ``seconds``,
+    and the steps a round of each takes."""
+    steps = {name: calibrate(run, seconds) for name, run in runs.items()}
+    samples: dict[str, list[float]] = {name: [] for name in runs}
+    for _ in range(repeats):
+        for name, run in runs.items():
+            started = time.perf_counter()
+            done = run(steps[name])
+            samples[name].append(done / (time.perf_counter() - started))
+    return samples, steps
+
+
 def measure_group(setting: str, n: int, repeats: int, seconds: float) -> dict[str, Any]:
     """Env steps per second of the single-env candidates and of the vector ones for ``n`` envs
     (medians of interleaved rounds: every ratio compares rates measured side by side), and the
@@ -155,13 +170,7 @@ def measure_group(setting: str, n: int, repeats: int, seconds: float) -> dict[st
             closers.append(envs)
             runs[candidate] = vector_loop(envs, n, seed=n)
         pool = envs
-        steps = {name: calibrate(run, seconds) for name, run in runs.items()}
-        samples: dict[str, list[float]] = {name: [] for name in runs}
-        for _ in range(repeats):
-            for name, run in runs.items():
-                started = time.perf_counter()
-                done = run(steps[name])
-                samples[name].append(done / (time.perf_counter() - started))
+        samples, steps = interleaved_rates(runs, repeats, seconds)
         pool.set_timing(True)
         runs["pool"](steps["pool"])
         breakdown = asdict(pool.timing())

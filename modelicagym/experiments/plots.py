@@ -15,9 +15,34 @@ import numpy as np
 from modelicagym.experiments.analysis import WINDOW, moving_average
 from modelicagym.experiments.results import SweepResult, atomic_write
 
-__all__ = ["plot_sweep"]
+__all__ = ["plot_learning_curve", "plot_sweep"]
 
 logger = logging.getLogger(__name__)
+
+
+def plot_learning_curve(curve: list[tuple[float, float, float]], path: str | Path, title: str) -> Path | None:
+    """Draw a training run's ``(env steps, mean episode return, mean episode length)`` points
+    (the deep-RL examples' curves) into a PNG at ``path``; ``None`` without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        logger.warning("matplotlib is not installed: skipping the plot %s (pip install 'modelicagym[plots]')", path)
+        return None
+    steps, returns, lengths = np.array(curve, dtype=float).T
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), layout="constrained")
+    top.plot(steps, returns)
+    top.set_ylabel("mean episode return")
+    bottom.plot(steps, lengths)
+    bottom.set_ylabel("mean episode length")
+    bottom.set_xlabel("env steps")
+    top.set_title(title)
+    with atomic_write(Path(path), "wb") as f:
+        fig.savefig(f, format="png", dpi=110)
+    plt.close(fig)
+    return Path(path)
 
 
 def plot_sweep(result: SweepResult, path: str | Path, *, window: int = WINDOW, title: str | None = None) -> Path | None:
