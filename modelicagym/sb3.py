@@ -29,7 +29,7 @@ Example::
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -196,9 +196,6 @@ class SB3VecEnv(VecEnv):
         """The env objects, where they live in this process (``SyncVectorEnv``); else ``None``."""
         envs = getattr(self.venv, "envs", None)
         return envs if isinstance(envs, Sequence) and len(envs) == self.num_envs else None
-
-    def _get_indices(self, indices: VecEnvIndices) -> Iterable[int]:
-        return list(super()._get_indices(indices))
 
     def __repr__(self) -> str:
         return f"SB3VecEnv({self.venv!r})"

@@ -23,7 +23,7 @@ import gymnasium as gym
 from modelicagym.vector.errors import PoolMemoryError
 
 __all__ = [
-    "FIRST_MEASURE", "MEASURE_EVERY", "EnvFactory", "available_memory", "close_envs", "create_envs", "resident_memory",
+    "FIRST_MEASURE", "MEASURE_EVERY", "EnvCreator", "available_memory", "close_envs", "create_envs", "resident_memory",
 ]
 
 logger = logging.getLogger(__name__)
@@ -70,11 +70,11 @@ def create_envs(
     env_fns: Sequence[Callable[[], gym.Env]], first: int, where: str, share: float = 1.0
 ) -> list[gym.Env]:
     """Call every fn of ``env_fns`` (envs ``first``, ``first + 1``, ... of the pool) in this process:
-    ``EnvFactory(first, where, share).create(env_fns)``."""
-    return EnvFactory(first, where, share).create(env_fns)
+    ``EnvCreator(first, where, share).create(env_fns)``."""
+    return EnvCreator(first, where, share).create(env_fns)
 
 
-class EnvFactory:
+class EnvCreator:
     """Creates a party's envs, measuring their memory as it goes (see the module docstring).
 
     Args:

@@ -32,7 +32,7 @@ from gymnasium.vector.utils import CloudpickleWrapper
 
 from modelicagym.native.batch import SERVE_PYTHON_STEP, SERVE_TIMEOUT, NativeServer
 from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.creation import EnvFactory, close_envs
+from modelicagym.vector.creation import EnvCreator, close_envs
 from modelicagym.vector.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.errors import PoolMemoryError, RemoteError
 from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
@@ -61,15 +61,15 @@ def run_worker(
     envs: list[gym.Env] = []
     try:
         share = len(env_fns.fn) / config.num_envs if config.num_envs else 1.0
-        factory = EnvFactory(first_env, f"worker {worker_index}", share)
+        creator = EnvCreator(first_env, f"worker {worker_index}", share)
         try:
-            envs = factory.create(env_fns.fn)
+            envs = creator.create(env_fns.fn)
             description = describe_envs(envs, first_env, config.observation_mode)
         except PoolMemoryError as exc:
             conn.send(Message(Kind.ERROR, RemoteError.capture(exc, None)))
             return
         except BaseException as exc:  # SystemExit too: the caller learns why, not only an exit code
-            failed = first_env + factory.created if factory.created < len(env_fns.fn) else None
+            failed = first_env + creator.created if creator.created < len(env_fns.fn) else None
             conn.send(Message(Kind.ERROR, RemoteError.capture(exc, failed)))
             return
         conn.send(Message(Kind.READY, description))
