@@ -25,6 +25,7 @@ from modelicagym.fmu import open_fmu
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
     "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.envs.cartpole:CartPoleEnv"),
     "cartpole-continuous": ("ModelicaGym/CartPoleContinuous-v0", "modelicagym.envs.cartpole:CartPoleContinuousEnv"),
+    "pendulum": ("ModelicaGym/PendulumSwingUp-v0", "modelicagym.envs.pendulum:PendulumSwingUpEnv"),
 }
 
 
