@@ -24,31 +24,33 @@ import modelicagym
 from modelicagym.experiments.plots import plot_learning_curve
 from modelicagym.sb3 import SB3VecEnv
 
-#: per env: the PPO settings that learn it, the step budget, and when to stop early
+#: per env: the PPO settings that learn it, the step budget, the episode length, and when it counts
+#: as solved: the mean episode length or return of the last 20 episodes reaching a target
 PRESETS = {
     "cartpole": dict(
-        steps=200_000, target_length=475,
+        steps=200_000, max_episode_steps=500, target=("length", 475),
         ppo=dict(n_steps=32, batch_size=256, n_epochs=20, learning_rate=1e-3, gamma=0.995, gae_lambda=0.95),
     ),
     "cartpole-continuous": dict(  # forces of +-15 N: the policy starts exploring with a std of ~7 N
-        steps=300_000, target_length=475,
+        steps=300_000, max_episode_steps=500, target=("length", 475),
         ppo=dict(n_steps=32, batch_size=256, n_epochs=20, learning_rate=1e-3, gamma=0.995, gae_lambda=0.95,
                  policy_kwargs=dict(log_std_init=2.0)),
     ),
-    "pendulum": dict(
-        steps=400_000, target_length=None,
-        ppo=dict(n_steps=256, batch_size=256, n_epochs=10, learning_rate=3e-4, gamma=0.99, gae_lambda=0.95),
+    "pendulum": dict(  # the baseline controller (EnergySwingUp) averages a return of about -140
+        steps=300_000, max_episode_steps=200, target=("return", -200),
+        ppo=dict(n_steps=512, batch_size=64, n_epochs=10, learning_rate=1e-3, gamma=0.9, gae_lambda=0.95,
+                 use_sde=True, sde_sample_freq=4),
     ),
 }
 
 
 class Progress(BaseCallback):
     """Prints progress after every few rollouts, records the learning curve, and stops training
-    once the mean length of the last 20 episodes reaches the target."""
+    once the mean length or return of the last 20 episodes reaches the target."""
 
-    def __init__(self, target_length, every):
+    def __init__(self, target, every):
         super().__init__()
-        self.target_length, self.every = target_length, every
+        self.target, self.every = target, every
         self.curve = []  # (env steps, mean episode return, mean episode length) after each rollout
         self.started = time.perf_counter()
         self.rollouts = 0
@@ -68,7 +70,8 @@ class Progress(BaseCallback):
         if self.rollouts % self.every == 0:
             print(f"{self.num_timesteps:>8} steps  {elapsed:6.1f} s  {self.num_timesteps / elapsed:8.0f} steps/s  "
                   f"mean return {mean_return:8.1f}  mean length {mean_length:6.1f}")
-        if self.target_length is not None and len(recent) == 20 and mean_length >= self.target_length:
+        measure, goal = self.target
+        if len(recent) == 20 and {"length": mean_length, "return": mean_return}[measure] >= goal:
             self.model.solved_at = (self.num_timesteps, elapsed)
 
     def _on_rollout_start(self):
@@ -85,7 +88,7 @@ def main():
     parser.add_argument("--env", default="cartpole", choices=list(PRESETS))
     parser.add_argument("--envs", type=int, default=8, help="environments stepped in parallel")
     parser.add_argument("--steps", type=int, help="env step budget (default: the env's preset)")
-    parser.add_argument("--max-episode-steps", type=int, default=500)
+    parser.add_argument("--max-episode-steps", type=int, help="default: the env's preset")
     parser.add_argument("--threads", type=int, default=1, help="torch threads (the envs use the other cores)")
     parser.add_argument("--eval-episodes", type=int, default=10)
     parser.add_argument("--seed", type=int, default=0)
@@ -94,20 +97,21 @@ def main():
     preset = PRESETS[args.env]
     torch.set_num_threads(args.threads)
 
-    pool = modelicagym.make_vec(args.env, n=args.envs, max_episode_steps=args.max_episode_steps,
-                                autoreset_mode="SameStep")
+    max_episode_steps = args.max_episode_steps or preset["max_episode_steps"]
+    pool = modelicagym.make_vec(args.env, n=args.envs, max_episode_steps=max_episode_steps, autoreset_mode="SameStep")
     envs = VecNormalize(VecMonitor(SB3VecEnv(pool)), norm_reward=False)
     print(f"{args.env}: {args.envs} envs, {pool.layout}")
     model = PPO("MlpPolicy", envs, seed=args.seed, device="cpu", **preset["ppo"])
-    progress = Progress(preset["target_length"], every=max(1, 2048 // (args.envs * preset["ppo"]["n_steps"])))
+    progress = Progress(preset["target"], every=max(1, 2048 // (args.envs * preset["ppo"]["n_steps"])))
     try:
         model.learn(args.steps or preset["steps"], callback=progress)
     except StopTraining:
         pass
     solved = getattr(model, "solved_at", None)
     if solved:
-        print(f"solved: mean episode length >= {preset['target_length']} after {solved[0]} steps, {solved[1]:.1f} s")
-    elif preset["target_length"] is not None:
+        measure, goal = preset["target"]
+        print(f"solved: mean episode {measure} >= {goal} after {solved[0]} steps, {solved[1]:.1f} s")
+    else:
         print(f"not solved within {model.num_timesteps} steps")
 
     envs.training = False

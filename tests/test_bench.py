@@ -29,12 +29,13 @@ BENCHMARKS = {
 def test_the_training_benchmark_trains_every_vector_env(tmp_path: Path) -> None:
     pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
                         "then pip install 'modelicagym[rl]'")
-    args = ["--models", "cartpole", "--n", "2", "--threads", "1", "--repeats", "1", "--steps", "64"]
+    args = ["--models", "cartpole", "pendulum", "--n", "2", "--threads", "1", "--repeats", "1", "--steps", "64"]
     out = run_bench("training", args, tmp_path / "result.json")
     for candidate in ("pool", "sync", "async", "dummy", "subproc"):
         assert f" {candidate} " in out
     result = json.loads((tmp_path / "result.json").read_text())
-    assert set(result["results"][0]["results"]) == {"pool", "sync", "async", "dummy", "subproc"}
+    assert [r["model"] for r in result["results"]] == ["cartpole", "pendulum"]
+    assert set(result["results"][1]["results"]) == {"pool", "sync", "async", "dummy", "subproc"}
 
 
 def run_bench(name: str, args: list[str], json_path: Path) -> str:

@@ -54,7 +54,7 @@ def test_ray_rollouts_sample_on_a_local_ray():
     assert not left, f"Ray processes left behind: {left}"
 
 
-@pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous"])
+@pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous", "pendulum"])
 def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
     pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
                         "then pip install 'modelicagym[rl]'")
@@ -66,7 +66,7 @@ def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
     assert plot.stat().st_size > 0
 
 
-@pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous"])
+@pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous", "pendulum"])
 def test_one_file_ppo_trains_and_plots(tmp_path, env):
     pytest.importorskip("torch", reason="torch is not installed: pip install torch==2.13.0")
     plot = tmp_path / "curve.png"

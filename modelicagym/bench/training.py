@@ -1,9 +1,9 @@
 """End-to-end PPO training on every vector env a user could pick, and where its time goes.
 
-For each model (the light cart-pole; the cart-pole with a 100x finer internal step, whose FMU
-costs ~100 µs a step; the pendulum swing-up when it is installed) and each torch thread count
-(torch's default, and one thread), one run trains Stable-Baselines3's PPO (the same settings for
-all: ``examples/sb3_ppo.py``'s) on n envs stepped by:
+For each model (the light cart-pole, ~1 µs of FMU work a step; the motor-driven pendulum swing-up,
+~0.4 ms) and each torch thread count (torch's default, and one thread), one run trains
+Stable-Baselines3's PPO (``examples/sb3_ppo.py``'s settings for that model, the same for every
+candidate) on n envs stepped by:
 
 * ``pool``: ``modelicagym.make_vec`` through `modelicagym.sb3.SB3VecEnv` (same-step autoreset);
 * ``sync`` / ``async``: Gymnasium's ``SyncVectorEnv`` / ``AsyncVectorEnv`` through the same adapter;
@@ -11,8 +11,9 @@ all: ``examples/sb3_ppo.py``'s) on n envs stepped by:
 
 interleaved over several rounds of a fixed step budget, and reports the median training steps per
 second and how a round's time splits: stepping the envs, the policy during rollouts, the PPO
-update. With ``--solve`` it also trains each candidate on the light cart-pole until the mean
-episode length of the last 20 episodes reaches 475, and reports the wall time.
+update. With ``--solve`` it also trains each candidate on each model until it is solved (the
+cart-pole: a mean episode length of the last 20 episodes of 475; the pendulum: a mean return of
+-200), and reports the wall time.
 
 Targets (issue "deep RL", 2 cores): on the heavy model at n=8, the pool >= 1.2x ``dummy`` and
 ``sync``, and >= 1.5x ``subproc``, in training steps per second.
@@ -25,6 +26,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -37,24 +39,30 @@ from modelicagym.registry import ENVIRONMENTS, EnvFactory
 
 logger = logging.getLogger(__name__)
 
-#: model name -> (registered env, env options)
+
+
+@dataclass(frozen=True)
+class Model:
+    """A registered env to train on, PPO's settings for it (``examples/sb3_ppo.py``'s), its episode
+    length, and when it counts as solved: the mean ``measure`` ("length" or "return") of the last
+    20 episodes reaching ``goal``."""
+
+    env: str
+    ppo: dict[str, Any]
+    episode_steps: int
+    measure: str
+    goal: float
+    options: dict[str, Any] = field(default_factory=dict)
+
+
 MODELS = {
-    "cartpole": ("cartpole", {}),
-    "heavy-cartpole": ("cartpole", {"cs_step_size": 1e-4}),
-    "pendulum": ("pendulum", {}),
+    "cartpole": Model("cartpole", {"n_steps": 32, "batch_size": 256, "n_epochs": 20, "learning_rate": 1e-3,
+                                   "gamma": 0.995, "gae_lambda": 0.95}, 500, "length", 475),
+    "pendulum": Model("pendulum", {"n_steps": 512, "batch_size": 64, "n_epochs": 10, "learning_rate": 1e-3,
+                                   "gamma": 0.9, "gae_lambda": 0.95, "use_sde": True, "sde_sample_freq": 4},
+                      200, "return", -200),
 }
 CANDIDATES = ("pool", "sync", "async", "dummy", "subproc")
-#: PPO's settings, as examples/sb3_ppo.py trains the cart-pole
-PPO_SETTINGS = {"n_steps": 32, "batch_size": 256, "n_epochs": 20, "learning_rate": 1e-3, "gamma": 0.995,
-                "gae_lambda": 0.95}
-EPISODE_STEPS = 500
-SOLVED_LENGTH = 475
-
-
-def _env_fns(model: str, n: int) -> list[EnvFactory]:
-    name, options = MODELS[model]
-    entry_point = ENVIRONMENTS[name][1]
-    return [EnvFactory(entry_point, {**options, "max_episode_steps": EPISODE_STEPS}) for _ in range(n)]
 
 
 def make_candidate(candidate: str, model: str, n: int) -> Any:
@@ -63,11 +71,11 @@ def make_candidate(candidate: str, model: str, n: int) -> Any:
 
     from modelicagym.sb3 import SB3VecEnv
 
-    fns = _env_fns(model, n)
+    spec = MODELS[model]
+    options = {**spec.options, "max_episode_steps": spec.episode_steps}
+    fns = [EnvFactory(ENVIRONMENTS[spec.env][1], options) for _ in range(n)]
     if candidate == "pool":
-        name, options = MODELS[model]
-        return SB3VecEnv(modelicagym.make_vec(name, n=n, max_episode_steps=EPISODE_STEPS,
-                                              autoreset_mode=AutoresetMode.SAME_STEP, **options))
+        return SB3VecEnv(modelicagym.make_vec(spec.env, n=n, autoreset_mode=AutoresetMode.SAME_STEP, **options))
     if candidate == "sync":
         return SB3VecEnv(gym.vector.SyncVectorEnv(fns, autoreset_mode=AutoresetMode.SAME_STEP))
     if candidate == "async":
@@ -124,7 +132,7 @@ def _trainer(candidate: str, model: str, n: int, steps: int) -> Callable[[], dic
 
     split = _Split()
     venv = split.wrap(make_candidate(candidate, model, n))
-    ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **PPO_SETTINGS)
+    ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **MODELS[model].ppo)
 
     def run() -> dict[str, float]:
         split.env = split.rollout = 0.0
@@ -163,21 +171,23 @@ def measure(model: str, n: int, threads: int | None, repeats: int, steps: int) -
             "pool_over": {name: pool / r["steps_per_second"] for name, r in results.items() if name != "pool"}}
 
 
-def time_to_solve(candidate: str, n: int, budget: int) -> float | None:
-    """Seconds PPO takes on ``candidate`` to reach a mean episode length of 475 on the cart-pole."""
+def time_to_solve(candidate: str, model: str, n: int, budget: int) -> float | None:
+    """Seconds PPO takes on ``candidate`` to solve ``model`` (None: not within ``budget`` steps)."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    venv = VecNormalize(VecMonitor(make_candidate(candidate, "cartpole", n)), norm_reward=False)
+    spec = MODELS[model]
+    key = {"length": "l", "return": "r"}[spec.measure]
+    venv = VecNormalize(VecMonitor(make_candidate(candidate, model, n)), norm_reward=False)
 
     class Solved(BaseCallback):
         def _on_step(self) -> bool:
             episodes = list(self.model.ep_info_buffer)[-20:]
-            return not (len(episodes) == 20 and np.mean([e["l"] for e in episodes]) >= SOLVED_LENGTH)
+            return not (len(episodes) == 20 and np.mean([e[key] for e in episodes]) >= spec.goal)
 
     try:
-        ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **PPO_SETTINGS)
+        ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **spec.ppo)
         started = time.perf_counter()
         ppo.learn(budget, callback=Solved())
         elapsed = time.perf_counter() - started
@@ -186,7 +196,7 @@ def time_to_solve(candidate: str, n: int, budget: int) -> float | None:
         venv.close()
 
 
-def report(results: list[dict[str, Any]], solves: dict[str, float | None]) -> str:
+def report(results: list[dict[str, Any]], solves: dict[str, dict[str, float | None]]) -> str:
     rows = []
     for r in results:
         for name in CANDIDATES:
@@ -198,20 +208,22 @@ def report(results: list[dict[str, Any]], solves: dict[str, float | None]) -> st
                           "update", "pool/this"), rows)
     text = f"PPO training, steps per second and where the time goes:\n{table}"
     if solves:
-        solved = format_table(("vector env", "seconds to solve the cart-pole"),
-                              [(name, "not solved" if s is None else f"{s:.1f}") for name, s in solves.items()])
-        text += f"\n\ntime to solve (mean episode length >= {SOLVED_LENGTH}):\n{solved}"
+        goals = ", ".join(f"{model}: mean episode {MODELS[model].measure} >= {MODELS[model].goal:g}" for model in solves)
+        solved = format_table(("model", "vector env", "seconds to solve"),
+                              [(model, name, "not solved" if s is None else f"{s:.1f}")
+                               for model, times in solves.items() for name, s in times.items()])
+        text += f"\n\ntime to solve ({goals}):\n{solved}"
     return text
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--models", nargs="+", default=["cartpole", "heavy-cartpole"], choices=list(MODELS))
+    parser.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))
     parser.add_argument("--n", type=int, nargs="+", default=[8], help="numbers of envs")
     parser.add_argument("--threads", type=int, nargs="+", default=[0, 1],
                         help="torch threads (0: torch's default)")
     parser.add_argument("--repeats", type=int, default=3, help="interleaved rounds (median reported)")
     parser.add_argument("--steps", type=int, default=4096, help="env steps per round and candidate")
-    parser.add_argument("--solve", action="store_true", help="also time each candidate to solve the cart-pole")
+    parser.add_argument("--solve", action="store_true", help="also time each candidate to solve each model")
     parser.add_argument("--solve-budget", type=int, default=300_000)
     parser.add_argument("--json", default="bench-results/training.json", help="where to write the JSON")
 
@@ -224,7 +236,8 @@ def run(args: argparse.Namespace) -> int:
             for threads in args.threads:
                 logger.info("measuring %s, n=%d, %s torch threads", model, n, threads or "default")
                 results.append(measure(model, n, threads or None, args.repeats, args.steps))
-    solves = {name: time_to_solve(name, max(args.n), args.solve_budget) for name in CANDIDATES} if args.solve else {}
+    solves = {model: {name: time_to_solve(name, model, max(args.n), args.solve_budget) for name in CANDIDATES}
+              for model in args.models} if args.solve else {}
     line, data = conditions(load_before, args.repeats, float("nan"))
     print(report(results, solves))
     print(f"\n{line.split('; medians')[0]}; medians of {args.repeats} interleaved rounds of {args.steps} env steps")
