@@ -36,7 +36,8 @@ from modelicagym.config import FMUEnvConfig
 from modelicagym.config_checks import check_parameter
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
-from modelicagym.native.step import Flags, NativeStep, python_path_reason
+from modelicagym.native.abi import Flags
+from modelicagym.native.step import NativeStep, python_path_reason
 from modelicagym.spaces import Observer, space_for, write_values
 
 logger = logging.getLogger(__name__)

@@ -17,31 +17,12 @@ from functools import partial
 import numpy as np
 
 from modelicagym.agents.discretization import Discretizer
+from modelicagym.native.abi import MgQLearner
 from modelicagym.native.library import NativeBuildError, load_library
 
 __all__ = ["NativeQLearning", "native_library"]
 
 logger = logging.getLogger(__name__)
-
-
-class MgQLearner(ctypes.Structure):
-    """``mg_qlearner`` of ``csrc/qlearning.h``."""
-
-    _fields_ = [
-        ("n_envs", ctypes.c_int64),
-        ("n_states", ctypes.c_int64),
-        ("n_actions", ctypes.c_int64),
-        ("n_vars", ctypes.c_int64),
-        ("max_edges", ctypes.c_int64),
-        ("q", ctypes.c_void_p),
-        ("epsilon", ctypes.c_void_p),
-        ("edges", ctypes.c_void_p),
-        ("strides", ctypes.c_void_p),
-        ("learning_rate", ctypes.c_double),
-        ("discount", ctypes.c_double),
-        ("exploration_decay", ctypes.c_double),
-        ("bootstrap_on_truncation", ctypes.c_int32),
-    ]
 
 
 @functools.cache

@@ -1,32 +1,18 @@
 """An instance's time bookkeeping, in a C struct: the Python and the native step path share it.
 
 Simulation time is ``origin + steps * dt`` from an integer step count, so it does not drift. The
-struct mirrors ``mg_clock`` of ``modelicagym/native/csrc/step.h``; `FMUInstance` reads and writes
-its fields as ordinary attributes (:class:`OnClock`), and the native step library writes the same
-memory, so either path can take any step.
+struct is ``mg_clock`` of ``modelicagym/native/csrc/step.h`` (`modelicagym.native.abi` mirrors it);
+`FMUInstance` reads and writes its fields as ordinary attributes (:class:`OnClock`), and the native
+step library writes the same memory, so either path can take any step.
 """
 
 from __future__ import annotations
 
-import ctypes
 from typing import Any
 
+from modelicagym.native.abi import StepClock
+
 __all__ = ["OnClock", "StepClock"]
-
-
-class StepClock(ctypes.Structure):
-    """``mg_clock``: time, origin, dt, start_time, steps, fmu_time_ns, terminated, broken."""
-
-    _fields_ = [
-        ("time", ctypes.c_double),
-        ("origin", ctypes.c_double),
-        ("dt", ctypes.c_double),
-        ("start_time", ctypes.c_double),
-        ("steps", ctypes.c_int64),
-        ("fmu_time_ns", ctypes.c_int64),
-        ("terminated", ctypes.c_int32),
-        ("broken", ctypes.c_int32),
-    ]
 
 
 class OnClock:

@@ -22,97 +22,16 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
+from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgCollector, MgEnv, MgServer, MgWaiter
 from modelicagym.native.library import load_library
-from modelicagym.native.step import Flags, MgEnv
 
-__all__ = ["NO_RESET", "RESET_THEN_REPORT", "RESET_THEN_STEP", "MgBatch", "MgWaiter", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
+__all__ = ["NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
 
 #: flags of an env that Python must finish after ``mg_step_batch``
 NEEDS_PYTHON = Flags.FMU_ERROR | Flags.PYTHON_RESET | Flags.MODEL_ENDED | Flags.BAD_ACTION
 
-_AUTORESET_CODES = {AutoresetMode.NEXT_STEP: 0, AutoresetMode.SAME_STEP: 1, AutoresetMode.DISABLED: 2}
-
-#: ``mg_serve`` return values that are not command codes
-SERVE_TIMEOUT, SERVE_PYTHON_STEP = -1, -2
-#: ``mg_collect`` return values
-COLLECT_DONE, COLLECT_LOCAL_PYTHON, COLLECT_SLOW = 0, 1, 2
-#: values of ``needs_reset`` (``mg_batch``): none; the env ended and its next step is its reset
-#: (``NEXT_STEP``); it moved to this process at an episode boundary (``SAME_STEP``): reset it, then step it
-NO_RESET, RESET_THEN_REPORT, RESET_THEN_STEP = 0, 1, 2
-
-
-class MgBatch(ctypes.Structure):
-    """``mg_batch`` of ``csrc/step.h``."""
-
-    _fields_ = [
-        ("envs", ctypes.c_void_p),
-        ("n", ctypes.c_int64),
-        ("autoreset_mode", ctypes.c_int32),
-        ("actions", ctypes.c_void_p),
-        ("action_stride", ctypes.c_int64),
-        ("observations", ctypes.c_void_p),
-        ("obs_stride", ctypes.c_int64),
-        ("final_obs", ctypes.c_void_p),
-        ("final_ready", ctypes.c_void_p),
-        ("rewards", ctypes.c_void_p),
-        ("terminations", ctypes.c_void_p),
-        ("truncations", ctypes.c_void_p),
-        ("needs_reset", ctypes.c_void_p),
-        ("active", ctypes.c_void_p),
-        ("in_caller", ctypes.c_void_p),
-        ("caller", ctypes.c_int32),
-        ("flags", ctypes.c_void_p),
-        ("current_env", ctypes.c_void_p),
-        ("first_env", ctypes.c_int64),
-        ("timing_enabled", ctypes.c_void_p),
-        ("timing", ctypes.c_void_p),
-    ]
-
-
-class MgWaiter(ctypes.Structure):
-    """``mg_waiter`` of ``csrc/signal.h``: one waiting party's adaptive state and what its waits did."""
-
-    _fields_ = [
-        ("ready", ctypes.c_int64),
-        ("spun", ctypes.c_int64),
-        ("slept", ctypes.c_int64),
-        ("blocked", ctypes.c_int64),
-        ("long_waits", ctypes.c_int64),
-    ]
-
-
-class MgServer(ctypes.Structure):
-    """``mg_server`` of ``csrc/step.h``."""
-
-    _fields_ = [
-        ("batch", ctypes.c_void_p),
-        ("go", ctypes.c_void_p),
-        ("done", ctypes.c_void_p),
-        ("command", ctypes.c_void_p),
-        ("reply", ctypes.c_void_p),
-        ("step_code", ctypes.c_int32),
-        ("spin_ns", ctypes.c_int64),
-        ("timeout_ns", ctypes.c_int64),
-        ("waiter", ctypes.c_void_p),
-    ]
-
-
-class MgCollector(ctypes.Structure):
-    """``mg_collector`` of ``csrc/step.h``."""
-
-    _fields_ = [
-        ("local", ctypes.c_void_p),
-        ("n_workers", ctypes.c_int64),
-        ("done", ctypes.c_void_p),
-        ("replies", ctypes.c_void_p),
-        ("stepping", ctypes.c_void_p),
-        ("spin_ns", ctypes.c_int64),
-        ("timeout_ns", ctypes.c_int64),
-        ("waiter", ctypes.c_void_p),
-        ("calls", ctypes.c_int64),
-        ("local_ns", ctypes.c_int64),
-        ("wait_ns", ctypes.c_int64),
-    ]
+_AUTORESET_CODES = {AutoresetMode.NEXT_STEP: AutoresetCode.NEXT_STEP, AutoresetMode.SAME_STEP: AutoresetCode.SAME_STEP,
+                    AutoresetMode.DISABLED: AutoresetCode.DISABLED}
 
 
 def batch_path_reason(envs: list[gym.Env]) -> str | None:

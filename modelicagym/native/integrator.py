@@ -20,12 +20,21 @@ import numpy as np
 from modelicagym.fmu.binding import FMIBinding
 from modelicagym.fmu.errors import FMUError
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
+from modelicagym.native.abi import (
+    SUNDIALS_FUNCTIONS,
+    CVodeMethod,
+    IntegratorCall,
+    IntegratorOutcome,
+    MgIntegrator,
+    MgSundials,
+    Solver,
+)
 from modelicagym.native.library import NativeBuildError, load_library
 
-__all__ = ["MgIntegrator", "NativeIntegrator", "python_integrator_reason"]
+__all__ = ["NativeIntegrator", "python_integrator_reason"]
 
-#: ``mg_sundials`` of ``csrc/integrator.h`` (in its field order): the library that exports each function
-_SUNDIALS_FUNCTIONS = {
+#: the fmpy library that exports each of the SUNDIALS functions of ``mg_sundials``
+_SUNDIALS_LIBRARIES = {
     "SUNContext_Create": "sundials_core",
     "SUNContext_Free": "sundials_core",
     "SUNContext_ClearErrHandlers": "sundials_core",
@@ -47,56 +56,9 @@ _SUNDIALS_FUNCTIONS = {
 }
 
 
-class MgSundials(ctypes.Structure):
-    """``mg_sundials`` of ``csrc/integrator.h``."""
-
-    _fields_ = [(name, ctypes.c_void_p) for name in _SUNDIALS_FUNCTIONS]
-
-
-class MgIntegrator(ctypes.Structure):
-    """``mg_integrator`` of ``csrc/integrator.h``."""
-
-    _fields_ = [
-        ("fmi_version", ctypes.c_int32),
-        ("solver", ctypes.c_int32),
-        ("method", ctypes.c_int32),
-        ("stiff", ctypes.c_int32),
-        ("component", ctypes.c_void_p),
-        *((name, ctypes.c_void_p) for name in (
-            "set_time", "set_x", "get_x", "get_dx", "get_z", "get_nominals",
-            "completed_integrator_step", "enter_event_mode", "update_discrete_states", "enter_continuous_time_mode",
-        )),
-        ("nx", ctypes.c_int64),
-        ("nz", ctypes.c_int64),
-        ("needs_completed_integrator_step", ctypes.c_int32),
-        ("tolerance", ctypes.c_double),
-        ("step_size", ctypes.c_double),
-        ("continuous", ctypes.c_int32),
-        ("has_next_event", ctypes.c_int32),
-        ("next_event_time", ctypes.c_double),
-        ("x", ctypes.c_void_p),
-        ("dx", ctypes.c_void_p),
-        ("z", ctypes.c_void_p),
-        ("previous_z", ctypes.c_void_p),
-        ("roots", ctypes.c_void_p),
-        ("stages", ctypes.c_void_p),
-        ("sundials", ctypes.POINTER(MgSundials)),
-        *((name, ctypes.c_void_p) for name in (
-            "context", "cvode", "y", "abstol", "matrix", "linear_solver", "nonlinear_solver",
-        )),
-        ("failed_call", ctypes.c_int32),
-        ("fmi_status", ctypes.c_int32),
-        ("failed_at", ctypes.c_double),
-        ("message", ctypes.c_char * 256),
-    ]
-
-
-#: ``mg_integrator_*`` outcomes
-OK, TERMINATE, FAILED = 0, 1, 2
-#: MG_FMU_CALL_SOLVER: the solver failed, not an FMU call
-_SOLVER_CALL = 11
 #: solver name -> (MG_SOLVER_*, MG_CVODE_*)
-_SOLVERS = {"cvode": (0, 2), "cvode-bdf": (0, 0), "euler": (1, 0), "rk4": (2, 0)}
+_SOLVERS = {"cvode": (Solver.CVODE, CVodeMethod.AUTO), "cvode-bdf": (Solver.CVODE, CVodeMethod.BDF),
+            "euler": (Solver.EULER, CVodeMethod.BDF), "rk4": (Solver.RK4, CVodeMethod.BDF)}
 
 #: FMU functions the integrator calls, by field: the suffix per FMI version (2, 3)
 _FUNCTIONS = {
@@ -121,7 +83,8 @@ def sundials() -> MgSundials:
     from fmpy.sundials import libraries
 
     table = MgSundials()
-    for name, library in _SUNDIALS_FUNCTIONS.items():
+    for name in SUNDIALS_FUNCTIONS:
+        library = _SUNDIALS_LIBRARIES[name]
         setattr(table, name, ctypes.cast(getattr(getattr(libraries, library), name), ctypes.c_void_p).value)
     return table
 
@@ -212,14 +175,14 @@ class NativeIntegrator(ModelExchangeIntegrator):
         return self._check(self._advance(self._ref, time, stop))
 
     def _check(self, outcome: int) -> bool:
-        if outcome == FAILED:
+        if outcome == IntegratorOutcome.FAILED:
             raise self.error()
-        return outcome == TERMINATE
+        return outcome == IntegratorOutcome.TERMINATE
 
     def error(self) -> FMUError:
         """The error of the last call that failed, as the Python path raises it."""
         state, binding = self.state, self.binding
-        if state.failed_call == _SOLVER_CALL:
+        if state.failed_call == IntegratorCall.SOLVER:
             message = state.message.decode(errors="replace") or f"CVode returned {state.fmi_status}"
             return FMUError(f"{binding.fmu_name}: the {self.solver_name} solver failed at t={state.failed_at}: {message}")
         names = _FUNCTIONS[_CALLS[state.failed_call - 1]]

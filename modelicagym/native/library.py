@@ -20,6 +20,7 @@ from pathlib import Path
 
 from modelicagym.errors import NativeBuildError
 from modelicagym.fmu.cache import cache_dir, locked
+from modelicagym.native.abi import check_layout
 
 __all__ = ["NativeBuildError", "SOURCES_DIR", "load_library"]
 
@@ -54,6 +55,7 @@ def _digest(compiler: str) -> str:
 
 #: ctypes signatures of the library's functions: name -> (restype, argtypes)
 SIGNATURES = {
+    "mg_abi": (ctypes.c_int64, (ctypes.c_void_p,)),
     "mg_now_ns": (ctypes.c_int64, ()),
     "mg_signal_post": (None, (ctypes.c_void_p,)),
     "mg_signal_try": (ctypes.c_int, (ctypes.c_void_p,)),
@@ -81,7 +83,8 @@ SIGNATURES = {
 
 @functools.cache
 def load_library() -> ctypes.CDLL:
-    """The native library of this process, built on a cache miss; raises `NativeBuildError`.
+    """The native library of this process, built on a cache miss, its layout checked against
+    `modelicagym.native.abi`; raises `NativeBuildError` (`NativeABIError` for a layout mismatch).
 
     Foreign calls release the GIL (``ctypes.CDLL``), so a wait in C never blocks other threads.
     """
@@ -96,6 +99,7 @@ def load_library() -> ctypes.CDLL:
     for name, (restype, argtypes) in SIGNATURES.items():
         function = getattr(library, name)
         function.restype, function.argtypes = restype, argtypes
+    check_layout(library, str(path))
     return library
 
 

@@ -20,78 +20,23 @@ import numpy as np
 from gymnasium import spaces
 
 from modelicagym.fmu.binding import DISCARD
-from modelicagym.fmu.clock import StepClock
 from modelicagym.fmu.errors import FMUCallError
+from modelicagym.native.abi import FailedCall, MgEnv
 from modelicagym.native.library import NativeBuildError, load_library
 
 if TYPE_CHECKING:
     from modelicagym.env import FMUEnv
 
-__all__ = ["Flags", "MgEnv", "NativeStep", "python_path_reason"]
+__all__ = ["NativeStep", "python_path_reason"]
 
 logger = logging.getLogger(__name__)
 
 _FLOAT64 = ("Real", "Float64")
 _OVERRIDABLE = ("step", "compute_reward", "is_terminal", "action_to_inputs", "observation")
-
-
-class Flags:
-    """What ``mg_env_step``/``mg_step_batch`` report per env (``csrc/step.h``), plain ints."""
-
-    TERMINATED = 1
-    TRUNCATED = 2
-    MODEL_ENDED = 4
-    FMU_ERROR = 8
-    RESET_DONE = 16
-    PYTHON_RESET = 32
-    BAD_ACTION = 64
-
-
 #: ``failed_call`` codes -> how the Python path names the failing call
-_FAILED_CALLS = {1: "set inputs", 2: "fmiDoStep", 3: "get outputs", 4: "set FMU state", 5: "integrate"}
-
-
-class MgEnv(ctypes.Structure):
-    """``mg_env`` of ``csrc/step.h``."""
-
-    _fields_ = [
-        ("fmi_version", ctypes.c_int32),
-        ("discrete", ctypes.c_int32),
-        ("component", ctypes.c_void_p),
-        ("set_real", ctypes.c_void_p),
-        ("get_real", ctypes.c_void_p),
-        ("do_step", ctypes.c_void_p),
-        ("get_boolean_status", ctypes.c_void_p),
-        ("set_state", ctypes.c_void_p),
-        ("snapshot", ctypes.c_void_p),
-        ("integrator", ctypes.c_void_p),
-        ("snapshot_has_next_event", ctypes.c_int32),
-        ("snapshot_next_event_time", ctypes.c_double),
-        ("input_refs", ctypes.c_void_p),
-        ("inputs", ctypes.c_void_p),
-        ("input_starts", ctypes.c_void_p),
-        ("n_inputs", ctypes.c_int64),
-        ("output_refs", ctypes.c_void_p),
-        ("outputs", ctypes.c_void_p),
-        ("n_outputs", ctypes.c_int64),
-        ("action_table", ctypes.c_void_p),
-        ("n_actions", ctypes.c_int64),
-        ("action_low", ctypes.c_void_p),
-        ("action_high", ctypes.c_void_p),
-        ("bound_index", ctypes.c_void_p),
-        ("bound_low", ctypes.c_void_p),
-        ("bound_high", ctypes.c_void_p),
-        ("n_bounds", ctypes.c_int64),
-        ("time_step", ctypes.c_double),
-        ("positive_reward", ctypes.c_double),
-        ("negative_reward", ctypes.c_double),
-        ("max_episode_steps", ctypes.c_int64),
-        ("elapsed_steps", ctypes.c_int64),
-        ("native_reset", ctypes.c_int32),
-        ("fmi_status", ctypes.c_int32),
-        ("failed_call", ctypes.c_int32),
-        ("clock", ctypes.POINTER(StepClock)),
-    ]
+_FAILED_CALLS = {FailedCall.SET_INPUTS: "set inputs", FailedCall.DO_STEP: "fmiDoStep",
+                 FailedCall.GET_OUTPUTS: "get outputs", FailedCall.SET_STATE: "set FMU state",
+                 FailedCall.INTEGRATE: "integrate"}
 
 
 def python_path_reason(env: FMUEnv) -> str | None:

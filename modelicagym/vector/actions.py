@@ -24,7 +24,7 @@ from gymnasium.vector.utils import batch_space, iterate
 
 from modelicagym.actions import CHECKED_SPACES, check_action
 from modelicagym.errors import ActionError, ActionTypeError
-from modelicagym.native.batch import RESET_THEN_REPORT
+from modelicagym.native.abi import RESET_THEN_REPORT
 from modelicagym.vector.buffers import PickledBatch, SharedBatch
 
 __all__ = ["ActionWriter"]

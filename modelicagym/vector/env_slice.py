@@ -25,8 +25,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.native.batch import NO_RESET, RESET_THEN_STEP, NativeBatch, batch_path_reason
-from modelicagym.native.step import Flags
+from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
+from modelicagym.native.batch import NativeBatch, batch_path_reason
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
 from modelicagym.vector.errors import RemoteError

@@ -41,7 +41,8 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ConfigError
-from modelicagym.native.batch import RESET_THEN_STEP, batch_path_reason
+from modelicagym.native.abi import RESET_THEN_STEP
+from modelicagym.native.batch import batch_path_reason
 from modelicagym.vector.creation import close_envs, create_envs
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import PoolMemoryError

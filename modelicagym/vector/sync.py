@@ -138,7 +138,7 @@ class FutexSignal:
     __slots__ = ("_address", "_post", "_wait", "waiter", "_waiter_ref")
 
     def __init__(self, library: ctypes.CDLL, address: int) -> None:
-        from modelicagym.native.batch import MgWaiter
+        from modelicagym.native.abi import MgWaiter
 
         self._address = address
         self._post = library.mg_signal_post

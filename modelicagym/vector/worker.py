@@ -30,7 +30,8 @@ from multiprocessing.reduction import ForkingPickler, recv_handle
 import gymnasium as gym
 from gymnasium.vector.utils import CloudpickleWrapper
 
-from modelicagym.native.batch import SERVE_PYTHON_STEP, SERVE_TIMEOUT, NativeServer
+from modelicagym.native.abi import SERVE_PYTHON_STEP, SERVE_TIMEOUT
+from modelicagym.native.batch import NativeServer
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import EnvCreator, close_envs
 from modelicagym.vector.env_slice import EnvSlice, describe_envs

@@ -1,0 +1,402 @@
+"""Every C struct and constant of our native library as Python sees it, in one place, checked.
+
+The ctypes mirrors below follow the C headers in ``csrc/`` field for field. A mirror that drifts from
+its header would make C read and write the wrong bytes, silently; so the library exports its own
+layout (``csrc/abi.c``: each struct's size, each field's offset, each constant's value) and
+:func:`check_layout` compares it with these mirrors when the library is loaded. A mismatch is a
+`NativeABIError` naming every difference, never memory corruption.
+
+The layers that talk to C (the env's native step, the pool's native slices, the model-exchange
+integrator, the Q-learning agent) take their structs and codes from here; nothing else declares one.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Mapping
+
+from modelicagym.errors import NativeBuildError
+
+__all__ = [
+    "COLLECT_DONE",
+    "COLLECT_LOCAL_PYTHON",
+    "COLLECT_SLOW",
+    "CONSTANTS",
+    "NO_RESET",
+    "RESET_THEN_REPORT",
+    "RESET_THEN_STEP",
+    "SERVE_PYTHON_STEP",
+    "SERVE_TIMEOUT",
+    "STRUCTS",
+    "SUNDIALS_FUNCTIONS",
+    "AutoresetCode",
+    "CVodeMethod",
+    "FailedCall",
+    "Flags",
+    "IntegratorCall",
+    "IntegratorOutcome",
+    "MgBatch",
+    "MgCollector",
+    "MgEnv",
+    "MgIntegrator",
+    "MgQLearner",
+    "MgServer",
+    "MgSundials",
+    "MgWaiter",
+    "NativeABIError",
+    "Solver",
+    "StepClock",
+    "check_layout",
+]
+
+
+class NativeABIError(NativeBuildError):
+    """The native library's structs or constants differ from the Python mirrors of ``native/abi.py``."""
+
+
+# -- constants -------------------------------------------------------------------------------------
+
+
+class Flags:
+    """What ``mg_env_step`` / ``mg_step_batch`` report per env (``MG_TERMINATED``, ...), plain ints."""
+
+    TERMINATED = 1
+    TRUNCATED = 2
+    MODEL_ENDED = 4
+    FMU_ERROR = 8
+    RESET_DONE = 16
+    PYTHON_RESET = 32
+    BAD_ACTION = 64
+
+
+class FailedCall:
+    """``mg_env.failed_call``: which call of a native step failed (``MG_CALL_*``)."""
+
+    SET_INPUTS = 1
+    DO_STEP = 2
+    GET_OUTPUTS = 3
+    SET_STATE = 4
+    INTEGRATE = 5
+
+
+class AutoresetCode:
+    """``mg_batch.autoreset_mode`` (``MG_AUTORESET_*``)."""
+
+    NEXT_STEP = 0
+    SAME_STEP = 1
+    DISABLED = 2
+
+
+#: values of ``mg_batch.needs_reset``: none; the env ended and its next step is its reset
+#: (``NEXT_STEP``); it moved to this process at an episode boundary (``SAME_STEP``): reset it, then step it
+NO_RESET, RESET_THEN_REPORT, RESET_THEN_STEP = 0, 1, 2
+#: ``mg_serve`` return values that are not command codes
+SERVE_TIMEOUT, SERVE_PYTHON_STEP = -1, -2
+#: ``mg_collect`` return values
+COLLECT_DONE, COLLECT_LOCAL_PYTHON, COLLECT_SLOW = 0, 1, 2
+
+
+class Solver:
+    """``mg_integrator.solver`` (``MG_SOLVER_*``)."""
+
+    CVODE = 0
+    EULER = 1
+    RK4 = 2
+
+
+class CVodeMethod:
+    """``mg_integrator.method`` (``MG_CVODE_*``): BDF, Adams, or Adams until the model proves stiff."""
+
+    BDF = 0
+    ADAMS = 1
+    AUTO = 2
+
+
+class IntegratorOutcome:
+    """What ``mg_integrator_open`` / ``mg_integrator_advance`` return (``MG_INTEGRATOR_*``)."""
+
+    OK = 0
+    TERMINATE = 1
+    FAILED = 2
+
+
+class IntegratorCall:
+    """``mg_integrator.failed_call`` (``MG_FMU_CALL_*``): the FMU call that failed, or the solver."""
+
+    SET_TIME = 1
+    SET_X = 2
+    GET_X = 3
+    GET_DX = 4
+    GET_Z = 5
+    GET_NOMINALS = 6
+    COMPLETED_STEP = 7
+    ENTER_EVENT_MODE = 8
+    UPDATE_DISCRETE_STATES = 9
+    ENTER_CONTINUOUS_TIME_MODE = 10
+    SOLVER = 11
+
+
+def _prefixed(prefix: str, codes: type) -> dict[str, int]:
+    return {f"{prefix}{name}": value for name, value in vars(codes).items() if name.isupper()}
+
+
+#: every constant C and Python share: its C name -> the value Python uses
+CONSTANTS: dict[str, int] = {
+    **_prefixed("MG_", Flags),
+    **_prefixed("MG_CALL_", FailedCall),
+    **_prefixed("MG_AUTORESET_", AutoresetCode),
+    "MG_NO_RESET": NO_RESET,
+    "MG_RESET_THEN_REPORT": RESET_THEN_REPORT,
+    "MG_RESET_THEN_STEP": RESET_THEN_STEP,
+    "MG_SERVE_TIMEOUT": SERVE_TIMEOUT,
+    "MG_SERVE_PYTHON_STEP": SERVE_PYTHON_STEP,
+    "MG_COLLECT_DONE": COLLECT_DONE,
+    "MG_COLLECT_LOCAL_PYTHON": COLLECT_LOCAL_PYTHON,
+    "MG_COLLECT_SLOW": COLLECT_SLOW,
+    **_prefixed("MG_SOLVER_", Solver),
+    **_prefixed("MG_CVODE_", CVodeMethod),
+    **_prefixed("MG_INTEGRATOR_", IntegratorOutcome),
+    **_prefixed("MG_FMU_CALL_", IntegratorCall),
+}
+
+
+# -- structs ---------------------------------------------------------------------------------------
+
+
+def _pointers(*names: str) -> list[tuple[str, type]]:
+    return [(name, ctypes.c_void_p) for name in names]
+
+
+class StepClock(ctypes.Structure):
+    """``mg_clock`` (``csrc/step.h``): an instance's time bookkeeping, shared by the Python and the
+    native step path (see `modelicagym.fmu.clock`)."""
+
+    _fields_ = [
+        ("time", ctypes.c_double),
+        ("origin", ctypes.c_double),
+        ("dt", ctypes.c_double),
+        ("start_time", ctypes.c_double),
+        ("steps", ctypes.c_int64),
+        ("fmu_time_ns", ctypes.c_int64),
+        ("terminated", ctypes.c_int32),
+        ("broken", ctypes.c_int32),
+    ]
+
+
+#: the SUNDIALS functions the native integrator calls, in ``mg_sundials`` order
+SUNDIALS_FUNCTIONS = (
+    "SUNContext_Create", "SUNContext_Free", "SUNContext_ClearErrHandlers", "SUNContext_PushErrHandler",
+    "N_VNew_Serial", "N_VDestroy", "N_VGetArrayPointer",
+    "SUNDenseMatrix", "SUNMatDestroy", "SUNLinSol_Dense", "SUNLinSolFree", "SUNNonlinSol_FixedPoint",
+    "SUNNonlinSolFree",
+    "CVodeCreate", "CVodeInit", "CVodeReInit", "CVodeSVtolerances", "CVodeRootInit",
+    "CVodeSetLinearSolver", "CVodeSetNonlinearSolver", "CVodeSetMaxNumSteps", "CVodeSetNoInactiveRootWarn",
+    "CVodeSetUserData", "CVode", "CVodeGetRootInfo", "CVodeGetNumNonlinSolvConvFails", "CVodeFree",
+)
+
+
+class MgSundials(ctypes.Structure):
+    """``mg_sundials`` (``csrc/integrator.h``): addresses of the SUNDIALS functions."""
+
+    _fields_ = _pointers(*SUNDIALS_FUNCTIONS)
+
+
+class MgIntegrator(ctypes.Structure):
+    """``mg_integrator`` (``csrc/integrator.h``): one model-exchange instance's solver loop."""
+
+    _fields_ = [
+        ("fmi_version", ctypes.c_int32),
+        ("solver", ctypes.c_int32),
+        ("method", ctypes.c_int32),
+        ("stiff", ctypes.c_int32),
+        ("component", ctypes.c_void_p),
+        *_pointers("set_time", "set_x", "get_x", "get_dx", "get_z", "get_nominals", "completed_integrator_step",
+                   "enter_event_mode", "update_discrete_states", "enter_continuous_time_mode"),
+        ("nx", ctypes.c_int64),
+        ("nz", ctypes.c_int64),
+        ("needs_completed_integrator_step", ctypes.c_int32),
+        ("tolerance", ctypes.c_double),
+        ("step_size", ctypes.c_double),
+        ("continuous", ctypes.c_int32),
+        ("has_next_event", ctypes.c_int32),
+        ("next_event_time", ctypes.c_double),
+        *_pointers("x", "dx", "z", "previous_z", "roots", "stages"),
+        ("sundials", ctypes.POINTER(MgSundials)),
+        *_pointers("context", "cvode", "y", "abstol", "matrix", "linear_solver", "nonlinear_solver"),
+        ("failed_call", ctypes.c_int32),
+        ("fmi_status", ctypes.c_int32),
+        ("failed_at", ctypes.c_double),
+        ("message", ctypes.c_char * 256),
+    ]
+
+
+class MgEnv(ctypes.Structure):
+    """``mg_env`` (``csrc/step.h``): one env on the native step path."""
+
+    _fields_ = [
+        ("fmi_version", ctypes.c_int32),
+        ("discrete", ctypes.c_int32),
+        *_pointers("component", "set_real", "get_real", "do_step", "get_boolean_status", "set_state", "snapshot",
+                   "integrator"),
+        ("snapshot_has_next_event", ctypes.c_int32),
+        ("snapshot_next_event_time", ctypes.c_double),
+        *_pointers("input_refs", "inputs", "input_starts"),
+        ("n_inputs", ctypes.c_int64),
+        *_pointers("output_refs", "outputs"),
+        ("n_outputs", ctypes.c_int64),
+        ("action_table", ctypes.c_void_p),
+        ("n_actions", ctypes.c_int64),
+        *_pointers("action_low", "action_high", "bound_index", "bound_low", "bound_high"),
+        ("n_bounds", ctypes.c_int64),
+        ("time_step", ctypes.c_double),
+        ("positive_reward", ctypes.c_double),
+        ("negative_reward", ctypes.c_double),
+        ("max_episode_steps", ctypes.c_int64),
+        ("elapsed_steps", ctypes.c_int64),
+        ("native_reset", ctypes.c_int32),
+        ("fmi_status", ctypes.c_int32),
+        ("failed_call", ctypes.c_int32),
+        ("clock", ctypes.POINTER(StepClock)),
+    ]
+
+
+class MgBatch(ctypes.Structure):
+    """``mg_batch`` (``csrc/step.h``): a slice of a pool's envs and where its results go."""
+
+    _fields_ = [
+        ("envs", ctypes.c_void_p),
+        ("n", ctypes.c_int64),
+        ("autoreset_mode", ctypes.c_int32),
+        ("actions", ctypes.c_void_p),
+        ("action_stride", ctypes.c_int64),
+        ("observations", ctypes.c_void_p),
+        ("obs_stride", ctypes.c_int64),
+        *_pointers("final_obs", "final_ready", "rewards", "terminations", "truncations", "needs_reset", "active",
+                   "in_caller"),
+        ("caller", ctypes.c_int32),
+        *_pointers("flags", "current_env"),
+        ("first_env", ctypes.c_int64),
+        *_pointers("timing_enabled", "timing"),
+    ]
+
+
+class MgWaiter(ctypes.Structure):
+    """``mg_waiter`` (``csrc/signal.h``): one waiting party's adaptive state and what its waits did."""
+
+    _fields_ = [
+        ("ready", ctypes.c_int64),
+        ("spun", ctypes.c_int64),
+        ("slept", ctypes.c_int64),
+        ("blocked", ctypes.c_int64),
+        ("long_waits", ctypes.c_int64),
+    ]
+
+
+class MgServer(ctypes.Structure):
+    """``mg_server`` (``csrc/step.h``): a worker's command loop in C."""
+
+    _fields_ = [
+        *_pointers("batch", "go", "done", "command", "reply"),
+        ("step_code", ctypes.c_int32),
+        ("spin_ns", ctypes.c_int64),
+        ("timeout_ns", ctypes.c_int64),
+        ("waiter", ctypes.c_void_p),
+    ]
+
+
+class MgCollector(ctypes.Structure):
+    """``mg_collector`` (``csrc/step.h``): the parent's side of a pool step."""
+
+    _fields_ = [
+        ("local", ctypes.c_void_p),
+        ("n_workers", ctypes.c_int64),
+        *_pointers("done", "replies", "stepping"),
+        ("spin_ns", ctypes.c_int64),
+        ("timeout_ns", ctypes.c_int64),
+        ("waiter", ctypes.c_void_p),
+        ("calls", ctypes.c_int64),
+        ("local_ns", ctypes.c_int64),
+        ("wait_ns", ctypes.c_int64),
+    ]
+
+
+class MgQLearner(ctypes.Structure):
+    """``mg_qlearner`` (``csrc/qlearning.h``): one Q-learning agent's tables and settings."""
+
+    _fields_ = [
+        ("n_envs", ctypes.c_int64),
+        ("n_states", ctypes.c_int64),
+        ("n_actions", ctypes.c_int64),
+        ("n_vars", ctypes.c_int64),
+        ("max_edges", ctypes.c_int64),
+        *_pointers("q", "epsilon", "edges", "strides"),
+        ("learning_rate", ctypes.c_double),
+        ("discount", ctypes.c_double),
+        ("exploration_decay", ctypes.c_double),
+        ("bootstrap_on_truncation", ctypes.c_int32),
+    ]
+
+
+#: every struct C and Python share: its C name -> its mirror
+STRUCTS: dict[str, type[ctypes.Structure]] = {
+    "mg_clock": StepClock,
+    "mg_sundials": MgSundials,
+    "mg_integrator": MgIntegrator,
+    "mg_env": MgEnv,
+    "mg_batch": MgBatch,
+    "mg_waiter": MgWaiter,
+    "mg_server": MgServer,
+    "mg_collector": MgCollector,
+    "mg_qlearner": MgQLearner,
+}
+
+
+# -- the check -------------------------------------------------------------------------------------
+
+
+class _Entry(ctypes.Structure):
+    """``mg_abi_entry`` (``csrc/abi.c``): a struct's size, a field's offset or a constant's value."""
+
+    _fields_ = [("name", ctypes.c_char_p), ("value", ctypes.c_int64)]
+
+
+def exported_layout(library: ctypes.CDLL) -> dict[str, int]:
+    """What the library says of itself: ``{"mg_env": size, "mg_env.component": offset, "MG_...": value}``."""
+    entries = ctypes.POINTER(_Entry)()
+    count = library.mg_abi(ctypes.byref(entries))
+    return {entries[i].name.decode(): entries[i].value for i in range(count)}
+
+
+def expected_layout() -> dict[str, int]:
+    """The same table from the Python mirrors."""
+    layout: dict[str, int] = dict(CONSTANTS)
+    for name, struct in STRUCTS.items():
+        layout[name] = ctypes.sizeof(struct)
+        for field, _ in struct._fields_:
+            layout[f"{name}.{field}"] = getattr(struct, field).offset
+    return layout
+
+
+def layout_differences(exported: Mapping[str, int], expected: Mapping[str, int]) -> list[str]:
+    """One line per difference between the library's layout and the mirrors' (empty: they agree)."""
+    problems = []
+    for name in sorted(expected.keys() | exported.keys()):
+        if name not in exported:
+            problems.append(f"{name}: in the Python mirror ({expected[name]}), not in the C library")
+        elif name not in expected:
+            problems.append(f"{name}: in the C library ({exported[name]}), not in the Python mirror")
+        elif exported[name] != expected[name]:
+            what = "value" if name.isupper() else "offset" if "." in name else "size"
+            problems.append(f"{name}: {what} {exported[name]} in C, {expected[name]} in Python")
+    return problems
+
+
+def check_layout(library: ctypes.CDLL, path: str) -> None:
+    """Raise `NativeABIError` unless every struct and constant of ``library`` matches its mirror."""
+    problems = layout_differences(exported_layout(library), expected_layout())
+    if problems:
+        listed = "\n  ".join(problems)
+        raise NativeABIError(
+            f"the native library {path} does not match modelicagym/native/abi.py ({len(problems)} "
+            f"difference(s)); a header in native/csrc changed without its mirror:\n  {listed}"
+        )
