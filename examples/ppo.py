@@ -6,7 +6,10 @@ plot. The pool is a Gymnasium vector env made with ``autoreset_mode="SameStep"``
 is reset in the same step, so the observation after a ``done`` is the next episode's first one, as
 this PPO (and CleanRL's) expects. With the defaults it solves the Cart-Pole (mean episode length
 >= 475 of 500) in well under a minute on 2 cores. ``--env cartpole-continuous`` (a force action)
-or ``--env pendulum`` (the motor-driven swing-up, a costlier FMU) train a Gaussian policy instead.
+or ``--env pendulum`` (the motor-driven swing-up, a costlier FMU) train a Gaussian policy instead:
+the continuous cart-pole is solved in seconds; the swing-up improves from a mean return of about
+-1,500 to -500 in 300,000 steps (2 minutes), short of the -200 that SB3's PPO with
+state-dependent exploration reaches (``examples/sb3_ppo.py --env pendulum``).
 
 Run: ``python examples/ppo.py [--env cartpole] [--num-envs 8] [--total-steps 200000]``
 (needs ``pip install torch==2.13.0`` for a CPU-only torch; ``modelicagym[plots]`` for the plot).
@@ -31,7 +34,7 @@ from modelicagym.experiments.plots import plot_learning_curve
 #: short horizon
 PRESETS = {
     "pendulum": dict(max_episode_steps=200, target_length=0, target_return=-200, num_steps=256, epochs=10,
-                     minibatch_size=64, gamma=0.9, total_steps=300_000),
+                     minibatch_size=64, gamma=0.9, reward_scale=0.1, total_steps=300_000),
 }
 
 
@@ -47,6 +50,8 @@ def parse_args():
     parser.add_argument("--gamma", type=float, default=0.995)
     parser.add_argument("--gae-lambda", type=float, default=0.95)
     parser.add_argument("--clip", type=float, default=0.2)
+    parser.add_argument("--reward-scale", type=float, default=1.0, help="the critic learns scaled rewards "
+                        "(progress lines show the env's own)")
     parser.add_argument("--entropy-coef", type=float, default=0.0)
     parser.add_argument("--value-coef", type=float, default=0.5)
     parser.add_argument("--max-grad-norm", type=float, default=0.5)
@@ -166,7 +171,7 @@ def main():
                 env_action = np.clip(env_action, action_space.low, action_space.high)
             observation, reward, terminated, truncated, _ = envs.step(env_action)
             done = terminated | truncated
-            rewards[t] = torch.as_tensor(reward, dtype=torch.float32)
+            rewards[t] = torch.as_tensor(reward * args.reward_scale, dtype=torch.float32)
             next_observation, next_done = normalize(observation), torch.as_tensor(done, dtype=torch.float32)
             global_step += n
             episode_return += reward
