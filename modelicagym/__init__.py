@@ -7,8 +7,8 @@ multi-process pool and ``modelicagym.fmu`` the FMI runtime underneath. Every err
 """
 
 from modelicagym import errors
-from modelicagym.config import FMUEnvConfig
-from modelicagym.env import FMUEnv
+from modelicagym.env.config import FMUEnvConfig
+from modelicagym.env.fmu_env import FMUEnv
 from modelicagym.errors import ModelicaGymError
 from modelicagym.registry import make, make_vec, register_environments
 

@@ -182,8 +182,8 @@ def _vector_env(
 def _env_option_names(env_class: Any) -> set[str] | None:
     """The keyword options ``env_class`` accepts, or ``None`` when it takes any (``**kwargs``)
     that are not an `FMUEnv`'s config keys."""
-    from modelicagym.config import FMUEnvConfig
-    from modelicagym.env import FMUEnv
+    from modelicagym.env.config import FMUEnvConfig
+    from modelicagym.env.fmu_env import FMUEnv
 
     parameters = inspect.signature(env_class.__init__).parameters.values()
     names = {p.name for p in parameters if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)} - {"self"}

@@ -17,7 +17,7 @@ from gymnasium import spaces
 from modelicagym.fmu import open_fmu
 from modelicagym.fmu.build import FRAMEWORK_DIR
 from modelicagym.models.cartpole import MODEL_DIR as CARTPOLE_DIR
-from modelicagym.spaces import space_for
+from modelicagym.env.spaces import space_for
 
 
 @pytest.mark.parametrize("name", sorted(VARIANTS))

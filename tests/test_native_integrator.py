@@ -1,4 +1,4 @@
-"""Model exchange with the solver loop in C (`modelicagym.native.integrator`) against the Python
+"""Model exchange with the solver loop in C (`modelicagym.fmu.native_integrator`) against the Python
 loop (``integrator="python"`` / ``step_path="python"``), on the family members made for it: the
 bouncing ball (state and time events), the staircase (time events, two-pass event iteration, a
 terminating event), the stiff model, and the cart-pole.

@@ -7,7 +7,7 @@ Measured side by side in one run (interleaved rounds, medians), ``FMUEnv.step`` 
   tolerance (1e-10) and at 1e-6, ``cvode-bdf`` (BDF throughout, as fmpy) at the default tolerance,
   forward Euler at ``solver_step=1e-3``, and ``rk4`` (classical Runge-Kutta) at the co-simulation
   FMU's own internal step, 5e-3, where it gives co-simulation's numbers: each on the native path
-  (the solver loop in C, `modelicagym.native.integrator`) and on the Python path
+  (the solver loop in C, `modelicagym.fmu.native_integrator`) and on the Python path
   (``step_path="python"``).
 
 Target (issue 15): model exchange with CVode at the default tolerance on the native path reaches

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from modelicagym.env import FMUEnv
+from modelicagym.env.fmu_env import FMUEnv
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 
 UPRIGHT = np.pi / 2

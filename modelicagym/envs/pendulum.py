@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from modelicagym.env import FMUEnv
+from modelicagym.env.fmu_env import FMUEnv
 from modelicagym.models.pendulum import DEFAULT_PARAMETERS, pendulum_fmu
 
 #: Observation: the pendulum's angle as a point on the unit circle, and its angular velocity.

@@ -41,7 +41,7 @@ from modelicagym.fmu.fmi1 import FMI1Binding
 from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.fmi3 import FMI3Binding
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
-from modelicagym.native.integrator import NativeIntegrator, python_integrator_reason
+from modelicagym.fmu.native_integrator import NativeIntegrator, python_integrator_reason
 
 logger = logging.getLogger(__name__)
 

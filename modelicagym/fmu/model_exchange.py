@@ -42,7 +42,7 @@ class ModelExchangeIntegrator:
     (from the next `advance` on); ``"cvode-bdf"`` runs BDF throughout, as fmpy does; both with
     relative tolerance ``tolerance``. ``solver="euler"`` (forward Euler) and ``"rk4"`` (classical
     Runge-Kutta) take fixed steps of ``step_size``.
-    The native integrator (`modelicagym.native.integrator`) runs the same algorithms in C.
+    The native integrator (`modelicagym.fmu.native_integrator`) runs the same algorithms in C.
     """
 
     def __init__(

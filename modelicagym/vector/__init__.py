@@ -12,7 +12,7 @@ offer it, by these names:
   one worker process; 1 for FMUs with ``canBeInstantiatedOnlyOncePerProcess``.
 - ``env.step_path == "native"`` with ``env.native_step``, ``env.native_step_failure()`` and
   ``env.observation()`` (an `FMUEnv` on the native step path, unwrapped): a slice of such envs steps
-  in one C call of :mod:`modelicagym.native.batch`, with the same results.
+  in one C call of :mod:`modelicagym.vector.native_slice`, with the same results.
 - ``env.reset_is_deterministic``: a reset without seed or options starts the same episode in any
   env the same env fn makes. With it (and the native step path), a pool whose layout the pool
   plans may move the env between the calling process and its worker at an episode boundary

@@ -34,7 +34,7 @@ from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import concatenate, create_empty_array
 
 from modelicagym.errors import ArgumentError
-from modelicagym.vector.actions import ActionWriter
+from modelicagym.vector.action_writer import ActionWriter
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import check_env_ids
 from modelicagym.vector.handle import WorkerHandle

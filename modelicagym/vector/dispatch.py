@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from modelicagym.native.abi import COLLECT_DONE, COLLECT_LOCAL_PYTHON, MgWaiter
-from modelicagym.native.batch import NativeCollector
+from modelicagym.vector.native_slice import NativeCollector
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import close_envs
 from modelicagym.vector.env_slice import EnvSlice

@@ -7,7 +7,7 @@ processes, pipes or signals; each command returns the reply message the parent g
 there is nothing to say).
 
 A slice of bare `FMUEnv` instances on the native step path steps in one C call
-(:class:`~modelicagym.native.batch.NativeBatch`); whatever C leaves to Python (an FMU error, a
+(:class:`~modelicagym.vector.native_slice.NativeBatch`); whatever C leaves to Python (an FMU error, a
 reset the reset ladder must do, an info to report) is finished here, on the Python path. The
 results are the same either way. ``step_path`` and ``step_path_reason`` say which path a slice takes.
 """
@@ -26,7 +26,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
-from modelicagym.native.batch import NativeBatch, batch_path_reason
+from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
 from modelicagym.vector.errors import RemoteError

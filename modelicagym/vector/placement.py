@@ -42,7 +42,7 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
-from modelicagym.native.batch import batch_path_reason
+from modelicagym.vector.native_slice import batch_path_reason
 from modelicagym.vector.creation import close_envs, create_envs
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import PoolMemoryError

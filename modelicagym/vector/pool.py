@@ -11,7 +11,7 @@ This module is the public API only. The path of one ``step``, and where each par
    mode), writes observations, rewards and flags straight into its rows of shared memory, and
    posts ``done``; only non-empty infos or an error follow as a pickled message on its pipe
    (:mod:`~modelicagym.vector.protocol`). A slice of FMU envs on the native step path is one C
-   call (:mod:`modelicagym.native.batch`), and its worker waits for commands in C as well.
+   call (:mod:`modelicagym.vector.native_slice`), and its worker waits for commands in C as well.
 3. ``step_wait`` (here) has the dispatcher step the calling process's own slice (``caller_steps``)
    and wait for every ``done`` (one C call on the native path); a worker that died, hung or raised
    is handled by :mod:`~modelicagym.vector.recovery` (restart it, or stop the pool); the batch is
@@ -46,7 +46,7 @@ from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
-from modelicagym.vector.actions import ActionWriter
+from modelicagym.vector.action_writer import ActionWriter
 from modelicagym.vector.batches import PartialBatches
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import (
@@ -426,7 +426,7 @@ class PoolVectorEnv(VectorEnv):
     step = one_thread_at_a_time(_step)
 
     def _step_async(self, actions: Any) -> None:
-        """Check the actions (`modelicagym.vector.actions`: an `ActionError` naming the env leaves
+        """Check the actions (`modelicagym.vector.action_writer`: an `ActionError` naming the env leaves
         the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
         self._assert_is_running()
         self._assert_idle("step_async")

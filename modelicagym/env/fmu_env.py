@@ -14,7 +14,7 @@ The step contract, stated once:
   re-instantiates the FMU. Infos are empty on ordinary steps.
 * time is ``start_time + k * time_step``, read as ``env.time``.
 
-Steps take the native path (one call into our C library, `modelicagym.native.step`) when the
+Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the
 config defines them completely, else the Python path; both give the same results.
 ``env.step_path`` says which, ``env.step_path_reason`` why.
 
@@ -31,14 +31,14 @@ from typing import Any
 
 import gymnasium as gym
 
-from modelicagym.actions import action_checker
-from modelicagym.config import FMUEnvConfig
-from modelicagym.config_checks import check_parameter
+from modelicagym.action_checks import action_checker
+from modelicagym.env.config import FMUEnvConfig
+from modelicagym.env.config_checks import check_parameter
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
 from modelicagym.native.abi import Flags
-from modelicagym.native.step import NativeStep, python_path_reason
-from modelicagym.spaces import Observer, space_for, write_values
+from modelicagym.env.native_step import NativeStep, python_path_reason
+from modelicagym.env.spaces import Observer, space_for, write_values
 
 logger = logging.getLogger(__name__)
 
@@ -109,7 +109,7 @@ class FMUEnv(gym.Env):
         self._elapsed_steps = 0
         self.episode_parameters: dict[str, Any] = {}
         self._native: NativeStep | None = None
-        reason = python_path_reason(self)
+        reason = python_path_reason(self, FMUEnv)
         if reason is None:
             self._native = NativeStep(self)
             self.step_path, self.step_path_reason = "native", "the config defines the whole step"
@@ -209,7 +209,7 @@ class FMUEnv(gym.Env):
 
     def make_action_space(self) -> gym.Space:
         """The action space; default: ``Discrete`` over the config's ``action_table``, else derived
-        from the input variables (see `modelicagym.spaces`)."""
+        from the input variables (see `modelicagym.env.spaces`)."""
         if self.config.action_table is not None:
             return gym.spaces.Discrete(len(self.config.action_table))
         if not self.fmu.input_variables:

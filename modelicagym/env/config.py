@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from modelicagym.config_checks import check_numbers, check_termination
+from modelicagym.env.config_checks import check_numbers, check_termination
 from modelicagym.errors import ConfigError, ConfigTypeError
 
 Bounds = Mapping[str, Sequence[float]]
@@ -47,8 +47,8 @@ class FMUEnvConfig:
             ``k`` sets the inputs to ``action_table[k]``); the action space is then
             ``Discrete(len(action_table))``.
         step_path: ``"auto"`` (default): the native step path when the config allows it (see
-            `modelicagym.native.step`), else Python, and in model exchange the solver loop in C
-            (`modelicagym.native.integrator`); ``"python"`` forces the Python path and the Python
+            `modelicagym.env.native_step`), else Python, and in model exchange the solver loop in C
+            (`modelicagym.fmu.native_integrator`); ``"python"`` forces the Python path and the Python
             solver loop (the reference both native paths are tested against).
         mode: ``"cs"`` or ``"me"``; default: co-simulation when the FMU offers it.
         reset_rung, solver, tolerance, solver_step, validate, logging_on: passed to `FMUInstance`.

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import ctypes
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
@@ -23,9 +24,6 @@ from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUCallError
 from modelicagym.native.abi import FailedCall, MgEnv
 from modelicagym.native.library import NativeBuildError, load_library
-
-if TYPE_CHECKING:
-    from modelicagym.env import FMUEnv
 
 __all__ = ["NativeStep", "python_path_reason"]
 
@@ -39,8 +37,10 @@ _FAILED_CALLS = {FailedCall.SET_INPUTS: "set inputs", FailedCall.DO_STEP: "fmiDo
                  FailedCall.INTEGRATE: "integrate"}
 
 
-def python_path_reason(env: FMUEnv) -> str | None:
-    """Why ``env`` must step on the Python path, or ``None`` when it can take the native one."""
+def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
+    """Why ``env`` (an `FMUEnv`) must step on the Python path, or ``None`` when it can take the
+    native one; ``base`` is `FMUEnv`, whose step the C library reproduces (an override of any of
+    its step methods keeps the env in Python)."""
     config, fmu = env.config, env.fmu
     cls = type(env)
     if config.step_path == "python":
@@ -54,7 +54,7 @@ def python_path_reason(env: FMUEnv) -> str | None:
             if v.variability != "continuous":
                 return f"input {v.name!r} is {v.variability}: model exchange sets it in event mode (Python)"
     for name in _OVERRIDABLE:
-        if getattr(cls, name) is not getattr(_fmu_env_class(), name):
+        if getattr(cls, name) is not getattr(base, name):
             return f"{name} is overridden by {cls.__name__}"
     if callable(config.reward):
         return "'reward' is a callable in the config"
@@ -84,12 +84,6 @@ def _is_float64_box(space: spaces.Space, n: int) -> bool:
     return type(space) is spaces.Box and space.dtype == np.float64 and space.shape == (n,)
 
 
-def _fmu_env_class() -> type:
-    from modelicagym.env import FMUEnv
-
-    return FMUEnv
-
-
 def _address(array: np.ndarray | ctypes.Array) -> int:
     return array.ctypes.data if isinstance(array, np.ndarray) else ctypes.addressof(array)
 
@@ -101,7 +95,7 @@ class NativeStep:
     snapshot may have changed).
     """
 
-    def __init__(self, env: FMUEnv) -> None:
+    def __init__(self, env: gym.Env) -> None:
         self.env = env
         self.library = load_library()
         fmu, config = env.fmu, env.config

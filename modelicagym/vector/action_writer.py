@@ -1,12 +1,12 @@
 """The pool checks a batch of actions in the parent, before any worker can see it.
 
 An action that the single env would refuse (wrong shape, a float where an integer belongs, NaN,
-out of range) is refused by the pool with the single env's message (`modelicagym.actions`) and
+out of range) is refused by the pool with the single env's message (`modelicagym.action_checks`) and
 the env's index, and the pool stays usable: no worker is woken. The common spaces cost two
 small steps on the hot path: the batch is copied into the shared action array (whose workers
 are asleep) and range-checked there by one native call (``mg_first_outside_*``, ~0.3 µs where
 numpy needs ~3 µs for a small batch). Other spaces are checked element by element; spaces
-`modelicagym.actions` does not know are left to the envs.
+`modelicagym.action_checks` does not know are left to the envs.
 
 In ``NEXT_STEP`` autoreset mode an env that ended resets on its next step and ignores the action
 it is given, as ``SyncVectorEnv`` does; such an action is not checked either (only the batch's
@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector.utils import batch_space, iterate
 
-from modelicagym.actions import CHECKED_SPACES, check_action
+from modelicagym.action_checks import CHECKED_SPACES, check_action
 from modelicagym.errors import ActionError, ActionTypeError
 from modelicagym.native.abi import RESET_THEN_REPORT
 from modelicagym.vector.buffers import PickledBatch, SharedBatch

@@ -11,7 +11,7 @@ The rule, stated once:
 * anything else (mixed kinds, arrays next to other variables) is a ``Dict`` keyed by variable name.
 
 `Observer` turns an FMU's output buffer into an observation of such a space; `write_values` writes
-an action (checked by `modelicagym.actions`) into the input buffer.
+an action (checked by `modelicagym.action_checks`) into the input buffer.
 """
 
 from __future__ import annotations
