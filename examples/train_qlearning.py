@@ -13,7 +13,7 @@ import time
 
 import modelicagym
 from modelicagym.agents import Discretizer, QLearningAgent, QLearningConfig, train
-from modelicagym.envs.cartpole import CARTPOLE_INTERVALS
+from modelicagym.models.cartpole.env import CARTPOLE_INTERVALS
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--episodes", type=int, default=200, help="episodes per repeat")

@@ -23,9 +23,9 @@ from modelicagym.errors import ArgumentError, ArgumentTypeError, ModelicaGymErro
 from modelicagym.fmu import open_fmu
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
-    "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.envs.cartpole:CartPoleEnv"),
-    "cartpole-continuous": ("ModelicaGym/CartPoleContinuous-v0", "modelicagym.envs.cartpole:CartPoleContinuousEnv"),
-    "pendulum": ("ModelicaGym/PendulumSwingUp-v0", "modelicagym.envs.pendulum:PendulumSwingUpEnv"),
+    "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.models.cartpole.env:CartPoleEnv"),
+    "cartpole-continuous": ("ModelicaGym/CartPoleContinuous-v0", "modelicagym.models.cartpole.env:CartPoleContinuousEnv"),
+    "pendulum": ("ModelicaGym/PendulumSwingUp-v0", "modelicagym.models.pendulum.env:PendulumSwingUpEnv"),
 }
 
 

@@ -9,7 +9,7 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from toy_envs import chain, counter
 
 from modelicagym.agents import Discretizer, QLearningAgent, QLearningConfig, train
-from modelicagym.envs.cartpole import CARTPOLE_INTERVALS
+from modelicagym.models.cartpole.env import CARTPOLE_INTERVALS
 from modelicagym.vector import PoolVectorEnv
 
 

@@ -12,7 +12,7 @@ from episodes import observations
 from gymnasium.utils.env_checker import check_env
 
 import modelicagym
-from modelicagym.envs.cartpole import CartPoleEnv
+from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.fmu import FMUInstance
 from modelicagym.fmu.instance import RUNGS
 from modelicagym.models.cartpole import OUTPUTS

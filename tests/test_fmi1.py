@@ -20,7 +20,7 @@ from gymnasium.utils.env_checker import check_env
 from vector_rollouts import assert_same, rollout
 
 import modelicagym
-from modelicagym.envs.cartpole import CartPoleEnv
+from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.errors import ArgumentError
 from modelicagym.fmu import FMUCallError, FMUInstance, UnsupportedFeatureError, open_fmu
 from modelicagym.fmu.build import build_source_fmu, compile_sources

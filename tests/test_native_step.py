@@ -13,7 +13,7 @@ from gymnasium.utils.env_checker import check_env
 
 import modelicagym
 from modelicagym import FMUEnv
-from modelicagym.envs.cartpole import CartPoleEnv
+from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.instance import RUNGS
 

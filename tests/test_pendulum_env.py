@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import modelicagym
-from modelicagym.envs.pendulum import EnergySwingUp, PendulumSwingUpEnv
+from modelicagym.models.pendulum.env import EnergySwingUp, PendulumSwingUpEnv
 from modelicagym.errors import ModelicaGymError
 
 

@@ -18,7 +18,7 @@ from modelicagym.distributed.host import env_info
 from modelicagym.registry import EnvFactory
 
 N = 5
-CARTPOLE = "modelicagym.envs.cartpole:CartPoleEnv"
+CARTPOLE = "modelicagym.models.cartpole.env:CartPoleEnv"
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -32,7 +32,7 @@ OUTPUTS = ["x", "x_dot", "theta", "theta_dot"]
 
 
 def _make_env(fmi_version: int, cs_step_size: float | None, step_path: str = "auto") -> Any:
-    from modelicagym.envs.cartpole import CartPoleEnv
+    from modelicagym.models.cartpole.env import CartPoleEnv
 
     # Bounds that never end an episode: the pole swings freely, no reset pollutes the timing.
     return CartPoleEnv(fmi_version=fmi_version, x_threshold=1e9, theta_threshold=1e9, cs_step_size=cs_step_size,

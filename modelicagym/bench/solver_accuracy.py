@@ -30,7 +30,7 @@ STATES = ("x", "x_dot", "theta", "theta_dot")
 
 
 def _env(cs_step_size: float) -> Any:
-    from modelicagym.envs.cartpole import CartPoleEnv
+    from modelicagym.models.cartpole.env import CartPoleEnv
 
     return CartPoleEnv(cs_step_size=cs_step_size, x_threshold=1e9, theta_threshold=1e9)
 

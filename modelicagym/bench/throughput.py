@@ -117,7 +117,7 @@ def make_vector(candidate: str, n: int, options: dict[str, Any],
     """``candidate`` ("pool", "sync" or "async") of ``n`` cart-poles made with ``options``."""
     if candidate == "pool":
         return modelicagym.make_vec("cartpole", n=n, autoreset_mode=autoreset_mode, **options)
-    fns = [EnvFactory("modelicagym.envs.cartpole:CartPoleEnv", options) for _ in range(n)]
+    fns = [EnvFactory("modelicagym.models.cartpole.env:CartPoleEnv", options) for _ in range(n)]
     if candidate == "sync":
         return gym.vector.SyncVectorEnv(fns, autoreset_mode=autoreset_mode)
     return gym.vector.AsyncVectorEnv(fns, shared_memory=True, autoreset_mode=autoreset_mode)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modelicagym.envs.cartpole import CARTPOLE_INTERVALS
+from modelicagym.models.cartpole.env import CARTPOLE_INTERVALS
 from modelicagym.experiments.analysis import LEARNING_RATIO, WINDOW, SettingSummary
 from modelicagym.experiments.config import AgentSpec, Setting, SweepConfig
 

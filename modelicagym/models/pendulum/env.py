@@ -114,7 +114,7 @@ class EnergySwingUp:
     Example::
 
         import modelicagym
-        from modelicagym.envs.pendulum import EnergySwingUp
+        from modelicagym.models.pendulum.env import EnergySwingUp
 
         env = modelicagym.make("pendulum")
         controller = EnergySwingUp()

@@ -120,7 +120,7 @@ class CartPoleEnv(FMUEnv):
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
             return None
-        from modelicagym.envs.drawing import draw_cartpole
+        from modelicagym.models.cartpole.drawing import draw_cartpole
 
         x, theta = float(self.fmu.outputs.views["x"]), float(self.fmu.outputs.views["theta"])
         pole = float(self.config.parameters["length"]) / 2
