@@ -283,7 +283,7 @@ class SharedBuffers:
         self.terminations = allocator.array(np.bool_, (n,))
         self.truncations = allocator.array(np.bool_, (n,))
         self.reset_mask = allocator.array(np.bool_, (n,))
-        #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.batches`)
+        #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.partial_batches`)
         self.step_mask = allocator.array(np.uint8, (n,))
         #: 1 where the calling process steps the env, 0 where its worker does (the placement; an
         #: adaptive pool moves envs at episode boundaries: `modelicagym.vector.placement`)

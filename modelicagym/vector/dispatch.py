@@ -1,17 +1,16 @@
-"""Sending commands to the workers and gathering their answers over shared memory.
+"""Sending commands to the pool's parties and gathering their answers over shared memory.
 
 A :class:`Dispatcher` is the parent's side of the protocol (see :mod:`~modelicagym.vector.protocol`):
-it writes command codes into the workers' slots, wakes them, sends the messages that go with rare
-commands, and waits for every worker it woke. When the calling process steps a slice of the envs
-itself (``caller_steps``), that slice is one more party to every command: the dispatcher runs it
-in-process after waking the workers and before waiting for them, so the caller works while they do. It knows which workers it is waiting for, but nothing
-of the Gymnasium API or of what a failure means for the pool: those are the pool's and
-:mod:`~modelicagym.vector.recovery`'s business.
+it posts command codes to every party (:mod:`~modelicagym.vector.party`: the worker processes, and
+the calling process's own slice when ``caller_steps``), sends the messages that go with rare
+commands, lets the calling process run its share while the workers run theirs, and waits for every
+party it woke. It knows which parties it is waiting for, but nothing of the Gymnasium API or of what
+a failure means for the pool: those are the pool's and :mod:`~modelicagym.vector.recovery`'s
+business.
 """
 
 from __future__ import annotations
 
-import logging
 import time
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
@@ -19,31 +18,20 @@ from typing import Any
 import numpy as np
 
 from modelicagym.native.abi import COLLECT_DONE, COLLECT_LOCAL_PYTHON, MgWaiter
-from modelicagym.vector.native_slice import NativeCollector
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import close_envs
 from modelicagym.vector.env_slice import EnvSlice
-from modelicagym.vector.errors import PoolError
-from modelicagym.vector.handle import WorkerHandle
-from modelicagym.vector.protocol import (
-    LIVENESS_INTERVAL,
-    Command,
-    Kind,
-    Message,
-    Outcome,
-    PendingCommand,
-    Reply,
-    WaitStatus,
-)
+from modelicagym.vector.native_slice import NativeCollector
+from modelicagym.vector.party import CallerParty, Outcome, Party, PendingCommand
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message
 from modelicagym.vector.sync import FutexSignal
+from modelicagym.vector.worker_handle import WorkerHandle
 
 __all__ = ["Dispatcher"]
 
-logger = logging.getLogger(__name__)
-
 
 class Dispatcher:
-    """Wakes workers with commands and collects what they answer.
+    """Posts commands to the pool's parties and collects what they answer.
 
     Args:
         handles: the workers, indexed like the shared ``command`` slots.
@@ -71,16 +59,16 @@ class Dispatcher:
         self.spin_time = spin_time
         self.step_timeout = step_timeout
         self.pending: list[PendingCommand] = []
-        #: every party in slot order: the workers, then the local slice
-        self._parties = [*handles, local] if local is not None else list(handles)
+        #: the calling process's slice as a party, or ``None``
+        self.caller = None if local is None else CallerParty(local, buffers.reply)
+        #: every party in slot order: the workers, then the calling process
+        self._parties: list[Party] = [*handles, self.caller] if self.caller is not None else list(handles)
         self._step_all: list[PendingCommand] = []
-        self._stepping_handles: list[WorkerHandle] = []
+        self._stepping_parties: list[Party] = []
         self.stepping_changed()
         #: the command slots hold STEP for every worker (so a step need not write them again)
         self._slots_say_step = False
         self._replies = memoryview(buffers.reply)
-        self._local_command: PendingCommand | None = None
-        self._local_reply: Message | None = None
         #: the adaptive state of the native collection's waits (see ``FutexSignal``)
         self.waiter = MgWaiter()
         self._collector = self._native_collector()
@@ -106,10 +94,10 @@ class Dispatcher:
         )
 
     def stepping_changed(self) -> None:
-        """Take in which workers step envs now (``stepping``): a step wakes only those."""
-        self._stepping_handles = [handle for handle in self.handles if self.stepping[handle.index]]
-        parties = [*self._stepping_handles, self.local] if self.local is not None else self._stepping_handles
-        self._step_all = [PendingCommand(party, Command.STEP) for party in parties]
+        """Take in which workers step envs now (``stepping``): a step wakes only those (and the
+        calling process, which always takes part)."""
+        self._stepping_parties = [party for party in self._parties if party.in_caller or self.stepping[party.index]]
+        self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
 
     def take_collect_times(self) -> tuple[int, int, int] | None:
         """Native collections since the last take, and their nanoseconds on the local slice, then
@@ -119,9 +107,9 @@ class Dispatcher:
     def release(self) -> None:
         """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""
         self.pending = []
-        self._local_command = self._local_reply = None
         self.buffers = self._replies = self._collector = None
-        if self.local is not None:
+        if self.caller is not None:
+            self.caller.forget()
             close_envs(self.local.envs)
             self.local.detach()
 
@@ -138,11 +126,9 @@ class Dispatcher:
         if not self._slots_say_step:
             self.buffers.command[:] = Command.STEP
             self._slots_say_step = True
-        for handle in self._stepping_handles:
-            handle.go.post()
+        for party in self._stepping_parties:
+            party.post(Command.STEP, None, None, None)
         self.pending = self._step_all
-        if self.local is not None:
-            self._local_command = self._step_all[-1]
 
     def reset(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray) -> None:
         """Reset the envs selected by ``mask`` (workers with none selected are not woken).
@@ -153,25 +139,25 @@ class Dispatcher:
         plain = all(s is None for s in seeds) and not options
         code = Command.RESET if options is None else Command.RESET_EMPTY_OPTIONS
         commands = []
-        for handle in self._parties:
-            indices = handle.env_indices
+        for party in self._parties:
+            indices = party.env_indices
             if not mask[indices.start : indices.stop].any():
                 continue
             if plain:
-                commands.append(PendingCommand(handle, code))
+                commands.append(PendingCommand(party, code))
             else:
                 message = Message(Kind.RESET, (seeds[indices.start : indices.stop], options))
-                commands.append(PendingCommand(handle, Command.MESSAGE, message))
+                commands.append(PendingCommand(party, Command.MESSAGE, message))
         self.dispatch(commands)
 
     def call(self, name: str, args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
         """Call method ``name`` (or read attribute ``name``) of every env."""
-        self._message_all(lambda handle: Message(Kind.CALL, (name, args, kwargs)))
+        self._message_all(lambda party: Message(Kind.CALL, (name, args, kwargs)))
 
     def set_attr(self, name: str, values: list[Any]) -> None:
         """Set attribute ``name`` of every env to its value in ``values``."""
         self._message_all(
-            lambda h: Message(Kind.SET_ATTR, (name, values[h.env_indices.start : h.env_indices.stop]))
+            lambda party: Message(Kind.SET_ATTR, (name, values[party.env_indices.start : party.env_indices.stop]))
         )
 
     def close(self) -> list[WorkerHandle]:
@@ -182,15 +168,13 @@ class Dispatcher:
         return alive
 
     def _message_all(self, message_for: Any) -> None:
-        self.dispatch([PendingCommand(h, Command.MESSAGE, message_for(h)) for h in self._parties])
+        self.dispatch([PendingCommand(party, Command.MESSAGE, message_for(party)) for party in self._parties])
 
     def dispatch(self, commands: list[PendingCommand]) -> None:
-        """Wake the workers with their commands, then send the messages that go with them.
+        """Post each party its command (and message).
 
         Messages are pickled before anything else happens, so an unpicklable argument raises here
-        with no worker woken. Waking before sending means a large message can never fill the pipe
-        while its reader sleeps. A worker that died meanwhile makes the send fail; that is reported
-        by :meth:`gather`.
+        with no worker woken. A worker that died meanwhile is reported by :meth:`gather`.
         """
         payloads: dict[int, bytes] = {}
         for command in commands:
@@ -198,18 +182,8 @@ class Dispatcher:
                 payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
         slots = self.buffers.command
         self._slots_say_step = False
-        for command in commands:
-            handle, code, message = command
-            if handle is self.local:
-                self._local_command = command
-                continue
-            slots[handle.index] = code
-            handle.go.post()
-            if message is not None:
-                try:
-                    handle.conn.send_bytes(payloads[id(message)])
-                except OSError:
-                    logger.debug("worker %d: pipe broken while sending %s", handle.index, message.kind.value)
+        for party, code, message in commands:
+            party.post(code, message, None if message is None else payloads[id(message)], slots)
         self.pending = commands
 
     def all_done(self, timeout: float | None) -> bool:
@@ -224,45 +198,36 @@ class Dispatcher:
             return self._collect()
         block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
         spin_time = self.spin_time
-        self._run_local()
+        for command in pending:
+            command.party.run()
         for k, command in enumerate(pending):
-            if command.handle is self.local:
-                continue
-            if not command.handle.done.wait(spin_time, block):
+            if not command.party.poll_done(spin_time, block):
                 self._repost(pending[:k])
                 return False
-        if any(self._replies) or self._local_reply is not None:
+        if any(self._replies):
             self._repost(pending)
             return False
         self.pending = []
         return True
 
     def _collect(self) -> bool:
-        """:meth:`all_done` for a plain step, in one native call (see ``mg_collect``)."""
-        self._local_command = None
+        """:meth:`all_done` for a plain step, in one native call (see ``mg_collect``): it steps the
+        calling process's native slice itself, so that party's posted step is dropped."""
+        if self.caller is not None:
+            self.caller.forget()
         status = self._collector.collect()
         if status == COLLECT_DONE:
             self.pending = []
             return True
         if status == COLLECT_LOCAL_PYTHON:
-            self._local_reply = self.local.finish_native_step()
+            self.caller.hold(self.local.finish_native_step())
         return False
 
-    def _repost(self, seen_done: list[PendingCommand]) -> None:
-        """Post ``done`` again for workers whose ``done`` a wait has consumed."""
+    @staticmethod
+    def _repost(seen_done: list[PendingCommand]) -> None:
+        """Undo what successful waits consumed, so that :meth:`gather` sees those parties done."""
         for command in seen_done:
-            if command.handle is not self.local:
-                command.handle.done.post()
-
-    def _run_local(self) -> None:
-        """Run the local slice's pending command, once; its reply waits for :meth:`gather`."""
-        command, self._local_command = self._local_command, None
-        if command is None:
-            return
-        if command.code == Command.STEP:
-            self._local_reply = self.local.step()
-        else:
-            self._local_reply = self.local.run(command.code, command.message)
+            command.party.repost()
 
     def call_results(self, outcomes: list[Outcome], doing: str) -> list[Any]:
         """The results of ``call`` (or ``set_attr``) in env order, from outcomes without failures;
@@ -277,9 +242,9 @@ class Dispatcher:
             if message.kind is Kind.CALL_ERROR:
                 remote = message.data
                 original = remote.original()
-                raise original if original is not None else remote.to_env_error(outcome.handle.index, doing)
-            here = outcome.handle is self.local
-            for index, value in zip(outcome.handle.env_indices, message.data):
+                raise original if original is not None else remote.to_env_error(outcome.party.index, doing)
+            here = outcome.party.in_caller
+            for index, value in zip(outcome.party.env_indices, message.data):
                 if bool(in_caller[index]) == here:
                     results[index] = value
         return [results[index] for index in sorted(results)]
@@ -294,22 +259,18 @@ class Dispatcher:
         if timeout is None:
             timeout = self.step_timeout
         deadline = None if timeout is None else time.monotonic() + timeout
-        self._run_local()
         pending, self.pending = self.pending, []
-        outcomes = []
         for command in pending:
-            handle = command.handle
-            if handle is self.local:
-                message, self._local_reply = self._local_reply, None
-                failure, process = None, "the calling process"
-            else:
-                message, failure = self._answer_of(handle, deadline, doing)
-                process = None
+            command.party.run()
+        buffers, outcomes = self.buffers, []
+        for command in pending:
+            party = command.party
+            message, failure = party.answer(deadline, doing, buffers.reply, buffers.current_env)
             if message is not None and message.kind is Kind.ERROR:
-                failure = message.data.to_env_error(handle.index, doing, process)
+                failure = message.data.to_env_error(party.index, doing, party.process)
             elif message is not None and message.kind is Kind.OBSERVATIONS:
                 message = self._take_observations(message)
-            outcomes.append(Outcome(handle, message, failure))
+            outcomes.append(Outcome(party, message, failure))
         return outcomes
 
     def _take_observations(self, message: Message) -> Message | None:
@@ -317,18 +278,3 @@ class Dispatcher:
         first, observations, infos = message.data
         self.buffers.observations.store(first, observations)
         return Message(Kind.INFOS, infos) if infos else None
-
-    def _answer_of(
-        self, handle: WorkerHandle, deadline: float | None, doing: str
-    ) -> tuple[Message | None, PoolError | None]:
-        """Wait for one worker's ``done``, then read its reply if it has one; or its failure."""
-        status = handle.wait_done(self.spin_time, deadline)
-        env_index = int(self.buffers.current_env[handle.index])
-        if status is not WaitStatus.DONE:
-            return None, handle.failure(status, env_index, doing)
-        if self.buffers.reply[handle.index] != Reply.MESSAGE:
-            return None, None
-        try:
-            return handle.receive(deadline, env_index, doing), None
-        except PoolError as error:
-            return None, error

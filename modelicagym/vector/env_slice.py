@@ -1,6 +1,6 @@
 """A contiguous slice of a pool's envs, run against the shared buffers: the work of a step.
 
-An :class:`EnvSlice` is what a worker process runs (:mod:`~modelicagym.vector.worker`), and what
+An :class:`EnvSlice` is what a worker process runs (:mod:`~modelicagym.vector.worker_process`), and what
 the calling process runs itself when it steps a slice of the envs (``caller_steps``): the envs,
 the autoreset of the pool's mode, and where the results go in shared memory. It knows nothing of
 processes, pipes or signals; each command returns the reply message the parent gets (``None`` when
@@ -26,10 +26,10 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
-from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
 from modelicagym.vector.errors import RemoteError
+from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
 from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 
@@ -117,7 +117,7 @@ class EnvSlice:
         envs = create_envs(env_fns[indices.start : indices.stop], indices.start, "the calling process", share)
         return cls(envs, indices.start, slot, autoreset_mode, caller=True)
 
-    def describe_envs(self) -> str:
+    def env_range(self) -> str:
         """``"4-7"`` or ``"4"``: the env indices of this slice, for messages."""
         first, last = self.env_indices[0], self.env_indices[-1]
         return str(first) if first == last else f"{first}-{last}"

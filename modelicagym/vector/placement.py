@@ -42,14 +42,14 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
-from modelicagym.vector.native_slice import batch_path_reason
 from modelicagym.vector.creation import close_envs, create_envs
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import PoolMemoryError
 from modelicagym.vector.layout_policy import LayoutPolicy
+from modelicagym.vector.native_slice import batch_path_reason
 from modelicagym.vector.plan import usable_cores
 from modelicagym.vector.sync import futex_library
-from modelicagym.vector.workers import WorkerSet
+from modelicagym.vector.worker_set import WorkerSet
 
 __all__ = ["LayoutState", "Placement", "place_envs"]
 

@@ -6,7 +6,7 @@ This module is the public API only. The path of one ``step``, and where each par
    (:mod:`~modelicagym.vector.buffers`) and the :class:`~modelicagym.vector.dispatch.Dispatcher`
    sets each worker's command slot to ``STEP`` and posts its ``go`` signal
    (:mod:`~modelicagym.vector.sync`: spin briefly, then sleep).
-2. Each worker process (:mod:`~modelicagym.vector.worker`) wakes, steps its contiguous slice of
+2. Each worker process (:mod:`~modelicagym.vector.worker_process`) wakes, steps its contiguous slice of
    envs (:mod:`~modelicagym.vector.env_slice`: ``env.step``, with the autoreset of the pool's
    mode), writes observations, rewards and flags straight into its rows of shared memory, and
    posts ``done``; only non-empty infos or an error follow as a pickled message on its pipe
@@ -17,13 +17,13 @@ This module is the public API only. The path of one ``step``, and where each par
    is handled by :mod:`~modelicagym.vector.recovery` (restart it, or stop the pool); the batch is
    copied out of shared memory and returned with the merged infos.
 
-Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.workers`
-(one :mod:`~modelicagym.vector.handle` per process); the layout of envs over workers is
+Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.worker_set`
+(one :mod:`~modelicagym.vector.worker_handle` per process); the layout of envs over workers is
 :mod:`~modelicagym.vector.plan`, and which process steps each env now (the adaptive layout, which
 moves envs between the workers and the calling process at episode boundaries) is
 :mod:`~modelicagym.vector.placement`; where step time goes is :mod:`~modelicagym.vector.timing`.
 ``step_envs`` is a ``step`` whose shared step mask leaves some envs out; EnvPool's ``send``/``recv``
-(partial batches) is :mod:`~modelicagym.vector.batches`.
+(partial batches) is :mod:`~modelicagym.vector.partial_batches`.
 """
 
 from __future__ import annotations
@@ -47,7 +47,6 @@ from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.action_writer import ActionWriter
-from modelicagym.vector.batches import PartialBatches
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import (
     check_async_vector_env_options,
@@ -72,13 +71,15 @@ from modelicagym.vector.errors import (
     PoolClosedError,
     PoolError,
 )
+from modelicagym.vector.partial_batches import PartialBatches
+from modelicagym.vector.party import Outcome
 from modelicagym.vector.placement import LayoutState, place_envs
 from modelicagym.vector.plan import default_start_method, plan_layout
-from modelicagym.vector.protocol import Outcome, StepPath, WorkerConfig
+from modelicagym.vector.protocol import StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
-from modelicagym.vector.workers import WorkerSet
+from modelicagym.vector.worker_set import WorkerSet
 
 __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 
@@ -152,7 +153,7 @@ class PoolVectorEnv(VectorEnv):
     otherwise a failure stops the whole pool before the error is raised, and further calls raise
     ``ClosedEnvironmentError``. The default start method is ``forkserver``
     (:func:`~modelicagym.vector.plan.default_start_method` says why); workers never re-run the
-    caller's script (:func:`~modelicagym.vector.handle.main_module_hidden`), so scripts without a
+    caller's script (:func:`~modelicagym.vector.worker_handle.main_module_hidden`), so scripts without a
     main guard, stdin and notebooks work; env fns must be picklable by ``cloudpickle``.
 
     Where it deliberately differs from ``AsyncVectorEnv`` (Gymnasium's own vector tests pass
@@ -246,7 +247,7 @@ class PoolVectorEnv(VectorEnv):
                 class is a one-word change: ``context`` is ``start_method``; the pool always uses
                 shared memory and daemon workers, and no custom ``worker`` (else a `ConfigError`).
             batch_size: how many envs :meth:`recv` returns, for EnvPool-style partial batches
-                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.batches`);
+                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.partial_batches`);
                 every env then lives in a worker. ``None``: ``num_envs``.
             adapt_layout: move envs between the workers and the calling process at episode
                 boundaries, measuring which layout is faster as the machine's load changes
@@ -517,7 +518,7 @@ class PoolVectorEnv(VectorEnv):
 
     def _async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Reset every env and make their results the first to come back from :meth:`recv`
-        (EnvPool's ``async_reset``; see `modelicagym.vector.batches`)."""
+        (EnvPool's ``async_reset``; see `modelicagym.vector.partial_batches`)."""
         self._reset_async(seed=seed, options=options)
         entries = self._reset_entries(None)
         self._partial_batches(None).start(entries)

@@ -14,15 +14,11 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple
 
 from gymnasium import Space
 from gymnasium.envs.registration import EnvSpec
 from gymnasium.vector import AutoresetMode
-
-if TYPE_CHECKING:
-    from modelicagym.vector.errors import PoolError
-    from modelicagym.vector.handle import WorkerHandle
 
 #: How often (seconds) a blocked party wakes up to check that the other side is still alive.
 LIVENESS_INTERVAL = 0.05
@@ -139,27 +135,3 @@ class WorkerConfig:
 #: what a worker is doing before it serves commands (named in messages; ``startup_timeout`` applies)
 CREATION, START_UP = "creation", "start-up"
 STARTUP_STAGES = (CREATION, START_UP)
-
-
-class PendingCommand(NamedTuple):
-    """A command sent to one worker and not yet answered."""
-
-    handle: WorkerHandle
-    code: int
-    message: Message | None = None
-
-
-class Outcome(NamedTuple):
-    """How one worker answered a :class:`PendingCommand`: its reply message and/or its failure."""
-
-    handle: WorkerHandle
-    message: Message | None
-    failure: PoolError | None
-
-
-class WaitStatus(enum.Enum):
-    """How a wait for a worker's ``done`` signal ended."""
-
-    DONE = "done"
-    DIED = "died"
-    TIMED_OUT = "timed out"

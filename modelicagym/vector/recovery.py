@@ -24,9 +24,10 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.errors import PoolError
-from modelicagym.vector.handle import WorkerHandle
-from modelicagym.vector.protocol import Command, PendingCommand
-from modelicagym.vector.workers import WorkerSet
+from modelicagym.vector.party import PendingCommand
+from modelicagym.vector.protocol import Command
+from modelicagym.vector.worker_handle import WorkerHandle
+from modelicagym.vector.worker_set import WorkerSet
 
 __all__ = ["RESTART_INFO_KEY", "Entries", "Recovery"]
 

@@ -37,9 +37,9 @@ from modelicagym.errors import ArgumentError
 from modelicagym.vector.action_writer import ActionWriter
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.checks import check_env_ids
-from modelicagym.vector.handle import WorkerHandle
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Reply, WaitStatus
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind
 from modelicagym.vector.sync import machine_crowded
+from modelicagym.vector.worker_handle import WaitStatus, WorkerHandle
 
 __all__ = ["PartialBatches"]
 
@@ -169,10 +169,9 @@ class PartialBatches:
         mask = buffers.step_mask[indices.start : indices.stop]
         mask[:] = 0
         buffers.step_mask[ids] = 1
-        buffers.command[handle.index] = Command.STEP
         self._stepping[k] = ids
         self._started[k] = time.monotonic()
-        handle.go.post()
+        handle.post(Command.STEP, None, None, buffers.command)
 
     def _collect(self) -> None:
         """Wait until at least one busy worker is done; take in the results of every done one
@@ -193,7 +192,7 @@ class PartialBatches:
         """Take in every worker of ``busy`` that is done (blocking up to ``block`` on each)."""
         took = False
         for k in busy:
-            if self._stepping[k] and self.handles[k].done.wait(0.0, block):
+            if self._stepping[k] and self.handles[k].poll_done(0.0, block):
                 self._take(k)
                 took = True
         return took
@@ -203,7 +202,7 @@ class PartialBatches:
         handle = self.handles[k]
         overran = self.step_timeout is not None and time.monotonic() - self._started[k] > self.step_timeout
         if overran or (time.monotonic() - self._started[k] > LIVENESS_INTERVAL and not handle.process.is_alive()):
-            if self._stepping[k] and handle.done.wait(0.0, 0.0):
+            if self._stepping[k] and handle.poll_done(0.0, 0.0):
                 self._take(k)
                 return
             status = WaitStatus.TIMED_OUT if overran else WaitStatus.DIED
@@ -215,12 +214,13 @@ class PartialBatches:
         ids, self._stepping[k] = self._stepping[k], []
         indices = handle.env_indices
         buffers.step_mask[indices.start : indices.stop] = 1
-        if buffers.reply[handle.index] == Reply.MESSAGE:
-            message = handle.receive(None, ids[0], "step")
-            if message.kind is Kind.ERROR:
-                raise message.data.to_env_error(handle.index, "step", None)
-            if message.kind is Kind.INFOS:
-                self._infos.update(message.data)
+        message, failure = handle.read_reply(None, "step", buffers.reply, buffers.current_env)
+        if failure is not None:
+            raise failure
+        if message is not None and message.kind is Kind.ERROR:
+            raise message.data.to_env_error(handle.index, "step", None)
+        if message is not None and message.kind is Kind.INFOS:
+            self._infos.update(message.data)
         for index in buffers.take_final_ready(indices.start, indices.stop).tolist():
             self._infos[index] = buffers.final_info(index)
         self._ready.extend(ids)

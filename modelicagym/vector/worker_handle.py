@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import enum
 import logging
 import sys
 import time
@@ -12,14 +13,15 @@ from multiprocessing.context import BaseContext
 from multiprocessing.reduction import send_handle
 
 import gymnasium as gym
+import numpy as np
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, WaitStatus, WorkerConfig
+from modelicagym.vector.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, Reply, WorkerConfig
 from modelicagym.vector.sync import FutexSignal, SemaphoreSignal
-from modelicagym.vector.worker import run_worker
+from modelicagym.vector.worker_process import run_worker
 
-__all__ = ["WorkerHandle"]
+__all__ = ["WaitStatus", "WorkerHandle"]
 
 logger = logging.getLogger(__name__)
 
@@ -27,12 +29,24 @@ logger = logging.getLogger(__name__)
 _TERMINATE_GRACE = 1.0
 
 
+class WaitStatus(enum.Enum):
+    """How a wait for a worker's ``done`` signal ended."""
+
+    DONE = "done"
+    DIED = "died"
+    TIMED_OUT = "timed out"
+
+
 class WorkerHandle:
-    """One worker process running the envs ``env_indices`` (a contiguous range).
+    """One worker process running the envs ``env_indices`` (a contiguous range); a
+    `~modelicagym.vector.party.Party` of the pool's commands.
 
     The handle outlives its process: :meth:`start` can be called again after :meth:`stop` to
     restart the worker with fresh envs, a fresh pipe and fresh signals.
     """
+
+    in_caller = False
+    process = None
 
     def __init__(
         self,
@@ -54,9 +68,9 @@ class WorkerHandle:
 
     def __repr__(self) -> str:
         pid = None if self.process is None else self.process.pid
-        return f"WorkerHandle({self.index}, envs {self.describe_envs()}, pid={pid})"
+        return f"WorkerHandle({self.index}, envs {self.env_range()}, pid={pid})"
 
-    def describe_envs(self) -> str:
+    def env_range(self) -> str:
         """``"4-7"`` or ``"4"``: the env indices of this worker, for messages."""
         first, last = self.env_indices[0], self.env_indices[-1]
         return str(first) if first == last else f"{first}-{last}"
@@ -105,6 +119,49 @@ class WorkerHandle:
             raise self.timeout_error(env_index, doing)
         raise self.died_error(env_index, doing)
 
+    def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
+        """Write ``code`` into the worker's slot (unless ``slots`` is ``None``: it holds it), wake
+        it, then send ``payload`` (the pickled ``message``): waking first means a large message
+        can never fill the pipe while its reader sleeps. A worker that died meanwhile makes the
+        send fail; :meth:`answer` reports that."""
+        if slots is not None:
+            slots[self.index] = code
+        self.go.post()
+        if payload is not None:
+            try:
+                self.conn.send_bytes(payload)
+            except OSError:
+                logger.debug("worker %d: pipe broken while sending %s", self.index, message.kind.value)
+
+    def run(self) -> None:
+        """Nothing to do here: the worker runs its command in its own process."""
+
+    def poll_done(self, spin_time: float, block: float) -> bool:
+        """Whether the worker posted ``done`` (consuming the post), waiting up to ``spin_time`` + ``block``."""
+        return self.done.wait(spin_time, block)
+
+    def repost(self) -> None:
+        """Post ``done`` again after :meth:`poll_done` consumed it."""
+        self.done.post()
+
+    def answer(self, deadline: float | None, doing: str, reply: np.ndarray,
+               current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
+        """Wait for ``done``, then :meth:`read_reply`; or the failure."""
+        status = self.wait_done(self._config.spin_time, deadline)
+        if status is not WaitStatus.DONE:
+            return None, self.failure(status, int(current_env[self.index]), doing)
+        return self.read_reply(deadline, doing, reply, current_env)
+
+    def read_reply(self, deadline: float | None, doing: str, reply: np.ndarray,
+                   current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
+        """Once the worker is done: its reply message, if its slot says one follows; or the failure."""
+        if reply[self.index] != Reply.MESSAGE:
+            return None, None
+        try:
+            return self.receive(deadline, int(current_env[self.index]), doing), None
+        except PoolError as error:
+            return None, error
+
     def wait_done(self, spin_time: float, deadline: float | None) -> WaitStatus:
         """Wait until the worker posts ``done``; how the wait ended.
 
@@ -131,7 +188,7 @@ class WorkerHandle:
         """The error reporting that this worker died while running ``doing`` on ``env_index``."""
         self.process.join(_TERMINATE_GRACE)
         exitcode = self.process.exitcode
-        where = f"env {env_index}" if env_index is not None else f"envs {self.describe_envs()}"
+        where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
         return WorkerDiedError(
             f"worker {self.index} (pid {self.process.pid}) {describe_exitcode(exitcode)} "
             f"during {doing} of {where}",
@@ -144,7 +201,7 @@ class WorkerHandle:
         """The error reporting that this worker did not finish ``doing`` in time, with the limit
         and the option that sets it; kills the worker."""
         self.stop()
-        where = f"env {env_index}" if env_index is not None else f"envs {self.describe_envs()}"
+        where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
         option = "startup_timeout" if doing in STARTUP_STAGES else "step_timeout"
         limit = getattr(self._config, option)
         within = "in time" if limit is None else f"within {option}={limit:g} s"

@@ -20,10 +20,10 @@ from gymnasium import Space
 
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice, describe_envs
-from modelicagym.vector.handle import WorkerHandle
 from modelicagym.vector.protocol import CREATION, START_UP, EnvDescription, Kind, Message, StepPath, WorkerConfig
 from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.sync import FutexSignal, futex_library
+from modelicagym.vector.worker_handle import WorkerHandle
 
 __all__ = ["WorkerSet"]
 

@@ -1,0 +1,130 @@
+"""The parties a pool's commands reach: a worker process, or the calling process's own slice.
+
+The dispatcher (and partial batches) talk to every party through one protocol, :class:`Party`:
+post a command, let the party run it, wait until it is done, take its answer. A worker
+(`~modelicagym.vector.worker_handle.WorkerHandle`) gets its command through its shared slot and
+its ``go`` signal and runs it in its own process; the calling process's slice (:class:`CallerParty`)
+keeps the command and runs it when the dispatcher lets it, after waking the workers and before
+waiting for them, so the caller works while they do. Either answers the same way: the reply slot
+says whether a message follows.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple, Protocol
+
+import numpy as np
+
+from modelicagym.vector.env_slice import EnvSlice
+from modelicagym.vector.errors import PoolError
+from modelicagym.vector.protocol import Command, Message, Reply
+
+__all__ = ["CallerParty", "Outcome", "Party", "PendingCommand"]
+
+
+class Party(Protocol):
+    """What the dispatcher needs of a party: its slot, its envs, and the command round trip."""
+
+    #: its slot in the shared ``command``/``reply`` arrays (the calling process's is the last)
+    index: int
+    #: the contiguous range of env indices it holds
+    env_indices: range
+    #: it is the calling process (its envs run here, uninterruptibly)
+    in_caller: bool
+    #: where its envs run, for messages (``None``: ``"worker <index>"``)
+    process: str | None
+
+    def env_range(self) -> str:
+        """``"4-7"`` or ``"4"``: its env indices, for messages."""
+
+    def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
+        """Give it a command: ``code``, with ``message`` (pickled: ``payload``) for ``MESSAGE``;
+        ``slots`` is the shared ``command`` array, ``None`` when its slot already holds ``code``."""
+
+    def run(self) -> None:
+        """Run the posted command now if the party runs in this process (a worker already does)."""
+
+    def poll_done(self, spin_time: float, block: float) -> bool:
+        """Whether it finished its command, waiting up to ``spin_time`` + ``block`` seconds."""
+
+    def repost(self) -> None:
+        """Undo what a successful :meth:`poll_done` consumed, so that :meth:`answer` sees it done."""
+
+    def answer(self, deadline: float | None, doing: str, reply: np.ndarray,
+               current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
+        """Wait until it is done (``deadline``: ``time.monotonic()`` or ``None``), then its reply
+        message (if its ``reply`` slot says one follows) or its failure; ``doing`` names the
+        command and ``current_env`` the env it was at, for messages."""
+
+
+class PendingCommand(NamedTuple):
+    """A command posted to one party and not yet answered."""
+
+    party: Party
+    code: int
+    message: Message | None = None
+
+
+class Outcome(NamedTuple):
+    """How one party answered a :class:`PendingCommand`: its reply message and/or its failure."""
+
+    party: Party
+    message: Message | None
+    failure: PoolError | None
+
+
+class CallerParty:
+    """The slice of envs the calling process steps itself, as a :class:`Party`.
+
+    It cannot die or time out; its command runs in :meth:`run`, and its reply (a message, if any)
+    waits here for :meth:`answer`, announced in its reply slot like a worker's.
+    """
+
+    in_caller = True
+    process = "the calling process"
+
+    def __init__(self, envs: EnvSlice, reply: np.ndarray) -> None:
+        self.envs = envs
+        self.index = envs.index
+        self.env_indices = envs.env_indices
+        self._reply_slot = reply
+        self._command: tuple[int, Message | None] | None = None
+        self._reply: Message | None = None
+
+    def __repr__(self) -> str:
+        return f"CallerParty(envs {self.env_range()})"
+
+    def env_range(self) -> str:
+        return self.envs.env_range()
+
+    def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
+        self._command = (code, message)
+
+    def run(self) -> None:
+        """Run the posted command, once."""
+        command, self._command = self._command, None
+        if command is not None:
+            code, message = command
+            self.hold(self.envs.step() if code == Command.STEP else self.envs.run(code, message))
+
+    def hold(self, reply: Message | None) -> None:
+        """Keep ``reply`` for :meth:`answer` (e.g. what Python finished of a native step)."""
+        self._reply = reply
+        self._reply_slot[self.index] = Reply.NONE if reply is None else Reply.MESSAGE
+
+    def poll_done(self, spin_time: float, block: float) -> bool:
+        return True
+
+    def repost(self) -> None:
+        """Nothing to undo: its reply waits in :meth:`answer`."""
+
+    def answer(self, deadline: float | None, doing: str, reply: np.ndarray,
+               current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
+        self.run()
+        message, self._reply = self._reply, None
+        self._reply_slot[self.index] = Reply.NONE
+        return message, None
+
+    def forget(self) -> None:
+        """Drop the posted command and the held reply (the pool stopped)."""
+        self._command = self._reply = None
