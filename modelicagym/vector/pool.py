@@ -1,38 +1,20 @@
 """``PoolVectorEnv``: a multi-process vector env, a drop-in for ``gymnasium.vector.AsyncVectorEnv``.
 
-This module is the public API only. The path of one ``step``, and where each part lives:
-
-1. ``PoolVectorEnv.step_async`` (here) writes the batch of actions into shared memory
-   (:mod:`~modelicagym.vector.buffers`) and the :class:`~modelicagym.vector.dispatch.Dispatcher`
-   sets each worker's command slot to ``STEP`` and posts its ``go`` signal
-   (:mod:`~modelicagym.vector.sync`: spin briefly, then sleep).
-2. Each worker process (:mod:`~modelicagym.vector.worker_process`) wakes, steps its contiguous slice of
-   envs (:mod:`~modelicagym.vector.env_slice`: ``env.step``, with the autoreset of the pool's
-   mode), writes observations, rewards and flags straight into its rows of shared memory, and
-   posts ``done``; only non-empty infos or an error follow as a pickled message on its pipe
-   (:mod:`~modelicagym.vector.protocol`). A slice of FMU envs on the native step path is one C
-   call (:mod:`modelicagym.vector.native_slice`), and its worker waits for commands in C as well.
-3. ``step_wait`` (here) has the dispatcher step the calling process's own slice (``caller_steps``)
-   and wait for every ``done`` (one C call on the native path); a worker that died, hung or raised
-   is handled by :mod:`~modelicagym.vector.recovery` (restart it, or stop the pool); the batch is
-   copied out of shared memory and returned with the merged infos.
-
-Starting, restarting and stopping the worker processes is :mod:`~modelicagym.vector.worker_set`
-(one :mod:`~modelicagym.vector.worker_handle` per process); the layout of envs over workers is
-:mod:`~modelicagym.vector.plan`, and which process steps each env now (the adaptive layout, which
-moves envs between the workers and the calling process at episode boundaries) is
-:mod:`~modelicagym.vector.placement`; where step time goes is :mod:`~modelicagym.vector.timing`.
-``step_envs`` is a ``step`` whose shared step mask leaves some envs out; EnvPool's ``send``/``recv``
-(partial batches) is :mod:`~modelicagym.vector.partial_batches`.
+This module is the public API only, each call a short composition of the parts (the path of one
+step through them is drawn in ``docs/design.md``, "The pool"): :mod:`~modelicagym.vector.assembly`
+starts it, :mod:`~modelicagym.vector.dispatch` talks to its parties
+(:mod:`~modelicagym.vector.party`), :mod:`~modelicagym.vector.recovery` handles failures,
+:mod:`~modelicagym.vector.placement` decides where envs run, :mod:`~modelicagym.vector.call_guard`
+checks each call, :mod:`~modelicagym.vector.infos` merges infos. It is longer than our other
+modules because ``AsyncVectorEnv``'s API is wide (reset, step, call and set_attr in their sync,
+async and wait forms, partial batches, timing, close) and each call's docstring is the user's
+reference; the logic behind them lives in the modules named above.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import logging
-import multiprocessing
-import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -47,7 +29,9 @@ from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.action_writer import ActionWriter
+from modelicagym.vector.assembly import assemble
 from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.call_guard import check_idle, check_open, check_waiting, one_thread_at_a_time
 from modelicagym.vector.checks import (
     check_async_vector_env_options,
     check_batch_size,
@@ -60,26 +44,16 @@ from modelicagym.vector.checks import (
     select_infos,
     values_per_env,
 )
-from modelicagym.vector.creation import close_envs
-from modelicagym.vector.dispatch import Dispatcher
-from modelicagym.vector.env_slice import EnvSlice
-from modelicagym.vector.errors import (
-    CallerTimeoutError,
-    ConcurrentUseError,
-    NoPendingCallError,
-    PendingCallError,
-    PoolClosedError,
-    PoolError,
-)
+from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
+from modelicagym.vector.infos import Entries, add_final_infos, merge_infos
 from modelicagym.vector.partial_batches import PartialBatches
 from modelicagym.vector.party import Outcome
-from modelicagym.vector.placement import LayoutState, place_envs
+from modelicagym.vector.placement import LayoutState
 from modelicagym.vector.plan import default_start_method, plan_layout
 from modelicagym.vector.protocol import StepPath, WorkerConfig
-from modelicagym.vector.recovery import RESTART_INFO_KEY, Entries, Recovery
+from modelicagym.vector.recovery import RESTART_INFO_KEY, Recovery
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
-from modelicagym.vector.worker_set import WorkerSet
 
 __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 
@@ -100,32 +74,6 @@ POOL_OPTIONS = (
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
     "observation_mode", "worker", "batch_size", "adapt_layout",
 )
-
-
-def one_thread_at_a_time(method: Callable[..., Any]) -> Callable[..., Any]:
-    """``method`` as a public call of the pool: a second thread that calls while another is inside a
-    call gets `ConcurrentUseError` at once (a pool's calls share one state and one set of workers;
-    two threads interleaving them hung). The calling thread claims the pool with one atomic
-    ``dict.setdefault`` (~0.15 us), not a lock: a Ctrl-C that lands between claiming and the
-    ``try`` leaves a claim only this same thread holds, which its next call clears, where a lock
-    would stay taken."""
-    name = method.__name__.lstrip("_")
-
-    @functools.wraps(method)
-    def exclusive(self: PoolVectorEnv, *args: Any, **kwargs: Any) -> Any:
-        me = threading.get_ident()
-        if self._user.setdefault("thread", me) != me:
-            raise ConcurrentUseError(
-                f"`{name}` was called from a second thread while another thread is inside a call to this pool; "
-                "a pool is used from one thread at a time (give each thread its own pool, or a lock)"
-            )
-        try:
-            return method(self, *args, **kwargs)
-        finally:
-            self._user.pop("thread", None)
-
-    exclusive.__name__ = exclusive.__qualname__ = name
-    return exclusive
 
 
 class PoolVectorEnv(VectorEnv):
@@ -294,35 +242,22 @@ class PoolVectorEnv(VectorEnv):
         self._timing = TimingRecorder()
         self._timing_enabled = False
         self._step_started_ns = 0
-        self._workers = WorkerSet(
-            self.env_fns,
-            slices,
-            multiprocessing.get_context(self.start_method),
-            WorkerConfig(
-                self.autoreset_mode,
-                spin_time,
-                shared_signals=futex_library() is not None,
-                step_timeout=step_timeout,
-                startup_timeout=startup_timeout,
-                observation_mode="same" if observation_mode == "same" else "different",
-                num_envs=self.num_envs,
-            ),
-            startup_timeout,
+        config = WorkerConfig(
+            self.autoreset_mode,
+            spin_time,
+            shared_signals=futex_library() is not None,
+            step_timeout=step_timeout,
+            startup_timeout=startup_timeout,
+            observation_mode="same" if observation_mode == "same" else "different",
+            num_envs=self.num_envs,
         )
-        self._workers.launch()
-        local = None
         try:
-            local = None if local_slice is None else EnvSlice.create(
-                self.env_fns, local_slice, self.num_workers, self.autoreset_mode, len(local_slice) / self.num_envs
-            )
-            first = self._workers.connect(local)
-            self._placement, local = place_envs(self.env_fns, self._workers, local, self.autoreset_mode, adapt_layout)
+            parts = assemble(self.env_fns, slices, local_slice, self.start_method, config, adapt_layout)
         except BaseException:
-            if local is not None:
-                close_envs(local.envs)
-            self._workers.release()
             self.closed = True
             raise
+        self._workers, self._placement, self._dispatcher = parts.workers, parts.placement, parts.dispatcher
+        first = parts.first
         self.metadata = {**first.metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = first.render_mode
         self.spec = first.spec
@@ -340,9 +275,6 @@ class PoolVectorEnv(VectorEnv):
         self._actions = ActionWriter(
             self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library(),
             self._buffers.needs_reset if self.autoreset_mode is AutoresetMode.NEXT_STEP else None,
-        )
-        self._dispatcher = Dispatcher(
-            self._workers.handles, local, self._buffers, spin_time, step_timeout, self._placement.stepping
         )
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
@@ -490,7 +422,7 @@ class PoolVectorEnv(VectorEnv):
             )
         infos = self._merge_infos(entries) if entries else {}
         if self._same_step:
-            self._add_final_infos(infos, buffers.take_final_ready())
+            add_final_infos(infos, buffers.take_final_ready(), buffers.final_observations, self.num_envs)
         self._raise_if_past(deadline, timeout, "step_wait")
         return (
             buffers.observations.read_batch(self.copy),
@@ -790,51 +722,13 @@ class PoolVectorEnv(VectorEnv):
             raise
 
     def _assert_is_running(self) -> None:
-        if self.closed:
-            raise PoolClosedError(f"Trying to operate on `{type(self).__name__}`, after a call to `close()`.")
+        check_open(self.closed, type(self).__name__)
 
     def _assert_idle(self, call: str) -> None:
-        if self._partial is not None and self._partial.busy:
-            raise PendingCallError(
-                f"Calling `{call}` while envs sent with `send` are not all returned by `recv`.", "send"
-            )
-        if self._state != AsyncState.DEFAULT:
-            raise PendingCallError(
-                f"Calling `{call}` while waiting for a pending call to `{self._state.value}` to complete.",
-                str(self._state.value),
-            )
+        check_idle(self._state, self._partial is not None and self._partial.busy, call)
 
     def _assert_waiting(self, state: AsyncState, call: str, prior: str) -> None:
-        if self._state != state:
-            raise NoPendingCallError(f"Calling `{call}` without any prior call to `{prior}`.", state.value)
-
-    def _add_final_infos(self, infos: dict[str, Any], ready: np.ndarray) -> None:
-        """Add to ``infos`` what ``_add_info`` would for each env of ``ready`` (reset by the native
-        step: `SharedBuffers.take_final_ready`), in a few array operations: per-env merging
-        would cost ``SAME_STEP`` a third of its steps per second."""
-        if not ready.size:
-            return
-        n = self.num_envs
-        final_obs = infos.get("final_obs")
-        if final_obs is None:
-            final_obs = np.full(n, None, dtype=object)
-        for index, row in zip(ready.tolist(), self._buffers.final_observations.read_batch(copy_out=False)[ready]):
-            final_obs[index] = row
-        infos["final_obs"] = final_obs
-        infos["_final_obs"] = _marked(infos.get("_final_obs"), ready, n)
-        infos.setdefault("final_info", {})
-        infos["_final_info"] = _marked(infos.get("_final_info"), ready, n)
+        check_waiting(self._state, state, call, prior)
 
     def _merge_infos(self, entries: Entries) -> dict[str, Any]:
-        infos: dict[str, Any] = {}
-        for index, info in entries:
-            infos = self._add_info(infos, info, index)
-        return infos
-
-
-def _marked(mask: np.ndarray | None, indices: np.ndarray, n: int) -> np.ndarray:
-    """``mask`` (a new one of ``n`` if ``None``) with ``indices`` set, as ``_add_info`` marks infos."""
-    if mask is None:
-        mask = np.zeros(n, dtype=np.bool_)
-    mask[indices] = True
-    return mask
+        return merge_infos(self._add_info, entries)

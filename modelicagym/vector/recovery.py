@@ -18,24 +18,23 @@ that last observation); in ``DISABLED`` the caller resets it.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, NoReturn
+from typing import NoReturn
 
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.errors import PoolError
+from modelicagym.vector.infos import Entries
 from modelicagym.vector.party import PendingCommand
 from modelicagym.vector.protocol import Command
 from modelicagym.vector.worker_handle import WorkerHandle
 from modelicagym.vector.worker_set import WorkerSet
 
-__all__ = ["RESTART_INFO_KEY", "Entries", "Recovery"]
+__all__ = ["RESTART_INFO_KEY", "Recovery"]
 
 #: info key set (to the reason, a string) on envs truncated because their worker was restarted
 RESTART_INFO_KEY = "pool_restart"
 
-#: ``(env index, info)`` pairs, in env order, to merge into the vector infos
-Entries = list[tuple[int, dict[str, Any]]]
 
 
 class Recovery:
