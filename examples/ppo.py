@@ -28,7 +28,6 @@ from torch.distributions import Categorical, Normal
 import modelicagym
 from modelicagym.experiments.plots import plot_learning_curve
 
-
 #: per env, the settings that differ from the defaults below (which learn the cart-poles): the
 #: swing-up is judged by its return (the baseline controller averages about -140) and wants a
 #: short horizon

@@ -12,10 +12,10 @@ from episodes import observations
 from gymnasium.utils.env_checker import check_env
 
 import modelicagym
-from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.fmu import FMUInstance
 from modelicagym.fmu.instance import RUNGS
 from modelicagym.models.cartpole import OUTPUTS
+from modelicagym.models.cartpole.env import CartPoleEnv
 
 PUSHES = np.random.default_rng(7).integers(0, 2, size=100)
 

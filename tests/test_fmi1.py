@@ -20,11 +20,11 @@ from gymnasium.utils.env_checker import check_env
 from vector_rollouts import assert_same, rollout
 
 import modelicagym
-from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.errors import ArgumentError
 from modelicagym.fmu import FMUCallError, FMUInstance, UnsupportedFeatureError, open_fmu
 from modelicagym.fmu.build import build_source_fmu, compile_sources
 from modelicagym.models.cartpole import OUTPUTS
+from modelicagym.models.cartpole.env import CartPoleEnv
 
 PUSHES = np.random.default_rng(11).integers(0, 2, size=80)
 

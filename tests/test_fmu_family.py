@@ -14,10 +14,10 @@ from fmpy.validation import validate_fmu
 from fmu_family import PROBE3_INPUTS, PROBE3_OUTPUTS, PROBE_INPUTS, PROBE_OUTPUTS, VARIANTS, Variant
 from gymnasium import spaces
 
+from modelicagym.env.spaces import space_for
 from modelicagym.fmu import open_fmu
 from modelicagym.fmu.build import FRAMEWORK_DIR
 from modelicagym.models.cartpole import MODEL_DIR as CARTPOLE_DIR
-from modelicagym.env.spaces import space_for
 
 
 @pytest.mark.parametrize("name", sorted(VARIANTS))

@@ -13,9 +13,9 @@ from gymnasium.utils.env_checker import check_env
 
 import modelicagym
 from modelicagym import FMUEnv
-from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.instance import RUNGS
+from modelicagym.models.cartpole.env import CartPoleEnv
 
 
 def probe_env(path: Any, **config: Any) -> FMUEnv:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import modelicagym
-from modelicagym.models.pendulum.env import EnergySwingUp, PendulumSwingUpEnv
 from modelicagym.errors import ModelicaGymError
+from modelicagym.models.pendulum.env import EnergySwingUp, PendulumSwingUpEnv
 
 
 def drive(env: gym.Env, controller, seed: int = 0, steps: int | None = None):

@@ -16,7 +16,7 @@ from ray_cluster import local_ray
 import modelicagym
 from modelicagym.agents import QLearningAgent
 from modelicagym.distributed import SweepGroupError
-from modelicagym.experiments import SweepConfig, read_sweep, run_sweeps
+from modelicagym.experiments import RayRunner, SweepConfig, read_sweep, run_sweeps
 from modelicagym.experiments.cli import main as experiments_main
 from modelicagym.experiments.config import AgentSpec, Setting
 
@@ -52,8 +52,7 @@ def assert_same_sweep_files(local: Path, remote: Path, name: str) -> None:
 def test_a_sweep_on_ray_writes_what_a_local_run_writes(tmp_path):
     config = small()
     run_sweeps([config], tmp_path / "local", progress=False, bounds_budget=200)
-    [result] = run_sweeps([config], tmp_path / "ray", progress=False, bounds_budget=200, ray=True,
-                          ray_options={"groups": 4})
+    [result] = run_sweeps([config], tmp_path / "ray", progress=False, bounds_budget=200, runner=RayRunner(groups=4))
     assert result.timing["num_workers"] == 4
     assert_same_sweep_files(tmp_path / "local", tmp_path / "ray", config.name)
     np.testing.assert_array_equal(read_sweep(tmp_path / "ray", config.name).lengths, result.lengths)
@@ -88,8 +87,8 @@ def test_a_group_whose_process_dies_is_retried_with_the_same_episodes(tmp_path):
     config = small("retried", episodes=3)
     run_sweeps([config], tmp_path / "local", progress=False, bounds_budget=0)
     marker = tmp_path / "died"
-    run_sweeps([config], tmp_path / "ray", progress=False, bounds_budget=0, ray=True,
-               make_vec=DiesOnce(marker), ray_options={"groups": 3})
+    run_sweeps([config], tmp_path / "ray", progress=False, bounds_budget=0, runner=RayRunner(groups=3),
+               make_vec=DiesOnce(marker))
     assert marker.exists(), "the first attempt died"
     assert_same_sweep_files(tmp_path / "local", tmp_path / "ray", config.name)
 
@@ -105,8 +104,8 @@ def test_a_failing_group_stops_the_sweep_and_writes_nothing(tmp_path):
     with pytest.raises(SweepGroupError, match=r"sweep 'broken', envs 4-5 raised RuntimeError: .*this group cannot "
                                               r"start; nothing of this sweep was written") as caught:
         broken = dataclasses.replace(small("broken", 2), base_options={"max_episode_steps": 59})
-        run_sweeps([small("fine", 2), broken], tmp_path, progress=False, bounds_budget=0, ray=True,
-                   make_vec=AlwaysRaises(), ray_options={"groups": 3})
+        run_sweeps([small("fine", 2), broken], tmp_path, progress=False, bounds_budget=0, runner=RayRunner(groups=3),
+                   make_vec=AlwaysRaises())
     assert caught.value.env_indices == (4, 5)
     assert (tmp_path / "fine" / "run.json").exists()
     assert not (tmp_path / "broken").exists()

@@ -3,12 +3,12 @@
 * `RayVectorEnv` (``modelicagym.make_vec(name, n, backend="ray")``): a Gymnasium vector env whose
   envs live in Ray actors, each stepping its slice on a local pool, with a ``rollout`` call that
   ships a policy once and returns ``T`` steps as arrays;
-* :func:`modelicagym.experiments.run_sweeps` with ``ray=...`` (``modelicagym reproduce --ray``):
-  a sweep's (setting, repeat) groups as Ray tasks (`modelicagym.distributed.sweeps`).
+* the building blocks of `modelicagym.experiments.RayRunner` (``modelicagym reproduce --ray``),
+  which runs a sweep's (setting, repeat) groups as Ray tasks.
 
 Ray is imported when first needed, never by ``import modelicagym``; without it these raise
 `RayNotInstalledError`. Layers: ``cluster`` (import and connect), ``host`` (the actor),
-``vector_env``, ``sweeps``; errors in ``errors``.
+``vector_env``; errors in ``errors``. Nothing here imports the experiments.
 """
 
 from modelicagym.distributed.cluster import connect, require_ray

@@ -34,11 +34,11 @@ import gymnasium as gym
 from modelicagym.action_checks import action_checker
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.config_checks import check_parameter
+from modelicagym.env.native_step import NativeStep, python_path_reason
+from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
 from modelicagym.native.abi import Flags
-from modelicagym.env.native_step import NativeStep, python_path_reason
-from modelicagym.env.spaces import Observer, space_for, write_values
 
 logger = logging.getLogger(__name__)
 

@@ -17,8 +17,9 @@ from modelicagym.console import add_debug_flag, run_command
 from modelicagym.experiments.bounds import DEFAULT_BUDGET
 from modelicagym.experiments.config import ConfigError, SweepConfig, load_config
 from modelicagym.experiments.paper import PAPER_SWEEPS
+from modelicagym.experiments.ray_runner import RayRunner
 from modelicagym.experiments.report import console_summary, render_report
-from modelicagym.experiments.runner import run_sweeps
+from modelicagym.experiments.runner import LocalRunner, run_sweeps
 
 __all__ = ["add_parsers", "main", "select_sweeps"]
 
@@ -50,16 +51,12 @@ def _reproduce(args: argparse.Namespace) -> int:
         json.dump([c.to_dict() for c in configs], sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
-    run_sweeps(
-        configs,
-        args.out,
-        resume=args.resume,
-        num_workers=args.num_workers,
-        progress=not args.no_progress,
-        bounds_budget=args.bounds_budget,
-        ray=args.ray,
-        ray_options={} if args.ray_groups is None else {"groups": args.ray_groups},
-    )
+    if args.ray is None:
+        runner = LocalRunner(num_workers=args.num_workers)
+    else:
+        runner = RayRunner(address=None if args.ray is True else args.ray, groups=args.ray_groups)
+    run_sweeps(configs, args.out, runner=runner, resume=args.resume, progress=not args.no_progress,
+               bounds_budget=args.bounds_budget)
     print(console_summary(args.out, [c.name for c in configs]))
     if args.report:
         render_report(args.out, args.docs)

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from modelicagym.models.cartpole.env import CARTPOLE_INTERVALS
 from modelicagym.experiments.analysis import LEARNING_RATIO, WINDOW, SettingSummary
 from modelicagym.experiments.config import AgentSpec, Setting, SweepConfig
+from modelicagym.models.cartpole.env import CARTPOLE_INTERVALS
 
 __all__ = [
     "BASE_OPTIONS",

@@ -26,7 +26,7 @@ import platform
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from gymnasium import spaces
@@ -46,7 +46,16 @@ from modelicagym.experiments.results import (
     write_sweep,
 )
 
-__all__ = ["MakeVec", "SweepPart", "assemble_sweep", "run_sweep", "run_sweep_part", "run_sweeps"]
+__all__ = [
+    "LocalRunner",
+    "MakeVec",
+    "SweepPart",
+    "SweepRunner",
+    "assemble_sweep",
+    "run_sweep",
+    "run_sweep_part",
+    "run_sweeps",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -300,26 +309,43 @@ def _joined_agent(parts: Sequence[SweepPart], position: np.ndarray) -> QLearning
     return agent
 
 
+class SweepRunner(Protocol):
+    """Where a sweep runs: called with a config, returns its result; `run_sweeps` writes it.
+
+    `LocalRunner` runs it in one vector env on this machine;
+    `~modelicagym.experiments.ray_runner.RayRunner` as Ray tasks on a cluster.
+    """
+
+    def __call__(self, config: SweepConfig, *, make_vec: MakeVec | None, progress: bool) -> SweepResult: ...
+
+
+@dataclasses.dataclass(frozen=True)
+class LocalRunner:
+    """Every env of a sweep in one vector env on this machine (`run_sweep`)."""
+
+    num_workers: int | None = None
+
+    def __call__(self, config: SweepConfig, *, make_vec: MakeVec | None, progress: bool) -> SweepResult:
+        return run_sweep(config, make_vec=make_vec, num_workers=self.num_workers, progress=progress)
+
+
 def run_sweeps(
     configs: Sequence[SweepConfig],
     results_dir: str | Path,
     *,
+    runner: SweepRunner | None = None,
     resume: bool = False,
     make_vec: MakeVec | None = None,
-    num_workers: int | None = None,
     progress: bool = True,
     make: MakeEnv | None = None,
     bounds_budget: int = DEFAULT_BUDGET,
-    ray: str | bool | None = None,
-    ray_options: dict[str, Any] | None = None,
 ) -> list[SweepResult | None]:
     """Run ``configs`` one after the other, writing each sweep's results as soon as it completes.
 
-    With ``ray`` (``True``, or a cluster address: see `~modelicagym.distributed.connect`) each
-    sweep's (setting, repeat) groups run as Ray tasks across the cluster
-    (`~modelicagym.distributed.sweeps.run_sweep_on_ray`, which ``ray_options`` configure:
-    ``groups``, ``cpus_per_group``, ``max_retries``); the results come back to this process and are
-    written exactly as a local run writes them, with the same episodes.
+    ``runner`` says where a sweep runs: `LocalRunner` (the default) on this machine,
+    `~modelicagym.experiments.ray_runner.RayRunner` as Ray tasks across a cluster, whose results
+    come back to this process and are written exactly as a local run writes them, with the same
+    episodes.
 
     With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
     (``None`` in the returned list). An interruption loses only the sweep that was running. The
@@ -327,6 +353,7 @@ def run_sweeps(
     (default ``modelicagym.make``), at most ``bounds_budget`` env steps per setting (0: no search),
     and stored with the results.
     """
+    runner = LocalRunner() if runner is None else runner
     results_dir = Path(results_dir)
     outcomes: list[SweepResult | None] = []
     for config in configs:
@@ -334,14 +361,7 @@ def run_sweeps(
             logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
             outcomes.append(None)
             continue
-        if ray is None or ray is False:
-            result = run_sweep(config, make_vec=make_vec, num_workers=num_workers, progress=progress)
-        else:
-            from modelicagym.distributed.sweeps import run_sweep_on_ray
-
-            address = None if ray is True else ray
-            result = run_sweep_on_ray(config, address=address, make_vec=make_vec, progress=progress,
-                                      **(ray_options or {}))
+        result = runner(config, make_vec=make_vec, progress=progress)
         if bounds_budget > 0:
             result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)

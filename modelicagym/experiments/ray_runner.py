@@ -1,4 +1,4 @@
-"""A sweep's (setting, repeat) groups as Ray tasks; results assembled on the driver.
+"""The Ray runner: a sweep's (setting, repeat) groups as Ray tasks; results assembled on the driver.
 
 The envs of a sweep (env ``i = setting * repeats + repeat``) are split into contiguous groups,
 one Ray task each (one CPU by default). A task trains its group's agents on a local vector env
@@ -11,10 +11,14 @@ run does. Nothing is written before every group is back.
 A task whose worker process or node dies is retried by Ray (``max_retries`` times, on any node);
 an exception inside a group, or a group lost more often than that, cancels the other groups and
 raises `SweepGroupError` naming the group's envs: nothing of that sweep is written.
+
+`RayRunner` is what `~modelicagym.experiments.run_sweeps` takes (``runner=RayRunner()``; ``modelicagym
+reproduce --ray``); the local runner (`~modelicagym.experiments.runner.LocalRunner`) knows nothing of it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import logging
 import time
@@ -27,12 +31,27 @@ from modelicagym.experiments.results import SweepResult
 from modelicagym.experiments.runner import MakeVec, SweepPart, assemble_sweep, progress_bar, run_sweep_part
 from modelicagym.vector.plan import plan_workers
 
-__all__ = ["DEFAULT_MAX_RETRIES", "run_sweep_on_ray"]
+__all__ = ["DEFAULT_MAX_RETRIES", "RayRunner", "run_sweep_on_ray"]
 
 logger = logging.getLogger(__name__)
 
 #: how often Ray runs a group again whose process or node died
 DEFAULT_MAX_RETRIES = 3
+
+
+@dataclasses.dataclass(frozen=True)
+class RayRunner:
+    """A `~modelicagym.experiments.runner.SweepRunner` that runs each sweep on a Ray cluster
+    (`run_sweep_on_ray` with these settings)."""
+
+    address: str | None = None
+    groups: int | None = None
+    cpus_per_group: int = 1
+    max_retries: int = DEFAULT_MAX_RETRIES
+
+    def __call__(self, config: SweepConfig, *, make_vec: MakeVec | None, progress: bool) -> SweepResult:
+        return run_sweep_on_ray(config, address=self.address, make_vec=make_vec, groups=self.groups,
+                                cpus_per_group=self.cpus_per_group, max_retries=self.max_retries, progress=progress)
 
 
 def run_sweep_on_ray(
