@@ -17,6 +17,7 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     │       └── ActionTypeError (TypeError) a scalar where a batch of actions belongs
     ├── NotFoundError (FileNotFoundError)   a file or results directory that does not exist
     ├── DataError (ValueError)              a file whose content cannot be used
+    ├── CacheError (OSError)                a damaged cache entry that cannot be made again
     ├── BuildError (RuntimeError)           C sources could not be compiled
     │   └── NativeBuildError                our native library (modelicagym.native)
     ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
@@ -39,6 +40,7 @@ __all__ = [
     "ArgumentError",
     "ArgumentTypeError",
     "BuildError",
+    "CacheError",
     "ClusterError",
     "ConfigError",
     "ConfigTypeError",
@@ -83,6 +85,10 @@ class NotFoundError(ModelicaGymError, FileNotFoundError):
 
 class DataError(ModelicaGymError, ValueError):
     """A file exists but its content cannot be used (incomplete results, a malformed table)."""
+
+
+class CacheError(ModelicaGymError, OSError):
+    """A cache entry is damaged and cannot be rebuilt or extracted again (a read-only cache)."""
 
 
 class BuildError(ModelicaGymError, RuntimeError):

@@ -36,8 +36,8 @@ from xml.etree import ElementTree
 
 import fmpy
 
+from modelicagym.cache import cache_dir, ensure, write_manifest
 from modelicagym.errors import ArgumentError, BuildError, NotFoundError
-from modelicagym.fmu.cache import cache_dir, locked
 from modelicagym.fmu.errors import FMUError
 
 __all__ = [
@@ -108,12 +108,7 @@ def build_source_fmu(
     fmus = Path(cache) if cache is not None else cache_dir()
     flavour = f"fmi1{job.mode}" if fmi_version == 1 else f"fmi{fmi_version}"
     target = fmus / "fmus" / f"{job.identifier}-{flavour}-{job.key}.fmu"
-    if target.is_file():
-        return target
-    with locked(fmus / "locks" / f"{job.key}.lock"):
-        if not target.is_file():
-            job.build(target)
-    return target
+    return ensure(target, lambda: job.build(target), f"the built FMU {target.name}")
 
 
 def build_all_models(cache: str | os.PathLike | None = None,
@@ -218,6 +213,7 @@ class _BuildJob:
             partial = work / "partial.fmu"
             _zip(unzipdir, partial)
             target.parent.mkdir(parents=True, exist_ok=True)
+            write_manifest(partial, published_as=target)
             os.replace(partial, target)
         finally:
             shutil.rmtree(work, ignore_errors=True)

@@ -8,7 +8,7 @@ process reuses the same extraction (docs/design.md: never re-extract).
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import logging
 import os
 import re
@@ -25,8 +25,8 @@ import fmpy
 from fmpy.model_description import ModelDescription, ValidationError, read_model_description
 from lxml import etree
 
+from modelicagym.cache import cache_dir, ensure, file_digest, write_manifest
 from modelicagym.errors import ConfigError
-from modelicagym.fmu.cache import cache_dir
 from modelicagym.fmu.errors import (
     FMUNotFoundError,
     InvalidFMUError,
@@ -309,15 +309,75 @@ def _variables_of(description: Path, problems: list[str]) -> set[str | None]:
     return concerned
 
 
+#: limits on what one FMU may expand to, raisable with these environment variables
+EXTRACTION_LIMITS = {
+    "MODELICAGYM_MAX_FMU_BYTES": 2 << 30,
+    "MODELICAGYM_MAX_FMU_FILES": 20_000,
+    "MODELICAGYM_MAX_FMU_RATIO": 200,
+}
+
+
+def _extraction_limit(name: str) -> int:
+    value = os.environ.get(name)
+    if value is None:
+        return EXTRACTION_LIMITS[name]
+    try:
+        return int(float(value))
+    except ValueError:
+        raise ConfigError(f"${name}={value!r} is not a number") from None
+
+
+def _check_expansion(path: Path, archive: zipfile.ZipFile) -> None:
+    """Refuse, before anything is written, an FMU that would expand beyond the limits: total
+    size, file count, and ratio of its expanded to its compressed size (a zip bomb)."""
+    members = archive.infolist()
+    total = sum(member.file_size for member in members)
+    compressed = max(path.stat().st_size, 1)
+    checks = (
+        ("MODELICAGYM_MAX_FMU_BYTES", total, f"{total:,} bytes"),
+        ("MODELICAGYM_MAX_FMU_FILES", len(members), f"{len(members):,} files"),
+        ("MODELICAGYM_MAX_FMU_RATIO", total // compressed, f"{total / compressed:,.0f} times its size"),
+    )
+    for name, amount, described in checks:
+        limit = _extraction_limit(name)
+        if amount > limit:
+            raise InvalidFMUError(f"{path} would expand to {described}, over the limit of {limit:,} "
+                                  f"(set ${name} higher to extract it anyway); nothing was extracted")
+
+
+@functools.cache
+def _content_key(resolved: str, size: int, mtime_ns: int) -> str:
+    """The FMU's content hash, computed once per process per (file, size, mtime)."""
+    return file_digest(Path(resolved))[:20]
+
+
 def _extract(path: Path) -> Path:
-    """Extract ``path`` into the cache, once per (path, size, mtime); safe across processes."""
+    """Extract ``path`` into the cache once per content (the same bytes anywhere are one entry),
+    checked against its manifest on every open; safe across processes."""
     if not zipfile.is_zipfile(path):
-        raise InvalidFMUError(f"{path} is not an FMU: an FMU is a zip archive, and this file is not one")
+        raise InvalidFMUError(f"{path} is not an FMU: an FMU is a zip archive, and this file is not one (or is cut short)")
     stat = path.stat()
-    key = hashlib.sha256(f"{path.resolve()}|{stat.st_size}|{stat.st_mtime_ns}".encode()).hexdigest()[:20]
-    target = cache_dir() / "extracted" / f"{path.stem}-{key}"
-    if (target / "modelDescription.xml").is_file():
-        return target
+    key = _content_key(str(path.resolve()), stat.st_size, stat.st_mtime_ns)
+    target = cache_dir() / "extracted" / key
+    return ensure(target, lambda: _extract_into(path, target), f"the extracted FMU {path.name}")
+
+
+def _extract_into(path: Path, target: Path) -> None:
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{path.stem}-", dir=target.parent))
+    try:
+        with zipfile.ZipFile(path) as archive:
+            if "modelDescription.xml" not in archive.namelist():
+                raise InvalidFMUError(f"{path} is not an FMU: the zip archive has no modelDescription.xml")
+            _check_expansion(path, archive)
+            archive.extractall(staging)
+        write_manifest(staging)
+        os.rename(staging, target)
+        logger.debug("extracted %s to %s", path, target)
+    except (zipfile.BadZipFile, EOFError) as error:
+        raise InvalidFMUError(f"{path} is a damaged zip archive ({error}): extract it again from its source") from error
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     target.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{path.stem}-", dir=target.parent))
     try:

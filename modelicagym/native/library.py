@@ -3,7 +3,9 @@
 The library is built with the machine's C compiler (``$CC``, else ``cc`` or ``gcc``: the
 toolchain that builds our FMUs) into the modelicagym cache, under a hash of its sources and
 the compiler, so every process of every run shares one build; concurrent first uses are
-serialized by a lock and publish with an atomic rename. Nothing compiled is ever committed.
+serialized by a lock and publish with an atomic rename. The library is checked against its
+manifest before ``dlopen`` (`modelicagym.cache.ensure`): a copy cut short is rebuilt, not mapped.
+Nothing compiled is ever committed.
 """
 
 from __future__ import annotations
@@ -18,8 +20,8 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from modelicagym.cache import cache_dir, ensure, write_manifest
 from modelicagym.errors import NativeBuildError
-from modelicagym.fmu.cache import cache_dir, locked
 from modelicagym.native.abi import check_layout
 
 __all__ = ["NativeBuildError", "SOURCES_DIR", "load_library"]
@@ -90,11 +92,7 @@ def load_library() -> ctypes.CDLL:
     """
     compiler = _compiler()
     folder = cache_dir() / "native" / _digest(compiler)
-    path = folder / _NAME
-    if not path.is_file():
-        with locked(folder.with_suffix(".lock")):
-            if not path.is_file():
-                _build(compiler, folder, path)
+    path = ensure(folder / _NAME, lambda: _build(compiler, folder, folder / _NAME), "the native step library")
     library = ctypes.CDLL(str(path))
     for name, (restype, argtypes) in SIGNATURES.items():
         function = getattr(library, name)
@@ -116,4 +114,5 @@ def _build(compiler: str, folder: Path, path: Path) -> None:
         raise NativeBuildError(f"building the native step library failed ({' '.join(command)}):\n{result.stdout}")
     if result.stdout.strip():
         logger.warning("compiler output while building the native step library:\n%s", result.stdout)
+    write_manifest(Path(tmp), published_as=path)
     os.replace(tmp, path)
