@@ -19,6 +19,7 @@ from toy_envs import counter, drift
 
 import modelicagym
 from modelicagym.agents import QLearningAgent
+from modelicagym.errors import DataError
 from modelicagym.experiments import (
     PAPER_SWEEPS,
     ConfigError,
@@ -39,7 +40,14 @@ from modelicagym.experiments.cli import select_sweeps
 from modelicagym.experiments.paper import FINDINGS, PAPER_NUMBERS
 from modelicagym.experiments.plots import plot_sweep
 from modelicagym.experiments.report import read_notes
-from modelicagym.experiments.results import SweepResult, atomic_write, completed_sweeps, is_complete
+from modelicagym.experiments.results import (
+    COLUMNS,
+    SweepResult,
+    atomic_write,
+    completed_sweeps,
+    is_complete,
+    write_combined_csv,
+)
 
 THETA_0 = float(np.deg2rad(85))
 
@@ -335,6 +343,51 @@ def test_resume_skips_completed_sweeps_only(tmp_path):
         [tiny("a", episodes=4)], tmp_path, resume=True, make_vec=make_vec, progress=False, bounds_budget=0
     )
     assert again is not None and read_sweep(tmp_path, "a").config.episodes == 4
+
+
+@pytest.mark.parametrize("damage", ["cut short", "emptied", "changed", "agent deleted"])
+def test_resume_runs_again_a_sweep_whose_files_were_damaged_after_the_run(tmp_path, caplog, damage):
+    """A sweep is complete only while its files are what was written: one cut short (a full disk, a
+    crash while copying), emptied or changed is run again by --resume, saying so, and left out of
+    the combined table until then (it used to be reported "already complete" with 44 of 1,501 lines)."""
+    [first] = run_sweeps([tiny("a"), tiny("b")], tmp_path, make_vec=Recorder(), progress=False, bounds_budget=0)[:1]
+    episodes = tmp_path / "a" / "episodes.csv"
+    text = episodes.read_text()
+    if damage == "cut short":
+        episodes.write_text(text[: len(text) // 3])
+    elif damage == "emptied":
+        episodes.write_text("")
+    elif damage == "changed":
+        episodes.write_text(text.replace(",5 N,0,0,", ",5 N,0,0,9", 1))
+    else:
+        (tmp_path / "a" / "agent.npz").unlink()
+    assert not is_complete(tmp_path, tiny("a"))
+    assert completed_sweeps(tmp_path) == ["b"]
+    assert "sweep 'a' left out: it is incomplete" in caplog.text
+    make_vec = Recorder()
+    outcomes = run_sweeps([tiny("a"), tiny("b")], tmp_path, resume=True, make_vec=make_vec, progress=False,
+                          bounds_budget=0)
+    assert outcomes[0] is not None and outcomes[1] is None and len(make_vec.calls) == 1
+    assert "sweep 'a' in" in caplog.text and "is incomplete" in caplog.text and "running it again" in caplog.text
+    assert episodes.read_text() == text
+    np.testing.assert_array_equal(read_sweep(tmp_path, "a").lengths, first.lengths)
+    with open(tmp_path / "episodes.csv") as f:
+        assert len(list(csv.DictReader(f))) == 2 * first.lengths.size
+
+
+@pytest.mark.parametrize("content, problem", [
+    ("", "lacks 12 of the 12 episodes"),
+    ("experiment,setting,repeat,episode,length,reward\ntiny,5 N,0,zero,3,1.0\n", "line 2: not a row .*ValueError"),
+    ("experiment,setting,repeat,episode,length,reward\ntiny,99 N,0,0,3,1.0\n", "line 2: not a row .*KeyError"),
+    ("experiment,setting,repeat,episode,length,reward\ntiny,5 N,0,0,3,1.0\n", "lacks 11 of the 12 episodes"),
+])
+def test_a_garbled_results_table_is_a_data_error_naming_the_file(tmp_path, content, problem):
+    run_sweeps([tiny()], tmp_path, make_vec=Recorder(), progress=False, bounds_budget=0)
+    (tmp_path / "tiny" / "episodes.csv").write_text(content)
+    with pytest.raises(DataError, match=rf"tiny/episodes\.csv.*{problem}"):
+        read_sweep(tmp_path, "tiny")
+    write_combined_csv(tmp_path)  # the damaged sweep is left out, no traceback
+    assert (tmp_path / "episodes.csv").read_text().splitlines() == [",".join(COLUMNS)]
 
 
 def test_interrupted_sweep_leaves_no_files_and_keeps_finished_ones(tmp_path):

@@ -5,10 +5,14 @@ Layout of a results directory::
     episodes.csv            all completed sweeps in one tidy table (rewritten after every sweep)
     <name>/episodes.csv     tidy episodes of one sweep: experiment,setting,repeat,episode,length,reward
     <name>/agent.npz        the trained Q-tables, one per (setting, repeat) in env order (see below)
-    <name>/run.json         the sweep's config, timing and machine; written last: marks completion
+    <name>/run.json         the sweep's config, timing, machine and the manifest of the files above
+                            (bytes, SHA-256, rows); written last: marks completion
     <name>/episode_lengths.png   the learning curves (see plots.py)
 
-Every file is written to a temporary file in the same directory and renamed over the target.
+Every file is written to a temporary file in the same directory, synced and renamed over the target.
+A sweep counts as complete only while its files match the manifest in its ``run.json``: a file cut
+short or changed after the run (a full disk, a crash while copying) makes it incomplete, so
+``--resume`` runs it again and the combined table leaves it out, each with a warning that says why.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from typing import IO, Any
 import numpy as np
 
 from modelicagym.agents import QLearningAgent
+from modelicagym.cache import file_digest
 from modelicagym.errors import ArgumentTypeError, DataError, NotFoundError
 from modelicagym.experiments.config import SweepConfig
 
@@ -38,6 +43,7 @@ __all__ = [
     "completed_sweeps",
     "is_complete",
     "read_sweep",
+    "sweep_damage",
     "sweep_dir",
     "write_combined_csv",
     "write_sweep",
@@ -118,12 +124,16 @@ def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
     if result.agent is not None:
         with atomic_write(csv_path.parent / AGENT_NPZ, "wb") as f:
             result.agent.save(f)
+    files = {EPISODES_CSV: _file_record(csv_path) | {"rows": result.lengths.size}}
+    if result.agent is not None:
+        files[AGENT_NPZ] = _file_record(csv_path.parent / AGENT_NPZ)
     document = {
         "experiment": result.config.name,
         "config": result.config.to_dict(),
         "timing": result.timing,
         "machine": result.machine,
         "bounds": result.bounds,
+        "files": files,
     }
     with atomic_write(json_path) as f:
         json.dump(document, f, indent=2, default=_json_default)
@@ -146,31 +156,68 @@ def _read_document(json_path: Path) -> dict[str, Any] | None:
         return None
 
 
+def _file_record(path: Path) -> dict[str, Any]:
+    return {"bytes": path.stat().st_size, "sha256": file_digest(path)}
+
+
+def sweep_damage(results_dir: str | Path, name: str) -> str | None:
+    """What makes sweep ``name`` in ``results_dir`` incomplete, or ``None`` if its ``run.json``
+    is readable and every file it lists still has the bytes that were written."""
+    csv_path, json_path = _paths(Path(results_dir), name)
+    document = _read_document(json_path)
+    if document is None or "config" not in document:
+        return f"{json_path} is missing or unreadable"
+    if "files" not in document:  # written before run.json had a manifest: read the table itself
+        try:
+            read_sweep(results_dir, name)
+        except (DataError, OSError) as error:
+            return str(error)
+        return None
+    for file_name, recorded in document["files"].items():
+        path = csv_path.parent / file_name
+        try:
+            record = _file_record(path)
+        except OSError:
+            return f"{path} is missing"
+        if record["bytes"] != recorded.get("bytes"):
+            return f"{path} has {record['bytes']:,} bytes where {recorded.get('bytes'):,} were written"
+        if record["sha256"] != recorded.get("sha256"):
+            return f"{path} does not hold what was written (SHA-256 differs)"
+    return None
+
+
 def sweep_dir(results_dir: str | Path, name: str) -> Path:
     """Directory of one sweep's files."""
     return Path(results_dir) / name
 
 
 def is_complete(results_dir: str | Path, config: SweepConfig) -> bool:
-    """Whether ``config`` already ran to completion in ``results_dir`` (same config, both files)."""
+    """Whether ``config`` already ran to completion in ``results_dir``: the same config, and every
+    file as it was written (`sweep_damage`)."""
     csv_path, json_path = _paths(Path(results_dir), config.name)
     document = _read_document(json_path)
-    if document is None or not csv_path.exists():
+    if document is None:
         return False
     if document.get("config") != json.loads(json.dumps(config.to_dict())):
         logger.warning("%s holds results of a different configuration of %r: not reusing them", json_path, config.name)
+        return False
+    problem = sweep_damage(results_dir, config.name)
+    if problem is not None:
+        logger.warning("sweep %r in %s is incomplete (%s): running it again", config.name, results_dir, problem)
         return False
     return True
 
 
 def completed_sweeps(results_dir: str | Path) -> list[str]:
-    """Names of the sweeps with a readable completion marker, sorted."""
-    results_dir = Path(results_dir)
+    """Names of the complete sweeps (`sweep_damage`), sorted; an incomplete one is left out with
+    a warning."""
     names = []
-    for json_path in sorted(results_dir.glob(f"*/{RUN_JSON}")):
-        document = _read_document(json_path)
-        if document and "config" in document and (json_path.parent / EPISODES_CSV).exists():
+    for json_path in sorted(Path(results_dir).glob(f"*/{RUN_JSON}")):
+        problem = sweep_damage(results_dir, json_path.parent.name)
+        if problem is None:
             names.append(json_path.parent.name)
+        else:
+            logger.warning("sweep %r left out: it is incomplete (%s)", json_path.parent.name, problem)
     return names
 
 
@@ -185,11 +232,18 @@ def read_sweep(results_dir: str | Path, name: str) -> SweepResult:
     shape = (len(config.settings), config.repeats, config.episodes)
     lengths = np.full(shape, -1, dtype=np.int64)
     returns = np.zeros(shape, dtype=np.float64)
-    with open(csv_path, newline="", encoding="utf-8") as f:
-        for row in csv.DictReader(f):
-            index = labels[row["setting"]], int(row["repeat"]), int(row["episode"])
-            lengths[index] = int(row["length"])
-            returns[index] = float(row["reward"])
+    try:
+        with open(csv_path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            for row in reader:
+                index = labels[row["setting"]], int(row["repeat"]), int(row["episode"])
+                lengths[index] = int(row["length"])
+                returns[index] = float(row["reward"])
+    except FileNotFoundError:
+        raise NotFoundError(f"{csv_path} is missing: sweep {name!r} is incomplete") from None
+    except (KeyError, IndexError, ValueError, TypeError, csv.Error) as error:
+        raise DataError(f"{csv_path}, line {reader.line_num}: not a row of sweep {name!r} "
+                        f"({type(error).__name__}: {error})") from None
     if (lengths < 0).any():
         raise DataError(f"{csv_path} lacks {(lengths < 0).sum()} of the {lengths.size} episodes of {name!r}")
     return SweepResult(
@@ -205,6 +259,6 @@ def write_combined_csv(results_dir: str | Path) -> Path:
         out.write(",".join(COLUMNS) + "\n")
         for name in completed_sweeps(results_dir):
             with open(results_dir / name / EPISODES_CSV, encoding="utf-8", newline="") as f:
-                next(f)
+                f.readline()
                 out.writelines(f)
     return combined
