@@ -1,11 +1,15 @@
 """The fixtures every test module shares: FMI versions and interface types to run over, the FMUs
 (built once per session, from the content-hashed build cache) and the pool's leak check.
 
-Helper code that tests import lives in modules named for what they hold: ``fmu_family`` (the test
-FMUs), ``episodes`` (driving an env through an episode), ``vector_envs`` and ``vector_rollouts``
-(envs and comparisons for the pool), ``vector_leaks`` (processes, /dev/shm entries and fds),
-``toy_envs`` (tiny envs for the agent and the experiments), ``reference_cartpole`` (independent
-cart-pole physics).
+Tests are laid out like the package (``fmu/``, ``native/``, ``env/``, ``models/``, ``vector/``,
+``agents/``, ``experiments/``, ``distributed/``, ``bench/``, ``examples/``; the package's top-level
+modules at the top). The helpers they share sit here beside this file (pytest puts this folder on
+``sys.path``), in modules named for what they hold: ``fmu_family`` (the test FMUs), ``episodes``
+(driving an env through an episode), ``step_paths`` (envs on the native and the Python step path),
+``vector_envs`` and ``vector_rollouts`` (envs and comparisons for the pool), ``vector_leaks``
+(processes, /dev/shm entries and fds), ``toy_envs`` (tiny envs for the agent and the experiments),
+``reference_cartpole`` (independent cart-pole physics), ``ray_cluster`` and ``sweep_checks`` (a local
+Ray, and sweeps compared with a local run).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ Target (issue 15): model exchange with CVode at the default tolerance on the nat
 at least 0.5x the co-simulation rate. That ratio is measured on its own, as the median over many
 back-to-back pairs of short runs (`modelicagym.bench.paired_ratios`): the table's rounds run
 seconds apart, and load on a shared machine moves its ratio by +-0.1 from run to run. (That the
-answers agree is tested: tests/test_native_integrator.py.)
+answers agree is tested: tests/fmu/test_native_integrator.py.)
 """
 
 from __future__ import annotations

@@ -142,14 +142,7 @@ class FMUEnv(gym.Env):
             flags = native.step(action)
             if flags & Flags.FMU_ERROR:
                 return self.fmu_failure(native.error())
-            info = {"fmu_terminated": True} if flags & Flags.MODEL_ENDED else {}
-            return (
-                self.observation(),
-                native.reward,
-                bool(flags & Flags.TERMINATED),
-                bool(flags & Flags.TRUNCATED),
-                info,
-            )
+            return (self.observation(), native.reward, *Flags.ending(flags))
         write_values(self.fmu.inputs, self.action_to_inputs(action))
         info: dict[str, Any] = {}
         try:

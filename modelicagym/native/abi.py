@@ -68,6 +68,13 @@ class Flags:
     PYTHON_RESET = 32
     BAD_ACTION = 64
 
+    @staticmethod
+    def ending(flags: int) -> tuple[bool, bool, dict[str, bool]]:
+        """``(terminated, truncated, info)`` of a step C finished with ``flags``: the one place
+        they are read back into Gymnasium's terms (the single env and the pool's slice both use it)."""
+        info = {"fmu_terminated": True} if flags & Flags.MODEL_ENDED else {}
+        return bool(flags & Flags.TERMINATED), bool(flags & Flags.TRUNCATED), info
+
 
 class FailedCall:
     """``mg_env.failed_call``: which call of a native step failed (``MG_CALL_*``)."""

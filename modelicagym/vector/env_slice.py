@@ -28,6 +28,7 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
+from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
@@ -37,10 +38,7 @@ __all__ = ["EnvSlice", "describe_envs"]
 
 logger = logging.getLogger(__name__)
 
-_StepResult = tuple[Any, float, bool, bool, dict[str, Any]]
-
-
-def describe_envs(envs: list[gym.Env], first_env: int, observation_mode: str = "same") -> EnvDescription:
+def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
     """What the parent needs to know about the envs; raises if they disagree on their spaces
     (under ``observation_mode``, see `modelicagym.vector.space_checks`)."""
     first = envs[0]
@@ -76,7 +74,7 @@ class EnvSlice:
     """
 
     def __init__(
-        self, envs: list[gym.Env], first_env: int, slot: int, autoreset_mode: AutoresetMode, caller: bool = False
+        self, envs: list[PoolEnv], first_env: int, slot: int, autoreset_mode: AutoresetMode, caller: bool = False
     ) -> None:
         self.envs = envs
         self.first = first_env
@@ -95,7 +93,7 @@ class EnvSlice:
         self.step_path = "python" if reason else "native"
         self.step_path_reason = reason or "the config defines the whole step"
         self.native: NativeBatch | None = None
-        self._fmu_envs = [env.unwrapped if hasattr(env.unwrapped, "fmu_time_ns") else None for env in envs]
+        self._fmu_envs = [env.unwrapped if isinstance(env.unwrapped, TimedEnv) else None for env in envs]
         self.handlers = {
             Kind.STEP: self.step_with,
             Kind.RESET: lambda data: self.reset(*data),
@@ -212,7 +210,7 @@ class EnvSlice:
             action = as_given(action) if np.ndim(action) == 0 else action.astype(as_given)
         return action
 
-    def _step_env(self, offset: int, env: gym.Env, action: Any) -> _StepResult:
+    def _step_env(self, offset: int, env: PoolEnv, action: Any) -> StepResult:
         """One env's part of a vector step, with the autoreset of the pool's mode."""
         if self.needs_reset[offset] == RESET_THEN_STEP:  # it moved here at an episode boundary
             env.reset()
@@ -223,7 +221,7 @@ class EnvSlice:
             return observation, 0.0, False, False, info
         return self._after_step(offset, env, env.step(action))
 
-    def _after_step(self, offset: int, env: gym.Env, result: _StepResult) -> _StepResult:
+    def _after_step(self, offset: int, env: PoolEnv, result: StepResult) -> StepResult:
         """The autoreset of the pool's mode after an env's step."""
         observation, reward, terminated, truncated, info = result
         if self._next_step:
@@ -259,7 +257,7 @@ class EnvSlice:
             buffers.timing[self.slot, SharedBuffers.ENV_NS] += perf_counter_ns() - started
         return Message(Kind.INFOS, infos) if infos else None
 
-    def _finish_env(self, offset: int, env: gym.Env, flags: int, native: NativeBatch) -> _StepResult:
+    def _finish_env(self, offset: int, env: PoolEnv, flags: int, native: NativeBatch) -> StepResult:
         """One env's result, from what C did (``flags``) and what is left to do."""
         if flags & Flags.FMU_ERROR:
             return self._after_step(offset, env, env.native_step_failure())
@@ -267,10 +265,9 @@ class EnvSlice:
             return self._step_env(offset, env, self._action(self.first + offset))
         if self._next_step and flags & Flags.PYTHON_RESET:
             return self._step_env(offset, env, None)
-        step_info = {"fmu_terminated": True} if flags & Flags.MODEL_ENDED else {}
+        terminated, truncated, step_info = Flags.ending(flags)
         observation = env.observation()
-        result = (observation, float(self.buffers.rewards[self.first + offset]),
-                  bool(flags & Flags.TERMINATED), bool(flags & Flags.TRUNCATED))
+        result = (observation, float(self.buffers.rewards[self.first + offset]), terminated, truncated)
         if not (self._same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):
             return (*result, step_info)
         final_observation = native.final_obs[offset].copy()

@@ -17,13 +17,13 @@ from __future__ import annotations
 import ctypes
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
 from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgCollector, MgEnv, MgServer, MgWaiter
 from modelicagym.native.library import load_library
+from modelicagym.vector.env_contract import NativeEnv, PoolEnv
 
 __all__ = ["NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
 
@@ -34,7 +34,7 @@ _AUTORESET_CODES = {AutoresetMode.NEXT_STEP: AutoresetCode.NEXT_STEP, AutoresetM
                     AutoresetMode.DISABLED: AutoresetCode.DISABLED}
 
 
-def batch_path_reason(envs: list[gym.Env]) -> str | None:
+def batch_path_reason(envs: list[PoolEnv]) -> str | None:
     """Why a slice of ``envs`` must step on the Python path, or ``None`` when it can be a
     `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces)."""
     for offset, env in enumerate(envs):
@@ -66,7 +66,7 @@ class NativeBatch:
 
     def __init__(
         self,
-        envs: list[gym.Env],
+        envs: list[NativeEnv],
         first_env: int,
         autoreset_mode: AutoresetMode,
         arrays: dict[str, np.ndarray],

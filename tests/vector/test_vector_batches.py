@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from test_vector_native import cartpole_fns
+from step_paths import cartpole_fns
 from vector_envs import CountEnv, FaultyEnv, GatedEnv, count_fns
 
 from modelicagym.errors import ActionError, ArgumentError, ConfigError

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from test_native_step import probe_env
+from step_paths import cartpole_fns, probe_env
 from vector_rollouts import assert_same, rollout
 
 import modelicagym
@@ -23,14 +23,6 @@ pytestmark = pytest.mark.timeout(180)
 
 LAYOUTS = {"caller steps": {"caller_steps": True}, "workers only": {"num_workers": 2},
            "caller only": {"num_workers": 0}}
-
-
-def cartpole_fns(n: int, **options: Any) -> tuple[list, list]:
-    """Env fns on the native path, and the same envs forced onto the Python path."""
-    native = [partial(modelicagym.make, "cartpole", max_episode_steps=5 + 4 * i, **options) for i in range(n)]
-    python = [partial(modelicagym.make, "cartpole", max_episode_steps=5 + 4 * i, step_path="python", **options)
-              for i in range(n)]
-    return native, python
 
 
 def assert_native_equals_python(native_fns: list, python_fns: list, steps: int = 150, **pool_options: Any) -> None:

@@ -34,7 +34,7 @@ from modelicagym.vector import (
 
 pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("pool_services")]
 
-TESTS_DIR = Path(__file__).resolve().parent
+TESTS_DIR = Path(__file__).resolve().parents[1]
 
 
 def fns_with_fault(fault: str, **kwargs: Any) -> list:

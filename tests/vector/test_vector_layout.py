@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from test_vector_native import cartpole_fns
+from step_paths import cartpole_fns
 from vector_rollouts import assert_same
 
 import modelicagym

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 from gymnasium.vector import SyncVectorEnv
-from test_native_step import probe_env
+from step_paths import probe_env
 from vector_envs import CountEnv
 from vector_rollouts import assert_same
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from ray_cluster import driver_env, ray_processes, wait_until_gone
-from test_ray_sweeps import assert_same_sweep_files, small
+from sweep_checks import assert_same_sweep_files, small
 
 from modelicagym.experiments import run_sweeps
 

@@ -12,41 +12,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 from ray_cluster import local_ray
+from sweep_checks import assert_same_sweep_files, small
 
 import modelicagym
-from modelicagym.agents import QLearningAgent
 from modelicagym.distributed import SweepGroupError
-from modelicagym.experiments import RayRunner, SweepConfig, read_sweep, run_sweeps
+from modelicagym.experiments import RayRunner, read_sweep, run_sweeps
 from modelicagym.experiments.cli import main as experiments_main
-from modelicagym.experiments.config import AgentSpec, Setting
 
 
 @pytest.fixture(scope="module", autouse=True)
 def ray_instance():
     with local_ray(__name__, num_cpus=2) as temp_dir:
         yield temp_dir
-
-
-def small(name="small", episodes=6):
-    return SweepConfig(
-        name=name, episodes=episodes, repeats=2, seed=3,
-        settings=(Setting("5 N", {"force": 5.0}), Setting("11 N", {"force": 11.0}), Setting("17 N", {"force": 17.0})),
-        base_options={"max_episode_steps": 60},
-        agent=AgentSpec(intervals=((-2.4, 2.4), (-1.0, 1.0), (1.3614, 1.7802), (-2.0, 2.0))),
-    )
-
-
-def assert_same_sweep_files(local: Path, remote: Path, name: str) -> None:
-    for file in ("episodes.csv",):
-        assert (local / name / file).read_bytes() == (remote / name / file).read_bytes()
-    assert (local / "episodes.csv").read_bytes() == (remote / "episodes.csv").read_bytes()
-    ours, theirs = (json.loads((d / name / "run.json").read_text()) for d in (local, remote))
-    assert ours.keys() == theirs.keys() and ours["timing"].keys() == theirs["timing"].keys()
-    assert ours["config"] == theirs["config"] and ours["bounds"] == theirs["bounds"]
-    a, b = (QLearningAgent.load(d / name / "agent.npz") for d in (local, remote))
-    np.testing.assert_array_equal(a.q_table, b.q_table)
-    np.testing.assert_array_equal(a.epsilon, b.epsilon)
-    assert sorted(p.name for p in (local / name).iterdir()) == sorted(p.name for p in (remote / name).iterdir())
 
 
 def test_a_sweep_on_ray_writes_what_a_local_run_writes(tmp_path):

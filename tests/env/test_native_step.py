@@ -10,19 +10,13 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from step_paths import probe_env
 
 import modelicagym
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.instance import RUNGS
 from modelicagym.models.cartpole.env import CartPoleEnv
-
-
-def probe_env(path: Any, **config: Any) -> FMUEnv:
-    """The probe FMU as a Box-action env of Float64 inputs and outputs (native-capable)."""
-    parameters = {"gear": 1, "enable": True, **config.pop("parameters", {})}
-    config.setdefault("termination", {"position": (-3.0, 3.0)})
-    return FMUEnv(fmu=path, inputs=["force"], outputs=["position", "clock"], parameters=parameters, time_step=0.1, **config)
 
 
 def assert_same_steps(native: Any, python: Any, actions: list[Any], seed: int = 0) -> int:
