@@ -268,7 +268,7 @@ class MgEnv(ctypes.Structure):
 
 
 class MgBatch(ctypes.Structure):
-    """``mg_batch`` (``csrc/step.h``): a slice of a pool's envs and where its results go."""
+    """``mg_batch`` (``csrc/slice.h``): a slice of a pool's envs and where its results go."""
 
     _fields_ = [
         ("envs", ctypes.c_void_p),
@@ -300,7 +300,7 @@ class MgWaiter(ctypes.Structure):
 
 
 class MgServer(ctypes.Structure):
-    """``mg_server`` (``csrc/step.h``): a worker's command loop in C."""
+    """``mg_server`` (``csrc/slice.h``): a worker's command loop in C."""
 
     _fields_ = [
         *_pointers("batch", "go", "done", "command", "reply"),
@@ -312,7 +312,7 @@ class MgServer(ctypes.Structure):
 
 
 class MgCollector(ctypes.Structure):
-    """``mg_collector`` (``csrc/step.h``): the parent's side of a pool step."""
+    """``mg_collector`` (``csrc/slice.h``): the parent's side of a pool step."""
 
     _fields_ = [
         ("local", ctypes.c_void_p),

@@ -1,6 +1,6 @@
 """A slice of a pool's envs stepped in one C call, and a worker's command loop in C.
 
-`NativeBatch` points ``mg_batch`` (``csrc/step.h``) at the envs' own ``mg_env`` structs (see
+`NativeBatch` points ``mg_batch`` (``csrc/slice.h``) at the envs' own ``mg_env`` structs (see
 `modelicagym.env.native_step`) and at the pool's shared arrays, so one ``mg_step_batch`` call steps
 every env of the slice with the pool's autoreset and writes observations, rewards, terminations,
 truncations and timing where the parent reads them. What C leaves to Python (an FMU error, a reset

@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "qlearning.h"
+#include "slice.h"
 #include "step.h"
 
 typedef struct {

@@ -1,0 +1,115 @@
+/* See slice.h. */
+#include "slice.h"
+
+#include <stdbool.h>
+#include <string.h>
+
+int64_t mg_step_batch(mg_batch *b) {
+    int64_t for_python = 0, env_ns = 0, fmu_ns = 0;
+    bool timed = *b->timing_enabled;
+    bool next_step = b->autoreset_mode == MG_AUTORESET_NEXT_STEP;
+    bool same_step = b->autoreset_mode == MG_AUTORESET_SAME_STEP;
+    if (same_step) /* envs this call does not reach (a bad action stops it) must not keep a stale mark */
+        for (int64_t i = 0; i < b->n; i++)
+            if (!b->active[i] || b->in_caller[i] == b->caller)
+                b->final_ready[i] = 0;
+    for (int64_t i = 0; i < b->n; i++) {
+        if (!b->active[i] || b->in_caller[i] != b->caller) {
+            b->flags[i] = 0;
+            continue;
+        }
+        mg_env *env = b->envs[i];
+        *b->current_env = b->first_env + i;
+        size_t obs_bytes = sizeof(double) * (size_t)env->n_outputs;
+        int64_t started = timed ? mg_now_ns() : 0;
+        int64_t fmu_before = env->clock->fmu_time_ns;
+        int32_t f;
+        double reward = 0.0;
+        if (b->needs_reset[i] == MG_RESET_THEN_STEP) {
+            if (!env->native_reset || mg_env_reset(env) != 0) {
+                b->flags[i] = MG_PYTHON_RESET;
+                for_python++;
+                continue;
+            }
+            b->needs_reset[i] = MG_NO_RESET;
+        }
+        if (next_step && b->needs_reset[i]) {
+            f = env->native_reset && mg_env_reset(env) == 0 ? MG_RESET_DONE : MG_PYTHON_RESET;
+            if (f == MG_RESET_DONE)
+                b->needs_reset[i] = MG_NO_RESET;
+        } else {
+            f = mg_env_step(env, b->actions + i * b->action_stride, &reward);
+            if (f & MG_BAD_ACTION) {
+                b->flags[i] = f;
+                return for_python + 1;
+            }
+            bool ended = f & (MG_TERMINATED | MG_TRUNCATED);
+            if (next_step) {
+                b->needs_reset[i] = ended;
+            } else if (same_step && ended) {
+                memcpy(b->final_obs + i * b->obs_stride, env->outputs, obs_bytes);
+                f |= env->native_reset && mg_env_reset(env) == 0 ? MG_RESET_DONE : MG_PYTHON_RESET;
+            }
+        }
+        if (!(f & (MG_FMU_ERROR | MG_PYTHON_RESET)))
+            memcpy(b->observations + i * b->obs_stride, env->outputs, obs_bytes);
+        if (f & (MG_FMU_ERROR | MG_PYTHON_RESET | MG_MODEL_ENDED))
+            for_python++;
+        else if (same_step && (f & MG_RESET_DONE))
+            b->final_ready[i] = 1;
+        b->rewards[i] = reward;
+        b->terminations[i] = (f & MG_TERMINATED) != 0;
+        b->truncations[i] = (f & MG_TRUNCATED) != 0;
+        b->flags[i] = f;
+        if (timed) {
+            env_ns += mg_now_ns() - started;
+            fmu_ns += env->clock->fmu_time_ns - fmu_before;
+        }
+    }
+    if (timed) {
+        b->timing[0] = env_ns;
+        b->timing[1] = fmu_ns;
+    }
+    return for_python;
+}
+
+int32_t mg_serve(mg_server *server) {
+    for (;;) {
+        if (!mg_signal_wait(server->go, server->spin_ns, server->timeout_ns, server->waiter))
+            return MG_SERVE_TIMEOUT;
+        int32_t code = *server->command;
+        if (code != server->step_code || server->batch == NULL)
+            return code;
+        if (mg_step_batch(server->batch))
+            return MG_SERVE_PYTHON_STEP;
+        *server->reply = 0;
+        mg_signal_post(server->done);
+    }
+}
+
+int32_t mg_collect(mg_collector *c) {
+    int64_t started = mg_now_ns();
+    c->calls++;
+    if (c->local && mg_step_batch(c->local)) {
+        c->local_ns += mg_now_ns() - started;
+        return MG_COLLECT_LOCAL_PYTHON;
+    }
+    int64_t stepped = mg_now_ns();
+    c->local_ns += stepped - started;
+    int64_t seen = 0;
+    int32_t status = MG_COLLECT_DONE;
+    for (; seen < c->n_workers; seen++)
+        if (c->stepping[seen] && !mg_signal_wait(c->done[seen], c->spin_ns, c->timeout_ns, c->waiter)) {
+            status = MG_COLLECT_SLOW;
+            break;
+        }
+    for (int64_t k = 0; status == MG_COLLECT_DONE && k < c->n_workers; k++)
+        if (c->stepping[k] && c->replies[k])
+            status = MG_COLLECT_SLOW;
+    if (status != MG_COLLECT_DONE)
+        for (int64_t k = 0; k < seen; k++)
+            if (c->stepping[k])
+                mg_signal_post(c->done[k]);
+    c->wait_ns += mg_now_ns() - stepped;
+    return status;
+}

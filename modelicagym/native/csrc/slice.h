@@ -1,0 +1,98 @@
+/* A slice of a pool's envs stepped in one call, with the pool's autoreset; a worker's command loop
+ * and the parent's side of a pool step, in C while nothing needs Python.
+ *
+ * The pool's native path (modelicagym/vector/native_slice.py): mg_step_batch steps each env of the
+ * slice with mg_env_step (step.h) and writes its results into the pool's shared arrays; mg_serve
+ * and mg_collect wait on the signals of signal.h.
+ */
+#ifndef MG_SLICE_H
+#define MG_SLICE_H
+
+#include <stdint.h>
+
+#include "signal.h"
+#include "step.h"
+
+enum { MG_AUTORESET_NEXT_STEP = 0, MG_AUTORESET_SAME_STEP = 1, MG_AUTORESET_DISABLED = 2 };
+
+/* mg_batch.needs_reset values */
+enum { MG_NO_RESET = 0, MG_RESET_THEN_REPORT = 1, MG_RESET_THEN_STEP = 2 };
+
+/* A slice of a pool's envs and where its results go: row i of each batch array is env i of the
+ * slice. Action and observation rows are action_stride and obs_stride bytes apart. */
+typedef struct {
+    mg_env **envs;
+    int64_t n;
+    int32_t autoreset_mode;
+    const char *actions;
+    int64_t action_stride;
+    char *observations;
+    int64_t obs_stride;
+    char *final_obs; /* SAME_STEP: the final observation of an env reset in this step (same stride) */
+    uint8_t *final_ready; /* SAME_STEP, per env: 1 if C reset it in this step and Python has nothing
+                             to add (its final_obs row and an empty final_info say it all), else 0 */
+    double *rewards;
+    uint8_t *terminations, *truncations;
+    uint8_t *needs_reset; /* MG_RESET_THEN_REPORT: the env ended last step (NEXT_STEP) and this step
+                             is its reset; MG_RESET_THEN_STEP: it moved here at an episode boundary
+                             (SAME_STEP): reset it silently, then step it */
+    const uint8_t *active; /* per env: step it in this call (the pool's step mask); else flags 0 */
+    const uint8_t *in_caller; /* per env: 1 if the calling process steps it, 0 if its worker does */
+    int32_t caller;           /* this slice is the calling process's (1) or a worker's (0): an env
+                                 is stepped here when active and in_caller[i] == caller */
+    int32_t *flags;       /* per env, the flags of this step */
+    int64_t *current_env; /* the pool index of the env being stepped (to name it if the FMU crashes) */
+    int64_t first_env;    /* the pool index of envs[0] */
+    const uint8_t *timing_enabled;
+    int64_t *timing; /* {env ns, fmu ns} of the batch, written when *timing_enabled */
+} mg_batch;
+
+/* One vector step of the slice, with the autoreset of its mode. A native reset that fails becomes
+ * MG_PYTHON_RESET (Python's reset ladder handles it). An env whose action is outside the space
+ * stops the batch there (MG_BAD_ACTION; later envs are not stepped, as on the Python path).
+ * Returns how many envs need Python: MG_FMU_ERROR, MG_PYTHON_RESET, MG_BAD_ACTION, or an info to
+ * report (MG_MODEL_ENDED). A plain same-step reset needs none: final_ready marks it. */
+int64_t mg_step_batch(mg_batch *batch);
+
+/* A worker's command loop, in C while the commands are steps Python need not see.
+ * Waits for `go`; on a STEP command of a native slice runs mg_step_batch and, when no env needs
+ * Python, answers (reply NONE, post `done`) and waits again. Returns to Python with
+ * MG_SERVE_TIMEOUT (no command within timeout_ns: Python checks its parent is alive),
+ * MG_SERVE_PYTHON_STEP (the step ran; batch->flags say what Python must finish, then answer), or
+ * any other command code for Python to run. */
+typedef struct {
+    mg_batch *batch; /* NULL: the slice is not native; every command goes to Python */
+    void *go, *done; /* mg_signal (signal.h) */
+    const int32_t *command;
+    int32_t *reply;
+    int32_t step_code;
+    int64_t spin_ns, timeout_ns;
+    mg_waiter *waiter; /* the adaptive state of the worker's waits for `go` (signal.h) */
+} mg_server;
+
+enum { MG_SERVE_TIMEOUT = -1, MG_SERVE_PYTHON_STEP = -2 };
+int32_t mg_serve(mg_server *server);
+
+/* The parent's side of a pool step, after it posted every worker's `go`: step its own native
+ * slice (if any), then wait for every worker's `done` and check that none has a reply. Returns
+ * MG_COLLECT_DONE when the batch is complete; MG_COLLECT_LOCAL_PYTHON when the local slice needs
+ * Python to finish its step (the workers are not waited for); MG_COLLECT_SLOW when a worker did not
+ * post within timeout_ns or has a reply (every `done` consumed here is posted again, so Python's
+ * slow path finds it). */
+typedef struct {
+    mg_batch *local; /* NULL: the calling process steps no native slice */
+    int64_t n_workers;
+    void **done;           /* mg_signal of each worker */
+    const int32_t *replies; /* reply slot of each worker (worker k: replies[k]) */
+    const uint8_t *stepping; /* per worker: it was woken for this step (else it is not waited for) */
+    int64_t spin_ns, timeout_ns;
+    mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
+    /* out, summed over calls until Python clears them: calls, time stepping the local slice, then
+     * waiting for the workers (the adaptive layout's measurement, vector/placement.py) */
+    int64_t calls, local_ns, wait_ns;
+} mg_collector;
+
+enum { MG_COLLECT_DONE = 0, MG_COLLECT_LOCAL_PYTHON = 1, MG_COLLECT_SLOW = 2 };
+int32_t mg_collect(mg_collector *collector);
+
+#endif
