@@ -19,6 +19,12 @@ Resets climb down the ladder of docs/design.md and remember the rung that worked
 declares. The first time a rung serves an episode whose values were seen fresh before, the
 outputs are compared with the fresh ones and a rung that gives different values is dropped, with
 a warning: exporters ship broken ``fmiReset`` and inexact snapshots.
+
+At ~500 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
+the choice of integrator all read and write the same few things (the binding, the value buffers,
+the snapshot, the clock), and keeping them in one class keeps each of those owned by one object.
+The solver loops themselves live elsewhere (`modelicagym.fmu.model_exchange`,
+`modelicagym.fmu.native_integrator`).
 """
 
 from __future__ import annotations
