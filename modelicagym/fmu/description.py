@@ -378,19 +378,3 @@ def _extract_into(path: Path, target: Path) -> None:
         raise InvalidFMUError(f"{path} is a damaged zip archive ({error}): extract it again from its source") from error
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{path.stem}-", dir=target.parent))
-    try:
-        with zipfile.ZipFile(path) as archive:
-            if "modelDescription.xml" not in archive.namelist():
-                raise InvalidFMUError(f"{path} is not an FMU: the zip archive has no modelDescription.xml")
-            archive.extractall(staging)
-        try:
-            os.rename(staging, target)
-            logger.debug("extracted %s to %s", path, target)
-        except OSError:
-            if not (target / "modelDescription.xml").is_file():
-                raise
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-    return target
