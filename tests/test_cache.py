@@ -42,7 +42,8 @@ def _run(code: str, cache: Path) -> subprocess.CompletedProcess:
 def warm_cache(tmp_path: Path) -> Path:
     """A cache of its own holding the native library, the cart-pole FMU and its extraction."""
     cache = tmp_path / "cache"
-    shutil.copytree(Path(load_library()._name).parent.parent, cache / "native")
+    library_dir = Path(load_library()._name).parent
+    shutil.copytree(library_dir, cache / "native" / library_dir.name)
     result = _run(LOAD_AND_STEP, cache)
     assert result.returncode == 0, result.stderr
     return cache
