@@ -20,9 +20,10 @@ import json
 import logging
 import os
 import shutil
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 try:
     import fcntl
@@ -31,7 +32,17 @@ except ImportError:  # no fcntl (Windows): atomic renames alone keep results val
 
 from modelicagym.errors import CacheError
 
-__all__ = ["FOLDER_MANIFEST", "cache_dir", "damage", "ensure", "file_digest", "locked", "write_manifest"]
+__all__ = [
+    "FOLDER_MANIFEST",
+    "cache_dir",
+    "damage",
+    "ensure",
+    "file_digest",
+    "file_record",
+    "locked",
+    "mismatch",
+    "write_manifest",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -71,6 +82,27 @@ def file_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
+def file_record(path: Path) -> dict[str, Any]:
+    """What a manifest records of a file: its size and SHA-256."""
+    return {"bytes": path.stat().st_size, "sha256": file_digest(path)}
+
+
+def mismatch(base: Path, recorded: Mapping[str, Mapping[str, Any]]) -> str | None:
+    """The first file under ``base`` that differs from its `file_record` in ``recorded`` (by
+    relative name), said in words; ``None`` when all match. Extra keys of a record are ignored."""
+    for name, expected in recorded.items():
+        path = base / name
+        try:
+            size = path.stat().st_size
+        except OSError:
+            return f"{path} is missing"
+        if size != expected.get("bytes"):
+            return f"{path} has {size:,} bytes where {expected.get('bytes'):,} were written"
+        if file_digest(path) != expected.get("sha256"):
+            return f"{path} does not hold the bytes that were written (SHA-256 differs)"
+    return None
+
+
 def _manifest_path(entry: Path, published_as: Path | None = None) -> Path:
     final = published_as or entry
     return entry / FOLDER_MANIFEST if entry.is_dir() else final.with_name(final.name + ".manifest.json")
@@ -90,7 +122,7 @@ def write_manifest(entry: Path, published_as: Path | None = None) -> None:
     (a file entry's manifest is written beside that name, a folder's inside the folder). Call it
     before the rename that publishes the entry, so a published entry always has its manifest.
     """
-    files = {name: {"bytes": path.stat().st_size, "sha256": file_digest(path)} for name, path in _files(entry).items()}
+    files = {name: file_record(path) for name, path in _files(entry).items()}
     if not entry.is_dir() and published_as is not None:
         files = {published_as.name: files.pop(entry.name)}
     target = _manifest_path(entry, published_as)
@@ -111,25 +143,10 @@ def damage(entry: Path) -> str | None:
         recorded = json.loads(manifest.read_text(encoding="utf-8"))["files"]
     except (OSError, ValueError, KeyError, TypeError) as error:
         return f"its manifest {manifest} is missing or unreadable ({type(error).__name__})"
-    problem = _compare(entry, recorded)
+    problem = mismatch(entry if entry.is_dir() else entry.parent, recorded)
     if problem is None:
         _verified.add(key)
     return problem
-
-
-def _compare(entry: Path, recorded: dict[str, dict[str, object]]) -> str | None:
-    base = entry if entry.is_dir() else entry.parent
-    for name, expected in recorded.items():
-        path = base / name
-        try:
-            size = path.stat().st_size
-        except OSError:
-            return f"{path} is missing"
-        if size != expected.get("bytes"):
-            return f"{path} has {size:,} bytes where {expected.get('bytes'):,} were written"
-        if file_digest(path) != expected.get("sha256"):
-            return f"{path} does not hold the bytes that were written (SHA-256 differs)"
-    return None
 
 
 def ensure(entry: Path, make: Callable[[], None], what: str) -> Path:

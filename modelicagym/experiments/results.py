@@ -31,7 +31,7 @@ from typing import IO, Any
 import numpy as np
 
 from modelicagym.agents import QLearningAgent
-from modelicagym.cache import file_digest
+from modelicagym.cache import file_record, mismatch
 from modelicagym.errors import ArgumentTypeError, DataError, NotFoundError
 from modelicagym.experiments.config import SweepConfig
 
@@ -124,9 +124,9 @@ def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
     if result.agent is not None:
         with atomic_write(csv_path.parent / AGENT_NPZ, "wb") as f:
             result.agent.save(f)
-    files = {EPISODES_CSV: _file_record(csv_path) | {"rows": result.lengths.size}}
+    files = {EPISODES_CSV: file_record(csv_path) | {"rows": result.lengths.size}}
     if result.agent is not None:
-        files[AGENT_NPZ] = _file_record(csv_path.parent / AGENT_NPZ)
+        files[AGENT_NPZ] = file_record(csv_path.parent / AGENT_NPZ)
     document = {
         "experiment": result.config.name,
         "config": result.config.to_dict(),
@@ -156,10 +156,6 @@ def _read_document(json_path: Path) -> dict[str, Any] | None:
         return None
 
 
-def _file_record(path: Path) -> dict[str, Any]:
-    return {"bytes": path.stat().st_size, "sha256": file_digest(path)}
-
-
 def sweep_damage(results_dir: str | Path, name: str) -> str | None:
     """What makes sweep ``name`` in ``results_dir`` incomplete, or ``None`` if its ``run.json``
     is readable and every file it lists still has the bytes that were written."""
@@ -173,17 +169,7 @@ def sweep_damage(results_dir: str | Path, name: str) -> str | None:
         except (DataError, OSError) as error:
             return str(error)
         return None
-    for file_name, recorded in document["files"].items():
-        path = csv_path.parent / file_name
-        try:
-            record = _file_record(path)
-        except OSError:
-            return f"{path} is missing"
-        if record["bytes"] != recorded.get("bytes"):
-            return f"{path} has {record['bytes']:,} bytes where {recorded.get('bytes'):,} were written"
-        if record["sha256"] != recorded.get("sha256"):
-            return f"{path} does not hold what was written (SHA-256 differs)"
-    return None
+    return mismatch(csv_path.parent, document["files"])
 
 
 def sweep_dir(results_dir: str | Path, name: str) -> Path:
