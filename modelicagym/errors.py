@@ -20,6 +20,7 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     ├── CacheError (OSError)                a damaged cache entry that cannot be made again
     ├── BuildError (RuntimeError)           C sources could not be compiled
     │   └── NativeBuildError                our native library (modelicagym.native)
+    ├── ExtraNotInstalledError (ImportError) a feature's optional extra is missing (e.g. `plots`)
     ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
     │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, ...)
     ├── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
@@ -45,6 +46,7 @@ __all__ = [
     "ConfigError",
     "ConfigTypeError",
     "DataError",
+    "ExtraNotInstalledError",
     "ModelicaGymError",
     "NativeBuildError",
     "NotFoundError",
@@ -97,6 +99,11 @@ class BuildError(ModelicaGymError, RuntimeError):
 
 class NativeBuildError(BuildError):
     """Our native library (``modelicagym/native/csrc``) could not be compiled."""
+
+
+class ExtraNotInstalledError(ModelicaGymError, ImportError):
+    """A feature needs an optional extra that is not installed; the message names the feature and
+    the ``pip install 'modelicagym[<extra>]'`` that installs it."""
 
 
 class ClusterError(ModelicaGymError, RuntimeError):

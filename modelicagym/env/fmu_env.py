@@ -18,9 +18,14 @@ Steps take the native path (one call into our C library, `modelicagym.env.native
 config defines them completely, else the Python path; both give the same results.
 ``env.step_path`` says which, ``env.step_path_reason`` why.
 
+``render_mode="rgb_array"`` draws the episode's strip chart (`modelicagym.env.strip_chart`: the
+actions and observations over time; matplotlib, the ``plots`` extra), so Gymnasium's
+``RecordVideo`` works for any FMU. Only then is each step recorded, in Python: such an env steps on
+the Python path; without a render mode nothing is recorded and nothing on the step path changes.
+
 Subclasses override what the paper's users override: `compute_reward`, `is_terminal`,
 `action_to_inputs`, `make_action_space` / `make_observation_space` (with `observation`), and
-`render`.
+`render` (a class that draws its own picture, as the cart-pole's, records no strip chart).
 """
 
 from __future__ import annotations
@@ -30,12 +35,14 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 from modelicagym.action_checks import action_checker
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.config_checks import check_parameter
 from modelicagym.env.native_step import NativeStep, python_path_reason
 from modelicagym.env.spaces import Observer, space_for, write_values
+from modelicagym.env.strip_chart import StripChart, require_matplotlib
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
 from modelicagym.native.abi import Flags
@@ -67,13 +74,15 @@ class FMUEnv(gym.Env):
     `FMUEnvConfig` for every key.
     """
 
-    metadata: dict[str, Any] = {"render_modes": []}
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
 
     def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
         self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
         self.render_mode = render_mode
+        if self._draws_strip_chart:
+            require_matplotlib()  # before the FMU is loaded: a missing extra is one line, nothing to free
         used = [*cfg.inputs, *cfg.outputs, *cfg.parameters]  # bounds are on outputs
         self.description = description = open_fmu(cfg.fmu, validate=cfg.validate, used=used)
         if not cfg.outputs:
@@ -108,6 +117,7 @@ class FMUEnv(gym.Env):
         self.negative_reward = float(cfg.negative_reward)
         self._elapsed_steps = 0
         self.episode_parameters: dict[str, Any] = {}
+        self.strip_chart = self._make_strip_chart()
         self._native: NativeStep | None = None
         reason = python_path_reason(self, FMUEnv)
         if reason is None:
@@ -115,6 +125,34 @@ class FMUEnv(gym.Env):
             self.step_path, self.step_path_reason = "native", "the config defines the whole step"
         else:
             self.step_path, self.step_path_reason = "python", reason
+
+    def _make_strip_chart(self) -> StripChart | None:
+        """The chart `render` draws when this env renders and its class draws no picture of its own;
+        then its ``step`` and ``reset`` record into it (set on the instance: an env without the
+        chart runs its class's methods untouched), and ``metadata["render_fps"]`` plays a video of it
+        in real time unless the class says otherwise."""
+        if not self._draws_strip_chart:
+            return None
+        horizon = None if self.max_episode_steps is None else self.max_episode_steps * self.time_step
+        chart = StripChart(self.fmu, self.description.model_name, horizon)
+        self.metadata = {"render_fps": 1.0 / self.time_step, **self.metadata}
+        self.step, self.reset = self._step_and_record, self._reset_and_record
+        return chart
+
+    @property
+    def _draws_strip_chart(self) -> bool:
+        return self.render_mode == "rgb_array" and type(self).render is FMUEnv.render
+
+    def _step_and_record(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        result = type(self).step(self, action)
+        self.strip_chart.record()
+        return result
+
+    def _reset_and_record(self, *, seed: int | None = None,
+                          options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        result = type(self).reset(self, seed=seed, options=options)
+        self.strip_chart.restart()
+        return result
 
     # -- the Gymnasium API -----------------------------------------------------------------------
 
@@ -192,6 +230,11 @@ class FMUEnv(gym.Env):
             self._native.state.elapsed_steps = value
         else:
             self._elapsed_steps = value
+
+    def render(self) -> np.ndarray | None:
+        """With ``render_mode="rgb_array"``: the strip chart of the episode so far, an ``H x W x 3``
+        uint8 image (`modelicagym.env.strip_chart`); else ``None``."""
+        return None if self.strip_chart is None else self.strip_chart.draw()
 
     def close(self) -> None:
         fmu = getattr(self, "fmu", None)

@@ -45,6 +45,8 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     cls = type(env)
     if config.step_path == "python":
         return "the config asks for step_path='python'"
+    if env.strip_chart is not None:
+        return "render_mode='rgb_array' records every step for the strip chart, in Python"
     if fmu.description.fmi_version == 1:
         return "FMI 1.0: the native step library calls FMI 2.0/3.0 functions only"
     if fmu.mode == "me":

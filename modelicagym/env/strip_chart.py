@@ -1,0 +1,208 @@
+"""The strip chart of an episode: an FMU's actions and observations over time, as an image.
+
+Any `FMUEnv` made with ``render_mode="rgb_array"`` draws this (unless its class draws its own
+picture, as the cart-pole does), so Gymnasium's ``RecordVideo`` works for any FMU; ``modelicagym
+try`` saves the same chart as a PNG. A `StripChart` keeps, from the reset and after every step, the
+time and the values in the FMU's input buffer (the actions as the FMU received them: a Discrete
+action's row of ``action_table``, not its index) and output buffer (what observations are made
+of), and draws them: one panel per variable, named with its unit, time on the x axis; with more
+than `MAX_PANELS` variables, one panel per role and unit holding up to `LINES_PER_PANEL` of them.
+
+The drawing is matplotlib's (the ``plots`` extra, imported only when a chart is asked for): the
+chart is worth its labels (names, units, tick values on a time axis), and labels need a font
+renderer, which numpy alone does not have. Without matplotlib, asking for a chart is one
+`ExtraNotInstalledError` line that says what to install.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modelicagym.errors import ExtraNotInstalledError
+from modelicagym.fmu import FMUInstance
+from modelicagym.fmu.buffers import ValueBuffer
+from modelicagym.fmu.variables import Variable
+
+__all__ = ["LINES_PER_PANEL", "MAX_PANELS", "Series", "StripChart", "require_matplotlib"]
+
+#: at most this many panels; more variables than this are grouped by role and unit
+MAX_PANELS = 10
+#: at most this many lines in a grouped panel
+LINES_PER_PANEL = 6
+_WIDTH, _PANEL_HEIGHT, _MARGINS, _DPI = 640, 100, 80, 80  # pixels; 16 divides the frame's sides (video codecs)
+_COLOURS = {"action": "tab:orange", "observation": "tab:blue"}
+_PLOTTED_KINDS = ("float", "integer", "boolean", "enumeration")
+
+
+def require_matplotlib() -> Any:
+    """matplotlib's ``Figure`` and Agg canvas classes; an `ExtraNotInstalledError` without it."""
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError as error:
+        raise ExtraNotInstalledError(
+            "the strip chart (render_mode='rgb_array', modelicagym try) needs matplotlib: "
+            "pip install 'modelicagym[plots]'"
+        ) from error
+    return Figure, FigureCanvasAgg
+
+
+@dataclass(frozen=True)
+class Series:
+    """One line of the chart: a scalar variable, or one element of an array variable."""
+
+    name: str
+    unit: str
+    role: str  # "action" or "observation"
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} [{self.unit}]" if self.unit else self.name
+
+
+def _series(variables: Sequence[Variable], role: str) -> list[Series]:
+    series = []
+    for v in variables:
+        names = [v.name] if not v.shape else [f"{v.name}[{','.join(map(str, i))}]" for i in np.ndindex(*v.shape)]
+        series += [Series(name, v.unit or "", role) for name in names]
+    return series
+
+
+def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], int]:
+    """Which series each panel draws (indices into ``series``), and how many series do not fit.
+
+    One panel per series when at most `MAX_PANELS`; else the series grouped by role and unit,
+    `LINES_PER_PANEL` to a panel, and the panels past `MAX_PANELS` left out.
+    """
+    if len(series) <= MAX_PANELS:
+        return [[i] for i in range(len(series))], 0
+    groups: dict[tuple[str, str], list[int]] = {}
+    for i, s in enumerate(series):
+        groups.setdefault((s.role, s.unit), []).append(i)
+    panels = [members[k : k + LINES_PER_PANEL] for members in groups.values()
+              for k in range(0, len(members), LINES_PER_PANEL)]
+    return panels[:MAX_PANELS], sum(len(p) for p in panels[MAX_PANELS:])
+
+
+class StripChart:
+    """The actions and observations of one FMU instance over the current episode.
+
+    Call :meth:`restart` after every reset and :meth:`record` after every step (`FMUEnv` does);
+    :meth:`draw` returns the chart as an ``H x W x 3`` uint8 image, :meth:`save` writes it as a PNG.
+    ``horizon`` (seconds, optional) fixes the time axis to the episode's length, so that frames
+    of a video share their axis; without it the axis ends at the last recorded time.
+    """
+
+    def __init__(self, fmu: FMUInstance, title: str, horizon: float | None = None) -> None:
+        self._figure_class, self._canvas_class = require_matplotlib()
+        self._fmu = fmu
+        self.title = title
+        self.horizon = horizon
+        sources = [(fmu.inputs, v, "action") for v in fmu.input_variables] + [
+            (fmu.outputs, v, "observation") for v in fmu.output_variables]
+        plotted = [(buffer, v, role) for buffer, v, role in sources if v.kind in _PLOTTED_KINDS]
+        self.series: list[Series] = [s for _, v, role in plotted for s in _series([v], role)]
+        self._columns = self._column_slices(plotted)
+        self._rows = np.zeros((64, 1 + len(self.series)))
+        self.length = 0
+        self._figure: Any = None
+
+    @staticmethod
+    def _column_slices(plotted: list[tuple[ValueBuffer, Variable, str]]) -> list[tuple[np.ndarray, slice]]:
+        columns, offset = [], 1
+        for buffer, v, _ in plotted:
+            columns.append((buffer.views[v.name], slice(offset, offset + v.size)))
+            offset += v.size
+        return columns
+
+    # -- the history -----------------------------------------------------------------------------
+
+    def restart(self) -> None:
+        """Forget the episode so far and record the instant the new one starts at."""
+        self.length = 0
+        self.record()
+
+    def record(self) -> None:
+        """Append the FMU's time, input values and output values as they are now."""
+        if self.length == len(self._rows):
+            self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
+        row = self._rows[self.length]
+        row[0] = self._fmu.time
+        for view, columns in self._columns:
+            row[columns] = view.reshape(-1)
+        self.length += 1
+
+    @property
+    def times(self) -> np.ndarray:
+        """The recorded times, from the episode's start (s)."""
+        return self._rows[: self.length, 0]
+
+    @property
+    def values(self) -> np.ndarray:
+        """The recorded values, one column per entry of :attr:`series`."""
+        return self._rows[: self.length, 1:]
+
+    # -- the drawing -----------------------------------------------------------------------------
+
+    def draw(self) -> np.ndarray:
+        """The chart of the episode so far as an RGB image (``H x W x 3``, uint8)."""
+        canvas = self._update()
+        canvas.draw()
+        return np.array(canvas.buffer_rgba())[:, :, :3]
+
+    def save(self, path: str | Path) -> Path:
+        """Write the chart of the episode so far as a PNG at ``path``."""
+        canvas = self._update()
+        canvas.print_png(str(path))
+        return Path(path)
+
+    def _update(self) -> Any:
+        if self._figure is None:
+            self._figure, self._canvas, self._axes, self._lines, self._note = self._build()
+        times = self.times
+        values = np.where(np.isfinite(self.values), self.values, np.nan)
+        for line, column in self._lines:
+            line.set_data(times, values[:, column])
+        for axes in self._axes:
+            axes.relim()
+            axes.autoscale_view(scalex=False)
+        start = times[0] if self.length else self._fmu.start_time
+        end = max(start + (self.horizon or 0.0), times[-1] if self.length else start)
+        self._axes[0].set_xlim(start, end if end > start else start + 1.0)
+        now = f"t = {times[-1]:g} s, {self.length - 1} steps" if self.length else "not reset yet"
+        self._figure.suptitle(f"{self.title}: {now}{self._note}", fontsize=10)
+        return self._canvas
+
+    def _build(self) -> tuple[Any, Any, list[Any], list[tuple[Any, int]], str]:
+        panels, left_out = panels_of(self.series)
+        height = _MARGINS + _PANEL_HEIGHT * max(len(panels), 1)
+        height += -height % 16
+        figure = self._figure_class(figsize=(_WIDTH / _DPI, height / _DPI), dpi=_DPI, layout="constrained")
+        canvas = self._canvas_class(figure)
+        axes = list(figure.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0])
+        lines = []
+        for ax, members in zip(axes, panels):
+            grouped = len(members) > 1 or len(self.series) > MAX_PANELS
+            colours = itertools.cycle(f"C{i}" for i in range(10))
+            for column in members:
+                s = self.series[column]
+                (line,) = ax.plot([], [], drawstyle="steps-pre" if s.role == "action" else "default",
+                                  color=next(colours) if grouped else _COLOURS[s.role], label=s.name, linewidth=1.2)
+                lines.append((line, column))
+            first = self.series[members[0]]
+            if grouped:
+                ax.set_title(f"{first.role}s" + (f" [{first.unit}]" if first.unit else ""), loc="left", fontsize=8)
+                ax.legend(loc="upper left", fontsize=7, ncols=min(len(members), 3), frameon=False)
+            else:
+                ax.set_title(f"{first.role}: {first.label}", loc="left", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(True, linewidth=0.4, alpha=0.5)
+        axes[-1].set_xlabel("time [s]", fontsize=8)
+        note = f" ({left_out} more variables not drawn)" if left_out else ""
+        return figure, canvas, axes, lines, note
