@@ -35,7 +35,10 @@ __all__ = ["LINES_PER_PANEL", "MAX_PANELS", "Series", "StripChart", "require_mat
 MAX_PANELS = 10
 #: at most this many lines in a grouped panel
 LINES_PER_PANEL = 6
-_WIDTH, _PANEL_HEIGHT, _MARGINS, _DPI = 640, 100, 80, 80  # pixels; 16 divides the frame's sides (video codecs)
+# the frame, in pixels: 16 divides its sides (video codecs want that); margins fixed, not computed
+# per frame by a layout engine (which costs more than the drawing)
+_WIDTH, _PANEL_HEIGHT, _GAP, _DPI = 640, 100, 24, 80
+_LEFT, _RIGHT, _TOP, _BOTTOM = 72, 14, 48, 44
 _COLOURS = {"action": "tab:orange", "observation": "tab:blue"}
 _PLOTTED_KINDS = ("float", "integer", "boolean", "enumeration")
 
@@ -60,6 +63,7 @@ class Series:
     name: str
     unit: str
     role: str  # "action" or "observation"
+    kind: str  # the variable's: "float", "integer", "boolean" or "enumeration"
 
     @property
     def label(self) -> str:
@@ -70,21 +74,22 @@ def _series(variables: Sequence[Variable], role: str) -> list[Series]:
     series = []
     for v in variables:
         names = [v.name] if not v.shape else [f"{v.name}[{','.join(map(str, i))}]" for i in np.ndindex(*v.shape)]
-        series += [Series(name, v.unit or "", role) for name in names]
+        series += [Series(name, v.unit or "", role, v.kind) for name in names]
     return series
 
 
 def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], int]:
     """Which series each panel draws (indices into ``series``), and how many series do not fit.
 
-    One panel per series when at most `MAX_PANELS`; else the series grouped by role and unit,
-    `LINES_PER_PANEL` to a panel, and the panels past `MAX_PANELS` left out.
+    One panel per series when at most `MAX_PANELS`; else the series grouped by role, unit and kind
+    (a count apart from a temperature in kelvin), `LINES_PER_PANEL` to a panel, and the panels past
+    `MAX_PANELS` left out. Decided from the variables alone, so every frame has the same panels.
     """
     if len(series) <= MAX_PANELS:
         return [[i] for i in range(len(series))], 0
     groups: dict[tuple[str, str], list[int]] = {}
     for i, s in enumerate(series):
-        groups.setdefault((s.role, s.unit), []).append(i)
+        groups.setdefault((s.role, s.unit, s.kind), []).append(i)
     panels = [members[k : k + LINES_PER_PANEL] for members in groups.values()
               for k in range(0, len(members), LINES_PER_PANEL)]
     return panels[:MAX_PANELS], sum(len(p) for p in panels[MAX_PANELS:])
@@ -176,16 +181,21 @@ class StripChart:
         end = max(start + (self.horizon or 0.0), times[-1] if self.length else start)
         self._axes[0].set_xlim(start, end if end > start else start + 1.0)
         now = f"t = {times[-1]:g} s, {self.length - 1} steps" if self.length else "not reset yet"
-        self._figure.suptitle(f"{self.title}: {now}{self._note}", fontsize=10)
+        self._figure.suptitle(f"{self.title}: {now}{self._note}", fontsize=10, y=1 - 8 / self._height, va="top")
         return self._canvas
 
     def _build(self) -> tuple[Any, Any, list[Any], list[tuple[Any, int]], str]:
         panels, left_out = panels_of(self.series)
-        height = _MARGINS + _PANEL_HEIGHT * max(len(panels), 1)
+        n = max(len(panels), 1)
+        height = _TOP + _BOTTOM + _PANEL_HEIGHT * n
         height += -height % 16
-        figure = self._figure_class(figsize=(_WIDTH / _DPI, height / _DPI), dpi=_DPI, layout="constrained")
+        self._height = height
+        figure = self._figure_class(figsize=(_WIDTH / _DPI, height / _DPI), dpi=_DPI)
         canvas = self._canvas_class(figure)
-        axes = list(figure.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0])
+        axes_height = (height - _TOP - _BOTTOM - (n - 1) * _GAP) / n
+        figure.subplots_adjust(left=_LEFT / _WIDTH, right=1 - _RIGHT / _WIDTH, top=1 - _TOP / height,
+                               bottom=_BOTTOM / height, hspace=_GAP / axes_height)
+        axes = list(figure.subplots(n, 1, sharex=True, squeeze=False)[:, 0])
         lines = []
         for ax, members in zip(axes, panels):
             grouped = len(members) > 1 or len(self.series) > MAX_PANELS
@@ -197,10 +207,12 @@ class StripChart:
                 lines.append((line, column))
             first = self.series[members[0]]
             if grouped:
-                ax.set_title(f"{first.role}s" + (f" [{first.unit}]" if first.unit else ""), loc="left", fontsize=8)
+                kind = "" if first.kind == "float" else f" ({first.kind})"
+                unit = f" [{first.unit}]" if first.unit else ""
+                ax.set_title(f"{first.role}s{unit}{kind}", loc="right", fontsize=8)
                 ax.legend(loc="upper left", fontsize=7, ncols=min(len(members), 3), frameon=False)
             else:
-                ax.set_title(f"{first.role}: {first.label}", loc="left", fontsize=8)
+                ax.set_title(f"{first.role}: {first.label}", loc="right", fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(True, linewidth=0.4, alpha=0.5)
         axes[-1].set_xlabel("time [s]", fontsize=8)
