@@ -140,14 +140,18 @@ def test_a_pool_of_charting_envs_draws_what_a_single_env_draws(cartpole_fmu):
 
 
 def test_record_video_writes_a_video_of_any_fmu(family_fmu, tmp_path: Path):
-    pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (pip install moviepy)")
+    moviepy = pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (pip install moviepy)")
     config = {**suggested_config(open_fmu(family_fmu("probe", 2))), "max_episode_steps": 20}
-    env = RecordVideo(FMUEnv(config, render_mode="rgb_array"), str(tmp_path), episode_trigger=lambda _: True,
-                      disable_logger=True)
+    env = RecordVideo(FMUEnv(config, render_mode="rgb_array"), str(tmp_path / "videos"),
+                      episode_trigger=lambda _: True, disable_logger=True)
     run(env, 20)
+    frame = env.render()
     env.close()
-    videos = list(tmp_path.glob("*.mp4"))
-    assert len(videos) == 1 and videos[0].stat().st_size > 1000
+    (video,) = (tmp_path / "videos").glob("*.mp4")
+    with moviepy.VideoFileClip(str(video)) as clip:
+        assert clip.fps == env.metadata["render_fps"] == 10  # the probe's 0.1 s step, in real time
+        assert clip.n_frames == 21  # the reset and 20 steps
+        assert tuple(clip.size) == (frame.shape[1], frame.shape[0])
 
 
 def test_without_matplotlib_rendering_is_one_line_naming_the_extra(family_fmu):

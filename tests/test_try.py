@@ -1,0 +1,112 @@
+"""``modelicagym try MY.fmu``: the config ``info`` prints, run for an episode of seeded random
+actions, a PNG of actions and observations over time, and one line per fact; failures are one line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+from modelicagym.cli import main
+
+pytestmark = pytest.mark.timeout(300)
+
+
+def run_try(capsys: pytest.CaptureFixture, *args: str) -> tuple[int, list[str], str]:
+    status = main(["try", *args])
+    out, err = capsys.readouterr()
+    return status, out.splitlines(), err
+
+
+@pytest.mark.parametrize("fmu", ["probe-fmi2", "probe-fmi3", "cartpole"])
+def test_try_plots_an_episode_of_random_actions(fmu, family_fmu, cartpole_fmu, tmp_path, capsys, monkeypatch):
+    path = cartpole_fmu(2) if fmu == "cartpole" else family_fmu("probe", int(fmu[-1]))
+    monkeypatch.chdir(tmp_path)
+    status, lines, _ = run_try(capsys, str(path), "--steps", "30")
+    plot = tmp_path / f"{path.stem}-try.png"  # the default --out
+    assert status == 0
+    assert lines[0].endswith("30 steps of random actions (seed 0), t = 0 s to " + ("1.5 s" if fmu == "cartpole" else "3 s"))
+    assert lines[1] == "the episode ended: truncated after 30 steps (max_episode_steps)"
+    assert lines[2].startswith("plot of ") and lines[2].endswith(f"over time: {plot.name}")
+    image = matplotlib.image.imread(plot)
+    assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
+    assert image.std() > 0.05  # lines and labels, not a blank page
+
+
+def test_the_same_seed_gives_the_same_plot_and_another_seed_another(family_fmu, tmp_path, capsys):
+    fmu = str(family_fmu("probe", 2))
+    for name, seed in (("a", "1"), ("b", "1"), ("c", "2")):
+        assert run_try(capsys, fmu, "--steps", "20", "--seed", seed, "--out", str(tmp_path / f"{name}.png"))[0] == 0
+    a, b, c = (matplotlib.image.imread(tmp_path / f"{name}.png") for name in "abc")
+    np.testing.assert_array_equal(a, b)
+    assert a.shape == c.shape and not np.array_equal(a, c)
+
+
+def test_config_file_and_settings_change_the_suggested_config(family_fmu, tmp_path, capsys):
+    config = tmp_path / "probe.json"
+    config.write_text(json.dumps({"max_episode_steps": 12, "inputs": ["force"], "outputs": ["position", "speed"]}))
+    status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--config", str(config),
+                               "--set", "time_step=0.5", "--set", "parameters.gain=2.0", "--out", str(tmp_path / "p.png"))
+    assert status == 0
+    assert lines[0].endswith("12 steps of random actions (seed 0), t = 0 s to 6 s")
+    assert lines[2].startswith("plot of 1 actions and 2 observations")
+
+
+def test_an_fmu_error_is_reported_and_the_episode_still_plotted(family_fmu, tmp_path, capsys):
+    out = tmp_path / "fault.png"
+    status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--set", "parameters.fault=2",
+                               "--set", "parameters.fault_after=5", "--out", str(out))
+    assert status == 1
+    assert lines[1] == "the episode ended: truncated: the FMU reported an error"
+    assert lines[2].startswith("FMU error at t = 0.5 s: ") and "injected fault" in lines[2]
+    assert matplotlib.image.imread(out).ndim == 3
+
+
+def test_a_model_that_ends_the_simulation_is_said_so(family_fmu, tmp_path, capsys):
+    status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--set", "parameters.fault=1",
+                               "--set", "parameters.fault_after=5", "--out", str(tmp_path / "end.png"))
+    assert status == 0
+    assert lines[1] == "the episode ended: terminated: the FMU ended the simulation"
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["{missing}"], "error: FMU not found: "),
+        (["{probe}", "--set", "steps"], "error: --set expects key=value (e.g. max_episode_steps=200), got 'steps'"),
+        (["{probe}", "--set", "max_episode_step=10"], "error: unknown FMUEnv config key 'max_episode_step'"),
+        (["{probe}", "--set", "max_episode_steps=null"], "error: the config sets no max_episode_steps: give the "
+                                                          "number of steps to run (--steps N)"),
+        (["{probe}", "--config", "{not_json}"], "error: {not_json}: not JSON"),
+    ],
+    ids=["missing FMU", "setting without =", "unknown key", "no episode length", "config not JSON"],
+)
+def test_bad_input_is_one_line_and_status_1(args, message, family_fmu, tmp_path, capsys):
+    (tmp_path / "config.json").write_text("{inputs: [u]")
+    names = {"missing": str(tmp_path / "missing.fmu"), "probe": str(family_fmu("probe", 2)),
+             "not_json": str(tmp_path / "config.json")}
+    status, lines, err = run_try(capsys, *(arg.format(**names) for arg in args), "--out", str(tmp_path / "x.png"))
+    assert status == 1 and lines == []
+    assert len(err.strip().splitlines()) == 1 and err.startswith(message.format(**names))
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_without_matplotlib_try_says_which_extra_to_install(family_fmu, tmp_path):
+    code = textwrap.dedent(f"""
+        import sys
+        sys.modules["matplotlib"] = None  # as if the plots extra were not installed
+        from modelicagym.cli import main
+        sys.exit(main(["try", {str(family_fmu("probe", 2))!r}, "--out", {str(tmp_path / "x.png")!r}]))
+    """)
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1
+    assert result.stdout == ""
+    assert result.stderr.strip() == ("error: the strip chart (render_mode='rgb_array', modelicagym try) needs "
+                                     "matplotlib: pip install 'modelicagym[plots]'")
+    assert not (tmp_path / "x.png").exists()
