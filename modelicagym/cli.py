@@ -68,7 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
     try_.add_argument("--out", help="where to write the PNG plot (default: <fmu name>-try.png)")
     try_.add_argument("--config", help="a JSON file of FMUEnv keys that replace the suggested config's")
     try_.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                      help="change one config key, the value as JSON (e.g. --set time_step=0.01 --set parameters.k=2)")
+                      help="change one config key, the value read as JSON (e.g. --set time_step=0.01, "
+                           "--set parameters.k=2)")
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
 

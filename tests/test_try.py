@@ -31,7 +31,8 @@ def test_try_plots_an_episode_of_random_actions(fmu, family_fmu, cartpole_fmu, t
     status, lines, _ = run_try(capsys, str(path), "--steps", "30")
     plot = tmp_path / f"{path.stem}-try.png"  # the default --out
     assert status == 0
-    assert lines[0].endswith("30 steps of random actions (seed 0), t = 0 s to " + ("1.5 s" if fmu == "cartpole" else "3 s"))
+    end = "1.5 s" if fmu == "cartpole" else "3 s"  # time steps of 0.05 s and 0.1 s
+    assert lines[0].endswith(f"30 steps of random actions (seed 0), t = 0 s to {end}")
     assert lines[1] == "the episode ended: truncated after 30 steps (max_episode_steps)"
     assert lines[2].startswith("plot of ") and lines[2].endswith(f"over time: {plot.name}")
     image = matplotlib.image.imread(plot)
@@ -51,8 +52,8 @@ def test_the_same_seed_gives_the_same_plot_and_another_seed_another(family_fmu, 
 def test_config_file_and_settings_change_the_suggested_config(family_fmu, tmp_path, capsys):
     config = tmp_path / "probe.json"
     config.write_text(json.dumps({"max_episode_steps": 12, "inputs": ["force"], "outputs": ["position", "speed"]}))
-    status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--config", str(config),
-                               "--set", "time_step=0.5", "--set", "parameters.gain=2.0", "--out", str(tmp_path / "p.png"))
+    status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--config", str(config), "--set", "time_step=0.5",
+                               "--set", "parameters.gain=2.0", "--out", str(tmp_path / "p.png"))
     assert status == 0
     assert lines[0].endswith("12 steps of random actions (seed 0), t = 0 s to 6 s")
     assert lines[2].startswith("plot of 1 actions and 2 observations")

@@ -29,7 +29,7 @@ from modelicagym.fmu import FMUInstance
 from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.fmu.variables import Variable
 
-__all__ = ["LINES_PER_PANEL", "MAX_PANELS", "Series", "StripChart", "require_matplotlib"]
+__all__ = ["LINES_PER_PANEL", "MAX_PANELS", "Series", "StripChart", "panels_of", "require_matplotlib"]
 
 #: at most this many panels; more variables than this are grouped by role and unit
 MAX_PANELS = 10
@@ -70,12 +70,10 @@ class Series:
         return f"{self.name} [{self.unit}]" if self.unit else self.name
 
 
-def _series(variables: Sequence[Variable], role: str) -> list[Series]:
-    series = []
-    for v in variables:
-        names = [v.name] if not v.shape else [f"{v.name}[{','.join(map(str, i))}]" for i in np.ndindex(*v.shape)]
-        series += [Series(name, v.unit or "", role, v.kind) for name in names]
-    return series
+def _series(v: Variable, role: str) -> list[Series]:
+    """The lines of one variable: itself, or each element of an array (row-major, as its buffer)."""
+    names = [v.name] if not v.shape else [f"{v.name}[{','.join(map(str, i))}]" for i in np.ndindex(*v.shape)]
+    return [Series(name, v.unit or "", role, v.kind) for name in names]
 
 
 def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], int]:
@@ -112,7 +110,7 @@ class StripChart:
         sources = [(fmu.inputs, v, "action") for v in fmu.input_variables] + [
             (fmu.outputs, v, "observation") for v in fmu.output_variables]
         plotted = [(buffer, v, role) for buffer, v, role in sources if v.kind in _PLOTTED_KINDS]
-        self.series: list[Series] = [s for _, v, role in plotted for s in _series([v], role)]
+        self.series: list[Series] = [s for _, v, role in plotted for s in _series(v, role)]
         self._columns = self._column_slices(plotted)
         self._rows = np.zeros((64, 1 + len(self.series)))
         self.length = 0
@@ -159,7 +157,7 @@ class StripChart:
         """The chart of the episode so far as an RGB image (``H x W x 3``, uint8)."""
         canvas = self._update()
         canvas.draw()
-        return np.array(canvas.buffer_rgba())[:, :, :3]
+        return np.ascontiguousarray(np.asarray(canvas.buffer_rgba())[:, :, :3])
 
     def save(self, path: str | Path) -> Path:
         """Write the chart of the episode so far as a PNG at ``path``."""
