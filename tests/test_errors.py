@@ -31,6 +31,7 @@ from modelicagym.vector import errors as pool_errors
         (errors.DataError, ValueError),
         (errors.BuildError, RuntimeError),
         (errors.NativeBuildError, RuntimeError),
+        (errors.ExtraNotInstalledError, ImportError),
         (FMUBuildError, RuntimeError),
         (fmu_errors.FMUNotFoundError, FileNotFoundError),
         (fmu_errors.InvalidFMUError, ValueError),

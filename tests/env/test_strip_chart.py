@@ -7,11 +7,13 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+import warnings
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 import pytest
+from gymnasium.utils.env_checker import check_env
 from gymnasium.wrappers import RecordVideo
 
 import modelicagym
@@ -49,6 +51,14 @@ def test_render_returns_an_image_that_follows_the_episode(config):
     assert first.dtype == np.uint8 and first.ndim == 3 and first.shape[2] == 3
     assert twentieth.shape == first.shape  # a video's frames share their size
     assert (first != twentieth).any(axis=2).mean() > 0.01  # the lines grew: more than 1% of the pixels
+
+
+def test_a_charting_env_passes_gymnasiums_checks_render_included(family_fmu):
+    env = FMUEnv(suggested_config(open_fmu(family_fmu("probe", 2))), render_mode="rgb_array")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unbounded observation spaces; no spec to make the env again
+        check_env(env, skip_render_check=False)
+    env.close()
 
 
 def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
