@@ -4,7 +4,8 @@ An env takes the native path when its step is fully defined by its config (:func
 says why not, in a sentence a user can act on): co-simulation; `FMUEnv`'s own step, reward,
 termination, observation and action mapping; no reward or termination callables; Float64 scalar
 inputs and outputs; a Box action copied to the inputs, or a Discrete action looked up in the
-config's ``action_table``. Everything else stays on the Python path, with the same results.
+config's ``action_table``; no strip chart to record (``render_mode="rgb_array"``). Everything else
+stays on the Python path, with the same results.
 
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step.
