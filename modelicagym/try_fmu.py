@@ -47,8 +47,13 @@ class TryResult:
         ]
         if self.fmu_error is not None:
             lines.append(f"FMU error at t = {self.end_time:g} s: {self.fmu_error}")
-        lines.append(f"plot of {self.n_actions} actions and {self.n_observations} observations over time: {self.plot}")
+        lines.append(f"plot of {_count(self.n_actions, 'action')} and {_count(self.n_observations, 'observation')} "
+                     f"over time: {self.plot}")
         return lines
+
+
+def _count(n: int, thing: str) -> str:
+    return f"{n} {thing}" if n == 1 else f"{n} {thing}s"
 
 
 def parse_setting(text: str) -> tuple[str, Any]:

@@ -56,7 +56,7 @@ def test_config_file_and_settings_change_the_suggested_config(family_fmu, tmp_pa
                                "--set", "parameters.gain=2.0", "--out", str(tmp_path / "p.png"))
     assert status == 0
     assert lines[0].endswith("12 steps of random actions (seed 0), t = 0 s to 6 s")
-    assert lines[2].startswith("plot of 1 actions and 2 observations")
+    assert lines[2].startswith("plot of 1 action and 2 observations over time: ")
 
 
 def test_an_fmu_error_is_reported_and_the_episode_still_plotted(family_fmu, tmp_path, capsys):
