@@ -64,6 +64,7 @@ class Series:
     unit: str
     role: str  # "action" or "observation"
     kind: str  # the variable's: "float", "integer", "boolean" or "enumeration"
+    stepwise: bool = False  # held between recorded instants (an action, a discrete output): drawn as steps
 
     @property
     def label(self) -> str:
@@ -73,7 +74,8 @@ class Series:
 def _series(v: Variable, role: str) -> list[Series]:
     """The lines of one variable: itself, or each element of an array (row-major, as its buffer)."""
     names = [v.name] if not v.shape else [f"{v.name}[{','.join(map(str, i))}]" for i in np.ndindex(*v.shape)]
-    return [Series(name, v.unit or "", role, v.kind) for name in names]
+    stepwise = role == "action" or v.variability != "continuous"
+    return [Series(name, v.unit or "", role, v.kind, stepwise) for name in names]
 
 
 def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], int]:
@@ -200,7 +202,7 @@ class StripChart:
             colours = itertools.cycle(f"C{i}" for i in range(10))
             for column in members:
                 s = self.series[column]
-                (line,) = ax.plot([], [], drawstyle="steps-pre" if s.role == "action" else "default",
+                (line,) = ax.plot([], [], drawstyle="steps-pre" if s.stepwise else "default",
                                   color=next(colours) if grouped else _COLOURS[s.role], label=s.name, linewidth=1.2)
                 lines.append((line, column))
             first = self.series[members[0]]
