@@ -60,7 +60,17 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=_bench)
 
     experiment_parsers(commands)
+    _debug_flag_on_subcommands(parser)
     return parser
+
+
+def _debug_flag_on_subcommands(parser: argparse.ArgumentParser) -> None:
+    """``--debug`` after any (sub-)subcommand too: ``modelicagym info X --debug``."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for subparser in action.choices.values():
+                add_debug_flag(subparser, subcommand=True)
+                _debug_flag_on_subcommands(subparser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -33,6 +33,21 @@ class InvalidFMUError(FMUError, ValueError):
     """The file exists but is not a usable FMU (not a zip, no modelDescription.xml, ...)."""
 
 
+class FMUValidationError(InvalidFMUError):
+    """The model description breaks rules of the FMI standard (its schema or fmpy's checks).
+
+    ``problems`` are the rules broken, ``variables`` the variables they concern, and ``skippable``
+    says whether ``validate=False`` loads the FMU anyway (it does not when fmpy cannot read the
+    description even without validating it).
+    """
+
+    def __init__(self, message: str, problems: list[str], variables: list[str], skippable: bool):
+        super().__init__(message)
+        self.problems = problems
+        self.variables = variables
+        self.skippable = skippable
+
+
 class PlatformNotSupportedError(FMUError):
     """The FMU has no binary for this platform."""
 
