@@ -212,6 +212,13 @@ class FMUDescription:
     def parameters(self) -> list[Variable]:
         return [v for v in self._with_causality("parameter", "structuralParameter") if v.settable]
 
+    @cached_property
+    def state_variables(self) -> list[Variable]:
+        """The continuous states, as the model structure declares them (the variables whose
+        derivatives it lists; FMI 1.0 declares none)."""
+        states = (getattr(u.variable.derivative, "name", None) for u in self.raw.derivatives)
+        return [self.variables[name] for name in states if name in self.variables]
+
     def input_variable(self, name: str) -> Variable:
         """``name`` checked to be driveable by an action: an input, or a tunable parameter (which
         FMI lets a master change between steps)."""
@@ -296,12 +303,11 @@ def _validation_error(path: Path, unzip_dir: Path, problems: list[str], concerne
     more = f" | and {len(problems) - _QUOTED_PROBLEMS} more" if len(problems) > _QUOTED_PROBLEMS else ""
     try:
         read_model_description(str(unzip_dir), validate=False)
-        skippable, hint = True, "pass validate=False to load it anyway"
+        skippable = True
     except Exception:
-        skippable, hint = False, "fmpy cannot read it without validation either, so validate=False does not help"
+        skippable = False
     return FMUValidationError(
-        f"{path}: cannot read modelDescription.xml: it fails validation{about}: {quoted}{more} ({hint})",
-        list(problems), names, skippable,
+        f"{path}: cannot read modelDescription.xml: it fails validation{about}: {quoted}{more}", list(problems), names, skippable
     )
 
 

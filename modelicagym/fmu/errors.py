@@ -36,13 +36,17 @@ class InvalidFMUError(FMUError, ValueError):
 class FMUValidationError(InvalidFMUError):
     """The model description breaks rules of the FMI standard (its schema or fmpy's checks).
 
-    ``problems`` are the rules broken, ``variables`` the variables they concern, and ``skippable``
-    says whether ``validate=False`` loads the FMU anyway (it does not when fmpy cannot read the
-    description even without validating it).
+    ``summary`` says which rules and variables, ``problems`` are the rules broken, ``variables``
+    the variables they concern, and ``skippable`` whether ``validate=False`` loads the FMU anyway
+    (it does not when fmpy cannot read the description even without validating it); the message
+    is the summary and what to do.
     """
 
-    def __init__(self, message: str, problems: list[str], variables: list[str], skippable: bool):
-        super().__init__(message)
+    def __init__(self, summary: str, problems: list[str], variables: list[str], skippable: bool):
+        hint = ("pass validate=False to load it anyway" if skippable
+                else "fmpy cannot read it without validation either, so validate=False does not help")
+        super().__init__(f"{summary} ({hint})")
+        self.summary = summary
         self.problems = problems
         self.variables = variables
         self.skippable = skippable
