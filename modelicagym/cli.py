@@ -13,10 +13,9 @@ logger = logging.getLogger("modelicagym")
 
 
 def _info(args: argparse.Namespace) -> int:
-    from modelicagym.fmu import open_fmu
-    from modelicagym.info import format_info
+    from modelicagym.info import describe_fmu
 
-    print(format_info(open_fmu(args.fmu, validate=not args.no_validate)))
+    print(describe_fmu(args.fmu, validate=not args.no_validate))
     return 0
 
 
