@@ -316,7 +316,7 @@ def format_info(description: FMUDescription, validate: bool = True) -> str:
     lines.append("a config to start from (Python):")
     lines += [f"  - {note}" for note in suggestion.notes]
     if suggestion.inferred:
-        lines.append(f"  - action bounds inferred for {', '.join(suggestion.inferred)}, which declare none: "
+        lines.append(f"  - action bounds inferred for {', '.join(suggestion.inferred)} (no declared min or max): "
                      "see the comments in action_bounds")
     lines.append("")
     lines += ["    " + line if line else "" for line in format_config(suggestion)]
