@@ -151,9 +151,9 @@ def infer_bounds(v: Variable, d: FMUDescription) -> InferredBounds:
             half, why = 1.0, "+-1 (it declares no start or nominal to scale by)"
         center = start or 0.0
         if low is None:
-            low = min(center - half, high - 2 * half) if high is not None else center - half
+            low = min(center - half, high - half) if high is not None else center - half
         if high is None:
-            high = max(center + half, low + 2 * half)
+            high = max(center + half, low + half)
         reasons.append(why)
     if start is not None:
         low, high = min(low, start), max(high, start)
