@@ -94,9 +94,9 @@ VARIANTS: dict[str, Variant] = {
     "noinputs": Variant(FMUS_DIR / "noinputs"),
     # no outputs, two continuous states declared as locals (a damped oscillator)
     "nooutputs": Variant(FMUS_DIR / "nooutputs"),
-    # FMI 3.0 only: a structural parameter the C code lets be set in configuration mode only
+    # a structural parameter (FMI 3.0; FMI 2.0 leaves it out) the C code lets be set in configuration mode only
     "structural": Variant(FMUS_DIR / "structural"),
-    # co-simulation only: an input in Pa without min/max (start 101325) that breaks doStep far from it
+    # an input in Pa without min/max (start 101325) that breaks doStep far from it
     "unbounded": Variant(FMUS_DIR / "unbounded"),
 }
 

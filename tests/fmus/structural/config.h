@@ -1,8 +1,9 @@
 /*
- * config.h -- "Lags", FMI 3.0 only: a cascade of `stages` first-order lags driven by the input u,
+ * config.h -- "Lags": a cascade of `stages` first-order lags driven by the input u,
  * where `stages` is a structural parameter (causality="structuralParameter", UInt64): as the
  * standard demands, it can be set in configuration mode only (the framework's VarStructural), so
- * an importer that sets it like any parameter gets an Error from fmi3SetUInt64.
+ * an importer that sets it like any parameter gets an Error from fmi3SetUInt64. FMI 2.0 has no
+ * structural parameters: its model description leaves `stages` out (it stays at 2).
  *
  *   der(x1) = (u - x1) / tau,  der(xi) = (x(i-1) - xi) / tau  for i <= stages (else 0),
  *   y = x(stages)

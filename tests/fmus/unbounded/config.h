@@ -1,12 +1,12 @@
 /*
- * config.h -- "Tank", co-simulation: a vessel whose pressure p follows the ambient pressure p_amb,
+ * config.h -- "Tank": a vessel whose pressure p follows the ambient pressure p_amb,
  * an input in Pa that declares no min/max (start 101325), as exporters often leave it. Random
  * actions on an unbounded Box are drawn around 0 Pa, where the model's correlations do not hold:
  * doStep then logs an error and returns Error, the shape of a third-party FMU whose solver went
  * into an error loop on such inputs.
  *
  *   der(p) = (p_amb - p) / tau,  rho = p / (R_AIR * T)
- *   doStep fails while p_amb is outside [P_LOW, P_HIGH].
+ *   doStep (co-simulation) fails while p_amb is outside [P_LOW, P_HIGH].
  */
 #ifndef UNBOUNDED_CONFIG_H
 #define UNBOUNDED_CONFIG_H
