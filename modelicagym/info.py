@@ -86,11 +86,14 @@ def _observations(d: FMUDescription) -> tuple[list[Variable], str | None]:
         return outputs, None
     states = _usable(d.state_variables)
     if states:
-        return states, f"no outputs: observing its continuous states ({_names(states)}), as its model structure declares them"
+        return states, (f"no outputs: observing its continuous states ({_names(states)}), as its model structure "
+                        "declares them")
     local = _usable(v for v in d.variables.values() if v.causality == "local")
     if local:
         chosen = local[:MAX_LOCALS]
-        which = f"the first {len(chosen)} of its {len(local)} local variables" if len(local) > len(chosen) else "its local variables"
+        which = "its local variables"
+        if len(local) > len(chosen):
+            which = f"the first {len(chosen)} of its {len(local)} local variables"
         return chosen, f"no outputs and no continuous states declared: observing {which} ({_names(chosen)})"
     return [], None
 
@@ -237,9 +240,10 @@ def format_config(suggestion: Suggestion) -> list[str]:
     lines = ["from modelicagym import FMUEnv", "", "config = {"]
     for key, value in suggestion.config.items():
         if key == "action_bounds":
-            comments = [f"inferred from {suggestion.inferred[name].reason}: edit to the model's range" for name in value]
-            text = _collection([f"{name!r}: ({low!r}, {high!r})" for name, (low, high) in value.items()], "{", "}", indent,
-                               comments)
+            items = [f"{name!r}: ({low!r}, {high!r})" for name, (low, high) in value.items()]
+            comments = [f"inferred from {suggestion.inferred[name].reason}: edit to the model's range"
+                        for name in value]
+            text = _collection(items, "{", "}", indent, comments)
         elif isinstance(value, dict):
             text = _collection([f"{k!r}: {v!r}" for k, v in value.items()], "{", "}", indent)
         elif isinstance(value, list):
@@ -330,8 +334,8 @@ def describe_fmu(path: str | os.PathLike[str], validate: bool = True) -> str:
         description = open_fmu(path, validate=validate)
     except FMUValidationError as error:
         if not error.skippable:
-            raise InvalidFMUError(f"{error.summary} (--no-validate would not help: fmpy cannot read it without validation "
-                              "either)") from error
+            raise InvalidFMUError(f"{error.summary} (--no-validate would not help: fmpy cannot read it without "
+                                  "validation either)") from error
         raise InvalidFMUError(f"{error.summary}; to go on anyway: modelicagym info {path} --no-validate (the config it "
                           "prints then has validate=False)") from error
     return format_info(description, validate)

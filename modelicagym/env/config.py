@@ -100,7 +100,8 @@ class FMUEnvConfig:
         check_termination(config.termination)
         check_action_bounds(config.action_bounds)
         if config.action_bounds is not None:
-            config.action_bounds = {name: (float(low), float(high)) for name, (low, high) in config.action_bounds.items()}
+            config.action_bounds = {name: (float(low), float(high))
+                                    for name, (low, high) in config.action_bounds.items()}
         if config.step_path not in STEP_PATHS:
             raise ConfigError(f"step_path must be one of {STEP_PATHS}, got {config.step_path!r}")
         if config.action_table is not None:
@@ -108,5 +109,6 @@ class FMUEnvConfig:
             if not config.action_table or len({len(row) for row in config.action_table}) != 1:
                 raise ConfigError("action_table needs at least one row, and every row the same number of input values")
             if config.action_bounds:
-                raise ConfigError("action_bounds has no effect with action_table (a Discrete action picks a row): drop one")
+                raise ConfigError("action_bounds has no effect with action_table (a Discrete action picks a row): "
+                                  "drop one")
         return config

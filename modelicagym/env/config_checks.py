@@ -1,9 +1,10 @@
 """Checks of an `FMUEnvConfig`'s values, each failure a `ConfigError` that names the key.
 
 Every number is finite, in range and of the right type (``time_step="0.05"`` gets a message about
-its type, not a failed comparison); termination bounds are ``(low, high)`` pairs with
-``low <= high`` (finite for ``action_bounds``); once the FMU is known, every parameter value fits its variable (a list for a
-scalar, a string for a number, are errors at construction, not at the first reset).
+its type, not a failed comparison); termination bounds and ``action_bounds`` are ``(low, high)``
+pairs with ``low <= high`` (finite for ``action_bounds``, whose names must be inputs); once the FMU
+is known, every parameter value fits its variable (a list for a scalar, a string for a number, are
+errors at construction, not at the first reset).
 """
 
 from __future__ import annotations

@@ -295,7 +295,9 @@ def _tolerate(path: Path, unzip_dir: Path, error: ValidationError, used: Collect
 _QUOTED_PROBLEMS = 3
 
 
-def _validation_error(path: Path, unzip_dir: Path, problems: list[str], concerned: set[str | None]) -> FMUValidationError:
+def _validation_error(
+    path: Path, unzip_dir: Path, problems: list[str], concerned: set[str | None]
+) -> FMUValidationError:
     """One line: the rules broken, the variables they concern, and whether ``validate=False`` helps."""
     names = sorted(name for name in concerned if name is not None)
     about = f" (variables concerned: {', '.join(names)})" if names else ""
@@ -306,9 +308,8 @@ def _validation_error(path: Path, unzip_dir: Path, problems: list[str], concerne
         skippable = True
     except Exception:
         skippable = False
-    return FMUValidationError(
-        f"{path}: cannot read modelDescription.xml: it fails validation{about}: {quoted}{more}", list(problems), names, skippable
-    )
+    summary = f"{path}: cannot read modelDescription.xml: it fails validation{about}: {quoted}{more}"
+    return FMUValidationError(summary, list(problems), names, skippable)
 
 
 def _variables_of(description: Path, problems: list[str]) -> set[str | None]:

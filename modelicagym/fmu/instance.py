@@ -448,8 +448,9 @@ class FMUInstance:
     def _initialize(self, values: dict[str, Any]) -> None:
         variables = self.description.variables
         structural = {n: v for n, v in values.items() if variables[n].causality == "structuralParameter"}
-        before = {n: v for n, v in values.items() if variables[n].settable_before_initialization and n not in structural}
-        during = {n: v for n, v in values.items() if n not in before and n not in structural}
+        rest = {n: v for n, v in values.items() if n not in structural}
+        before = {n: v for n, v in rest.items() if variables[n].settable_before_initialization}
+        during = {n: v for n, v in rest.items() if n not in before}
         try:
             if structural:  # FMI 3.0 only: they are set in configuration mode
                 self.binding.configure(structural)

@@ -15,7 +15,9 @@
 #define NX 2 /* h, v */
 #define NZ 1 /* h */
 
-enum { VR_H = 1, VR_DER_H = 2, VR_V = 3, VR_DER_V = 4, VR_G = 5, VR_E = 6, VR_H_0 = 7, VR_BOUNCES = 8 };
+enum {
+    VR_H = 1, VR_DER_H = 2, VR_V = 3, VR_DER_V = 4, VR_G = 5, VR_E = 6, VR_H_0 = 7, VR_BOUNCES = 8
+};
 
 typedef struct {
     double h, der_h, v, der_v;

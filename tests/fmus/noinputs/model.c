@@ -19,7 +19,8 @@ static Status initialize(ModelInstance *comp) {
     ModelData *m = M(comp);
     if (!(m->g > 0.0) || !(m->e >= 0.0 && m->e <= 1.0) || !(m->h_0 >= 0.0)) {
         fmu_log(comp, StatusError, LogStatusError,
-                "invalid parameters: need g > 0, e in [0, 1], h_0 >= 0 (got g=%g e=%g h_0=%g)", m->g, m->e, m->h_0);
+                "invalid parameters: need g > 0, e in [0, 1], h_0 >= 0 (got g=%g e=%g h_0=%g)",
+                m->g, m->e, m->h_0);
         return StatusError;
     }
     m->h = m->h_0;

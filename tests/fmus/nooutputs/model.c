@@ -15,7 +15,8 @@ static void set_start_values(ModelData *m) {
 static Status initialize(ModelInstance *comp) {
     ModelData *m = M(comp);
     if (!(m->k > 0.0) || !(m->c >= 0.0)) {
-        fmu_log(comp, StatusError, LogStatusError, "invalid parameters: need k > 0, c >= 0 (got k=%g c=%g)", m->k, m->c);
+        fmu_log(comp, StatusError, LogStatusError,
+                "invalid parameters: need k > 0, c >= 0 (got k=%g c=%g)", m->k, m->c);
         return StatusError;
     }
     m->x = m->x_0;

@@ -17,7 +17,8 @@ static Status initialize(ModelInstance *comp) {
     ModelData *m = M(comp);
     int i;
     if (!(m->tau > 0.0) || m->stages < 1 || m->stages > MAX_STAGES) {
-        fmu_log(comp, StatusError, LogStatusError, "invalid parameters: need tau > 0, stages in [1, %d] (got tau=%g stages=%llu)",
+        fmu_log(comp, StatusError, LogStatusError,
+                "invalid parameters: need tau > 0, stages in [1, %d] (got tau=%g stages=%llu)",
                 MAX_STAGES, m->tau, (unsigned long long)m->stages);
         return StatusError;
     }
@@ -56,7 +57,8 @@ static void set_continuous_states(ModelData *m, const double x[]) {
     }
 }
 
-#define STAGE(i) FLOAT64_VAR(VR_X + (i), x[i], VarReadOnly), FLOAT64_VAR(VR_DER_X + (i), der_x[i], VarReadOnly)
+#define STAGE(i) \
+    FLOAT64_VAR(VR_X + (i), x[i], VarReadOnly), FLOAT64_VAR(VR_DER_X + (i), der_x[i], VarReadOnly)
 
 static const VariableInfo variables[] = {
     STAGE(0), STAGE(1), STAGE(2), STAGE(3),

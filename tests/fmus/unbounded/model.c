@@ -13,7 +13,8 @@ static void set_start_values(ModelData *m) {
 static Status initialize(ModelInstance *comp) {
     ModelData *m = M(comp);
     if (!(m->tau > 0.0) || !(m->T > 0.0)) {
-        fmu_log(comp, StatusError, LogStatusError, "invalid parameters: need tau > 0, T > 0 (got tau=%g T=%g)", m->tau, m->T);
+        fmu_log(comp, StatusError, LogStatusError,
+                "invalid parameters: need tau > 0, T > 0 (got tau=%g T=%g)", m->tau, m->T);
         return StatusError;
     }
     m->p = 101325.0;
@@ -38,8 +39,8 @@ static Status before_step(ModelInstance *comp, double t, double h) {
     (void)h;
     if (!(m->p_amb >= P_LOW && m->p_amb <= P_HIGH)) {
         fmu_log(comp, StatusError, LogStatusError,
-                "t=%g: ambient pressure %g Pa is outside the range of the model's correlations [%g, %g] Pa", t,
-                m->p_amb, P_LOW, P_HIGH);
+                "t=%g: ambient pressure %g Pa is outside the range of the model's correlations "
+                "[%g, %g] Pa", t, m->p_amb, P_LOW, P_HIGH);
         return StatusError;
     }
     return StatusOK;
