@@ -9,6 +9,7 @@ shapes are the test FMUs ``noinputs``, ``nooutputs``, ``structural``, ``unbounde
 
 from __future__ import annotations
 
+import functools
 import textwrap
 from typing import Any
 
@@ -23,6 +24,7 @@ from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, InvalidFMUError, open_fmu
 from modelicagym.fmu.fmi3 import FMI3Binding
 from modelicagym.info import infer_bounds
+from modelicagym.vector import PoolVectorEnv
 
 CONFIG_START = "    from modelicagym import FMUEnv"
 
@@ -157,6 +159,24 @@ def test_unbounded_input_gets_inferred_bounds_that_keep_the_model_working(capsys
     *_, truncated, info = unbounded.step(unbounded.action_space.sample())
     assert truncated and "ambient pressure" in info["fmu_error"] and "outside the range" in info["fmu_error"]
     unbounded.close()
+
+
+@pytest.mark.usefixtures("no_leaks")
+@pytest.mark.parametrize("n", [2, 8])
+def test_a_pool_of_pasted_configs_steps_random_actions(capsys, family_fmu, n):
+    """The pasted config in a pool: ``num_workers=2`` puts envs in worker processes."""
+    _, out, _ = run_info(capsys, family_fmu("unbounded", 3))
+    env, config = pasted(out)
+    env.close()
+    pool = PoolVectorEnv([functools.partial(FMUEnv, config)] * n, num_workers=2)
+    try:
+        pool.reset(seed=0)
+        pool.action_space.seed(0)
+        for _ in range(20):
+            *_, truncations, infos = pool.step(pool.action_space.sample())
+            assert "fmu_error" not in infos and not truncations.any()
+    finally:
+        pool.close()
 
 
 def test_inferred_bounds_take_related_variables_declared_range(tmp_path, family_fmu):
