@@ -141,9 +141,10 @@ def infer_bounds(v: Variable, d: FMUDescription) -> InferredBounds:
         reasons.append(f"its declared {'min' if low is not None else 'max'}")
     related = _related_range(v, d)
     if related is not None:
-        low = related[0] if low is None else low
-        high = related[1] if high is None else high
-        reasons.append(related[2])
+        wider = (related[0] if low is None else low), (related[1] if high is None else high)
+        if wider != (low, high) and (None in wider or wider[0] <= wider[1]):
+            low, high = wider
+            reasons.append(related[2])
     start = _scalar(v.start)
     if low is None or high is None:
         if start:
