@@ -141,9 +141,9 @@ def infer_bounds(v: Variable, d: FMUDescription) -> InferredBounds:
         reasons.append(f"its declared {'min' if low is not None else 'max'}")
     related = _related_range(v, d)
     if related is not None:
-        wider = (related[0] if low is None else low), (related[1] if high is None else high)
-        if wider != (low, high) and (None in wider or wider[0] <= wider[1]):
-            low, high = wider
+        filled = (related[0] if low is None else low), (related[1] if high is None else high)
+        if filled != (low, high) and (None in filled or filled[0] <= filled[1]):
+            low, high = filled
             reasons.append(related[2])
     start = _scalar(v.start)
     if low is None or high is None:
