@@ -13,10 +13,9 @@ logger = logging.getLogger("modelicagym")
 
 
 def _info(args: argparse.Namespace) -> int:
-    from modelicagym.fmu import open_fmu
-    from modelicagym.info import format_info
+    from modelicagym.info import describe_fmu
 
-    print(format_info(open_fmu(args.fmu, validate=not args.no_validate)))
+    print(describe_fmu(args.fmu, validate=not args.no_validate))
     return 0
 
 
@@ -84,7 +83,17 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=_bench)
 
     experiment_parsers(commands)
+    _debug_flag_on_subcommands(parser)
     return parser
+
+
+def _debug_flag_on_subcommands(parser: argparse.ArgumentParser) -> None:
+    """``--debug`` after any (sub-)subcommand too: ``modelicagym info X --debug``."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for subparser in action.choices.values():
+                add_debug_flag(subparser, subcommand=True)
+                _debug_flag_on_subcommands(subparser)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

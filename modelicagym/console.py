@@ -19,9 +19,12 @@ __all__ = ["add_debug_flag", "run_command"]
 DEBUG_HINT = "run with --debug for the details"
 
 
-def add_debug_flag(parser: argparse.ArgumentParser) -> None:
-    """``--debug``: let errors propagate with their traceback."""
-    parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
+def add_debug_flag(parser: argparse.ArgumentParser, *, subcommand: bool = False) -> None:
+    """``--debug``: let errors propagate with their traceback. On a ``subcommand``'s parser it
+    defaults to nothing, so ``prog --debug command`` and ``prog command --debug`` both work (a
+    subparser's default would overwrite the main parser's value)."""
+    default = argparse.SUPPRESS if subcommand else False
+    parser.add_argument("--debug", action="store_true", default=default, help="show the traceback of an error")
 
 
 def run_command(command: Callable[[argparse.Namespace], int], args: argparse.Namespace) -> int:

@@ -1,7 +1,7 @@
 """``modelicagym try``: see an FMU respond to random actions before training on it.
 
 `try_fmu` makes an `FMUEnv` from the config ``modelicagym info`` prints
-(`modelicagym.info.suggested_config`; a JSON file and ``key=value`` settings may change it), with
+(`modelicagym.info.suggest`; a JSON file and ``key=value`` settings may change it), with
 its strip chart on (`modelicagym.env.strip_chart`), runs one episode of actions sampled from the
 action space (the reset and the samples seeded, so a run repeats), and saves the chart of actions
 and observations over time as a PNG. `TryResult` says what happened, one fact a line.
@@ -17,8 +17,8 @@ from typing import Any
 
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ConfigError, DataError
-from modelicagym.fmu import open_fmu
-from modelicagym.info import suggested_config
+from modelicagym.fmu import UnsupportedFeatureError, open_fmu
+from modelicagym.info import suggest
 
 __all__ = ["TryResult", "parse_setting", "try_config", "try_fmu"]
 
@@ -72,9 +72,10 @@ def try_config(fmu: str | Path, *, config_file: str | Path | None = None, settin
                validate: bool = True) -> dict[str, Any]:
     """The config a ``try`` run uses: ``info``'s suggestion for ``fmu``, updated by the JSON object
     in ``config_file`` (its keys replace the suggestion's) and then by ``settings`` (``key=value``)."""
-    config = suggested_config(open_fmu(fmu, validate=validate))
-    if not validate:
-        config["validate"] = False
+    suggestion = suggest(open_fmu(fmu, validate=validate), validate=validate)
+    if suggestion.config is None:
+        raise UnsupportedFeatureError(suggestion.refusal)
+    config = suggestion.config
     if config_file is not None:
         config.update(_read_config(Path(config_file)))
     for key, value in map(parse_setting, settings):

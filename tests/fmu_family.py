@@ -89,6 +89,15 @@ VARIANTS: dict[str, Variant] = {
     "staircase": Variant(STAIRCASE_DIR),
     # stiff linear model, no events, model exchange + co-simulation
     "stiff": Variant(STIFF_DIR),
+    # the shapes `modelicagym info` must turn into a working config (tests/test_info.py):
+    # no inputs, a tunable restitution to act on (a bouncing ball)
+    "noinputs": Variant(FMUS_DIR / "noinputs"),
+    # no outputs, two continuous states declared as locals (a damped oscillator)
+    "nooutputs": Variant(FMUS_DIR / "nooutputs"),
+    # a structural parameter (FMI 3.0; FMI 2.0 leaves it out) the C code lets be set in configuration mode only
+    "structural": Variant(FMUS_DIR / "structural"),
+    # an input in Pa without min/max (start 101325) that breaks doStep far from it
+    "unbounded": Variant(FMUS_DIR / "unbounded"),
 }
 
 

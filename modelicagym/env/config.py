@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from modelicagym.env.config_checks import check_numbers, check_termination
+from modelicagym.env.config_checks import check_action_bounds, check_numbers, check_termination
 from modelicagym.errors import ConfigError, ConfigTypeError
 
 Bounds = Mapping[str, Sequence[float]]
@@ -42,6 +42,9 @@ class FMUEnvConfig:
             its interval; or a callable ``f(env, observation) -> bool``.
         reward: a callable ``f(env, observation, action, terminated) -> float`` replacing the
             default reward.
+        action_bounds: ``{input: (low, high)}``: finite bounds of the action space for these
+            inputs, replacing the model description's (e.g. for an input that declares none, so that
+            random exploration stays near its physical range; ``modelicagym info`` infers them).
         action_space / observation_space: override the spaces derived from the model description.
         action_table: for a discrete action space: one row of input values per action (action
             ``k`` sets the inputs to ``action_table[k]``); the action space is then
@@ -65,6 +68,7 @@ class FMUEnvConfig:
     negative_reward: float = -100.0
     termination: Bounds | Callable[..., bool] | None = None
     reward: Callable[..., float] | None = None
+    action_bounds: Bounds | None = None
     action_space: spaces.Space | None = None
     observation_space: spaces.Space | None = None
     action_table: Sequence[Sequence[float]] | None = None
@@ -94,10 +98,17 @@ class FMUEnvConfig:
         config.parameters = dict(config.parameters)
         check_numbers(config)
         check_termination(config.termination)
+        check_action_bounds(config.action_bounds)
+        if config.action_bounds is not None:
+            config.action_bounds = {name: (float(low), float(high))
+                                    for name, (low, high) in config.action_bounds.items()}
         if config.step_path not in STEP_PATHS:
             raise ConfigError(f"step_path must be one of {STEP_PATHS}, got {config.step_path!r}")
         if config.action_table is not None:
             config.action_table = [[float(v) for v in np.atleast_1d(row)] for row in config.action_table]
             if not config.action_table or len({len(row) for row in config.action_table}) != 1:
                 raise ConfigError("action_table needs at least one row, and every row the same number of input values")
+            if config.action_bounds:
+                raise ConfigError("action_bounds has no effect with action_table (a Discrete action picks a row): "
+                                  "drop one")
         return config

@@ -1,13 +1,15 @@
 """Checks of an `FMUEnvConfig`'s values, each failure a `ConfigError` that names the key.
 
 Every number is finite, in range and of the right type (``time_step="0.05"`` gets a message about
-its type, not a failed comparison); termination bounds are ``(low, high)`` pairs with
-``low <= high``; once the FMU is known, every parameter value fits its variable (a list for a
-scalar, a string for a number, are errors at construction, not at the first reset).
+its type, not a failed comparison); termination bounds and ``action_bounds`` are ``(low, high)``
+pairs with ``low <= high`` (finite for ``action_bounds``, whose names must be inputs); once the FMU
+is known, every parameter value fits its variable (a list for a scalar, a string for a number, are
+errors at construction, not at the first reset).
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Mapping
 from numbers import Integral, Real
@@ -17,7 +19,7 @@ import numpy as np
 
 from modelicagym.errors import ConfigError, ConfigTypeError
 
-__all__ = ["check_numbers", "check_parameter", "check_termination"]
+__all__ = ["check_action_bound_names", "check_action_bounds", "check_numbers", "check_parameter", "check_termination"]
 
 
 def _real(key: str, value: Any) -> float:
@@ -52,8 +54,34 @@ def check_termination(termination: Any) -> None:
         return
     if not isinstance(termination, Mapping):
         raise ConfigTypeError(f"termination must be {{output: (low, high)}} or a callable, got {termination!r}")
-    for name, bounds in termination.items():
-        where = f"termination bound on {name!r}"
+    _check_intervals(termination, "termination bound", finite=False)
+
+
+def check_action_bounds(action_bounds: Any) -> None:
+    """``None`` or ``{input: (low, high)}`` with finite numbers, low <= high (the names are checked
+    against the inputs once the FMU is known: `check_action_bound_names`)."""
+    if action_bounds is None:
+        return
+    if not isinstance(action_bounds, Mapping):
+        raise ConfigTypeError(f"action_bounds must be {{input: (low, high)}}, got {action_bounds!r}")
+    _check_intervals(action_bounds, "action_bounds", finite=True)
+
+
+def check_action_bound_names(fmu: str, action_bounds: Mapping[str, Any], inputs: list[str]) -> None:
+    """Every name in ``action_bounds`` is one of the config's ``inputs`` (else close matches are suggested)."""
+    for name in action_bounds:
+        if name not in inputs:
+            close = difflib.get_close_matches(name, inputs, n=3, cutoff=0.6)
+            hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            raise ConfigError(f"{fmu}: action_bounds names {name!r}, which is not in 'inputs'.{hint} "
+                              f"Inputs: {', '.join(inputs) or 'none'}")
+
+
+def _check_intervals(intervals: Mapping[str, Any], what: str, finite: bool) -> None:
+    """Each value of ``intervals`` is a ``(low, high)`` pair of numbers, low <= high, not NaN (nor
+    infinite when ``finite``)."""
+    for name, bounds in intervals.items():
+        where = f"{what} on {name!r}"
         if isinstance(bounds, (str, bytes)) or not hasattr(bounds, "__len__") or len(bounds) != 2:
             raise ConfigError(f"{where} must be a (low, high) pair, got {bounds!r}")
         low, high = bounds
@@ -62,6 +90,8 @@ def check_termination(termination: Any) -> None:
                 raise ConfigTypeError(f"{where} must be numbers, got {bounds!r}")
             if math.isnan(value):
                 raise ConfigError(f"{where} contains NaN: {bounds!r}")
+            if finite and math.isinf(value):
+                raise ConfigError(f"{where} must be finite, got {bounds!r}")
         if low > high:
             raise ConfigError(f"{where} has low > high: {bounds!r}")
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -39,7 +40,7 @@ import numpy as np
 
 from modelicagym.action_checks import action_checker
 from modelicagym.env.config import FMUEnvConfig
-from modelicagym.env.config_checks import check_parameter
+from modelicagym.env.config_checks import check_action_bound_names, check_parameter
 from modelicagym.env.native_step import NativeStep, python_path_reason
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
@@ -90,6 +91,7 @@ class FMUEnv(gym.Env):
                              f"{', '.join(v.name for v in description.outputs) or 'none'}")
         for name, value in cfg.parameters.items():
             check_parameter(description.name, description.settable_variable(name), value)
+        check_action_bound_names(description.name, cfg.action_bounds or {}, list(cfg.inputs))
         self.time_step = float(cfg.time_step or description.default_experiment.step_size or 0.0)
         if not self.time_step > 0:
             raise ConfigError(f"{description.name} declares no default step size: give 'time_step'")
@@ -245,13 +247,18 @@ class FMUEnv(gym.Env):
 
     def make_action_space(self) -> gym.Space:
         """The action space; default: ``Discrete`` over the config's ``action_table``, else derived
-        from the input variables (see `modelicagym.env.spaces`)."""
+        from the input variables (see `modelicagym.env.spaces`), with the config's ``action_bounds``
+        in place of their declared ones."""
         if self.config.action_table is not None:
             return gym.spaces.Discrete(len(self.config.action_table))
         if not self.fmu.input_variables:
             raise ConfigError(f"{self.description.name}: 'inputs' is empty; inputs of this FMU: "
                              f"{', '.join(v.name for v in self.description.inputs) or 'none'}")
-        return space_for(self.fmu.input_variables)
+        bounds = self.config.action_bounds or {}
+        return space_for([
+            replace(v, min=bounds[v.name][0], max=bounds[v.name][1]) if v.name in bounds else v
+            for v in self.fmu.input_variables
+        ])
 
     def make_observation_space(self) -> gym.Space:
         """The observation space; default: derived from the output variables."""

@@ -222,6 +222,10 @@ class FMIBinding:
             self.raw[self.PREFIX + self.FREE_INSTANCE](self.component)
             self.component = None
 
+    def configure(self, values: dict[str, Any]) -> None:
+        """Set structural parameters (FMI 3.0 configuration mode; earlier versions have none)."""
+        raise FMUError(f"{self.fmu_name}: structural parameters ({', '.join(values)}) exist only in FMI 3.0")
+
     def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         raise NotImplementedError
 

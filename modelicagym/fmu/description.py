@@ -29,6 +29,7 @@ from modelicagym.cache import cache_dir, ensure, file_digest, write_manifest
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import (
     FMUNotFoundError,
+    FMUValidationError,
     InvalidFMUError,
     PlatformNotSupportedError,
     UnsupportedFeatureError,
@@ -211,6 +212,13 @@ class FMUDescription:
     def parameters(self) -> list[Variable]:
         return [v for v in self._with_causality("parameter", "structuralParameter") if v.settable]
 
+    @cached_property
+    def state_variables(self) -> list[Variable]:
+        """The continuous states, as the model structure declares them (the variables whose
+        derivatives it lists; FMI 1.0 declares none)."""
+        states = (getattr(u.variable.derivative, "name", None) for u in self.raw.derivatives)
+        return [self.variables[name] for name in states if name in self.variables]
+
     def input_variable(self, name: str) -> Variable:
         """``name`` checked to be driveable by an action: an input, or a tunable parameter (which
         FMI lets a master change between steps)."""
@@ -267,9 +275,8 @@ def open_fmu(
         model_description = read_model_description(str(unzip_dir), validate=validate)
     except ValidationError as error:
         model_description = _tolerate(path, unzip_dir, error, used)
-    except Exception as error:
-        hint = " (pass validate=False to skip schema validation)" if validate else ""
-        raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: {error}{hint}") from error
+    except Exception as error:  # not well-formed XML, an unknown FMI version: validate=False would not help
+        raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: {error}") from error
     return FMUDescription(path, unzip_dir, model_description)
 
 
@@ -278,14 +285,31 @@ def _tolerate(path: Path, unzip_dir: Path, error: ValidationError, used: Collect
     outside ``used``; else the `InvalidFMUError`."""
     concerned = _variables_of(unzip_dir / "modelDescription.xml", error.problems)
     if used is None or None in concerned or concerned & set(used):
-        problems = "\n".join(f"- {problem}" for problem in error.problems)
-        names = sorted(name for name in concerned if name is not None)
-        about = f" (variables concerned: {', '.join(names)})" if names else ""
-        raise InvalidFMUError(f"{path}: cannot read modelDescription.xml: it fails validation{about}:\n{problems}\n"
-                              "(pass validate=False to skip schema validation)") from error
+        raise _validation_error(path, unzip_dir, error.problems, concerned) from error
     logger.warning("%s breaks rules of the FMI standard only for variables this env does not use (%s); loading "
                    "it anyway: %s", path.name, ", ".join(sorted(concerned)), " | ".join(error.problems))
     return read_model_description(str(unzip_dir), validate=False)
+
+
+#: how many of the rules broken a message quotes (exports in the wild break dozens)
+_QUOTED_PROBLEMS = 3
+
+
+def _validation_error(
+    path: Path, unzip_dir: Path, problems: list[str], concerned: set[str | None]
+) -> FMUValidationError:
+    """One line: the rules broken, the variables they concern, and whether ``validate=False`` helps."""
+    names = sorted(name for name in concerned if name is not None)
+    about = f" (variables concerned: {', '.join(names)})" if names else ""
+    quoted = " | ".join(" ".join(problem.split()) for problem in problems[:_QUOTED_PROBLEMS])
+    more = f" | and {len(problems) - _QUOTED_PROBLEMS} more" if len(problems) > _QUOTED_PROBLEMS else ""
+    try:
+        read_model_description(str(unzip_dir), validate=False)
+        skippable = True
+    except Exception:
+        skippable = False
+    summary = f"{path}: cannot read modelDescription.xml: it fails validation{about}: {quoted}{more}"
+    return FMUValidationError(summary, list(problems), names, skippable)
 
 
 def _variables_of(description: Path, problems: list[str]) -> set[str | None]:

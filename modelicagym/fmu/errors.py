@@ -33,6 +33,25 @@ class InvalidFMUError(FMUError, ValueError):
     """The file exists but is not a usable FMU (not a zip, no modelDescription.xml, ...)."""
 
 
+class FMUValidationError(InvalidFMUError):
+    """The model description breaks rules of the FMI standard (its schema or fmpy's checks).
+
+    ``summary`` says which rules and variables, ``problems`` are the rules broken, ``variables``
+    the variables they concern, and ``skippable`` whether ``validate=False`` loads the FMU anyway
+    (it does not when fmpy cannot read the description even without validating it); the message
+    is the summary and what to do.
+    """
+
+    def __init__(self, summary: str, problems: list[str], variables: list[str], skippable: bool):
+        hint = ("pass validate=False to load it anyway" if skippable
+                else "fmpy cannot read it without validation either, so validate=False does not help")
+        super().__init__(f"{summary} ({hint})")
+        self.summary = summary
+        self.problems = problems
+        self.variables = variables
+        self.skippable = skippable
+
+
 class PlatformNotSupportedError(FMUError):
     """The FMU has no binary for this platform."""
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import ctypes
 from collections.abc import Callable
 from functools import partial
+from typing import Any
 
 from fmpy.fmi3 import FMU3Model, FMU3Slave, fmi3IntermediateUpdateCallback
 
@@ -46,6 +47,15 @@ class FMI3Binding(FMIBinding):
         else:
             self.component = self.raw["fmi3InstantiateModelExchange"](*common, self.log.environment, FMI3_LOGGER)
         self._check_instantiated("fmi3Instantiate")
+
+    def configure(self, values: dict[str, Any]) -> None:
+        """Set structural parameters where FMI 3.0 allows it: in configuration mode, entered from
+        the instantiated state (before initialization) and left before anything else is set."""
+        self.call("EnterConfigurationMode")
+        try:
+            self.set_values(values)
+        finally:
+            self.call("ExitConfigurationMode")
 
     def enter_initialization(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         self.call(

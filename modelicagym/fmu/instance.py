@@ -447,9 +447,13 @@ class FMUInstance:
 
     def _initialize(self, values: dict[str, Any]) -> None:
         variables = self.description.variables
-        before = {n: v for n, v in values.items() if variables[n].settable_before_initialization}
-        during = {n: v for n, v in values.items() if n not in before}
+        structural = {n: v for n, v in values.items() if variables[n].causality == "structuralParameter"}
+        rest = {n: v for n, v in values.items() if n not in structural}
+        before = {n: v for n, v in rest.items() if variables[n].settable_before_initialization}
+        during = {n: v for n, v in rest.items() if n not in before}
         try:
+            if structural:  # FMI 3.0 only: they are set in configuration mode
+                self.binding.configure(structural)
             self.binding.set_values(before)
             self.inputs.check(self.inputs.write(), "set inputs")
             self.binding.enter_initialization(self.start_time, self.stop_time, self.tolerance)

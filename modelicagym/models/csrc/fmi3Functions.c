@@ -106,6 +106,14 @@ fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean tolera
     return (fmi3Status)fmu_enter_initialization_mode(COMP);
 }
 
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) {
+    return (fmi3Status)fmu_enter_configuration_mode(COMP);
+}
+
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) {
+    return (fmi3Status)fmu_exit_configuration_mode(COMP);
+}
+
 fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     return (fmi3Status)fmu_exit_initialization_mode(COMP);
 }
@@ -339,8 +347,6 @@ UNSUPPORTED(fmi3GetAdjointDerivative,
             (fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
              const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
              size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity))
-UNSUPPORTED(fmi3EnterConfigurationMode, (fmi3Instance instance))
-UNSUPPORTED(fmi3ExitConfigurationMode, (fmi3Instance instance))
 UNSUPPORTED(fmi3GetIntervalDecimal,
             (fmi3Instance instance, const fmi3ValueReference valueReferences[],
              size_t nValueReferences, fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[]))

@@ -87,6 +87,7 @@ static const char *mode_name(Mode mode) {
     case ModeStep: return "step mode";
     case ModeTerminated: return "terminated";
     case ModeError: return "error";
+    case ModeConfiguration: return "configuration mode";
     }
     return "unknown";
 }
@@ -221,7 +222,7 @@ Status fmu_set_debug_logging(ModelInstance *comp, bool logging_on, size_t n_cate
 
 /* Bring calculated values up to date before they are read. */
 Status fmu_update_values(ModelInstance *comp) {
-    if (!comp->s.dirty || comp->s.mode == ModeInstantiated) {
+    if (!comp->s.dirty || (comp->s.mode & (ModeInstantiated | ModeConfiguration))) {
         return StatusOK;
     }
     if (comp->s.mode == ModeInitialization && model_definition.initialize) {
@@ -246,6 +247,28 @@ Status fmu_setup_experiment(ModelInstance *comp, double start_time) {
     }
     comp->s.time = start_time;
     comp->s.last_successful_time = start_time;
+    return StatusOK;
+}
+
+Status fmu_enter_configuration_mode(ModelInstance *comp) {
+    if (!comp) {
+        return StatusError;
+    }
+    if (!fmu_allowed(comp, "enterConfigurationMode", ModeInstantiated)) {
+        return StatusError;
+    }
+    comp->s.mode = ModeConfiguration;
+    return StatusOK;
+}
+
+Status fmu_exit_configuration_mode(ModelInstance *comp) {
+    if (!comp) {
+        return StatusError;
+    }
+    if (!fmu_allowed(comp, "exitConfigurationMode", ModeConfiguration)) {
+        return StatusError;
+    }
+    comp->s.mode = ModeInstantiated;
     return StatusOK;
 }
 
@@ -393,6 +416,7 @@ static bool settable(const ModelInstance *comp, VarKind kind) {
     case VarInput:
         modes = ModeInstantiated | ModeInitialization | ModeEvent | ModeContinuousTime | ModeStep;
         break;
+    case VarStructural: modes = ModeConfiguration; break;
     }
     return (comp->s.mode & modes) != 0;
 }

@@ -25,6 +25,9 @@ void fmu_free(ModelInstance *comp);
 Status fmu_set_debug_logging(ModelInstance *comp, bool logging_on, size_t n_categories,
                              const char *const categories[]);
 Status fmu_setup_experiment(ModelInstance *comp, double start_time);
+/* FMI 3.0 configuration mode: entered from and left to the instantiated state. */
+Status fmu_enter_configuration_mode(ModelInstance *comp);
+Status fmu_exit_configuration_mode(ModelInstance *comp);
 Status fmu_enter_initialization_mode(ModelInstance *comp);
 Status fmu_exit_initialization_mode(ModelInstance *comp);
 Status fmu_terminate(ModelInstance *comp);

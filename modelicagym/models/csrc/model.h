@@ -152,7 +152,8 @@ typedef enum {
     ModeContinuousTime = 1 << 3, /* ME continuous-time mode */
     ModeStep = 1 << 4,           /* CS step mode */
     ModeTerminated = 1 << 5,
-    ModeError = 1 << 6
+    ModeError = 1 << 6,
+    ModeConfiguration = 1 << 7   /* FMI 3.0 configuration mode (from instantiated) */
 } Mode;
 
 /* Storage types of ModelData fields: VarFloat32 is a float, VarInt8 an int8_t,
@@ -169,7 +170,8 @@ typedef enum {
     VarReadOnly,       /* outputs, locals, calculated parameters, constants */
     VarFixed,          /* fixed parameters: before the end of initialization */
     VarTunable,        /* tunable parameters: also between steps / in event mode */
-    VarInput           /* inputs: any time after instantiation */
+    VarInput,          /* inputs: any time after instantiation */
+    VarStructural      /* FMI 3.0 fixed structural parameters: in configuration mode only */
 } VarKind;
 
 typedef struct {
