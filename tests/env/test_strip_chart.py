@@ -20,7 +20,7 @@ import modelicagym
 from modelicagym import FMUEnv
 from modelicagym.env.strip_chart import LINES_PER_PANEL, MAX_PANELS, panels_of
 from modelicagym.fmu import open_fmu
-from modelicagym.info import suggested_config
+from modelicagym.info import suggest
 from modelicagym.vector import PoolVectorEnv
 
 pytestmark = pytest.mark.timeout(300)
@@ -30,7 +30,7 @@ pytestmark = pytest.mark.timeout(300)
 def config(request, family_fmu, cartpole_fmu) -> dict:
     """``modelicagym info``'s config for a real FMU, episodes of 40 steps."""
     fmu = cartpole_fmu(2) if request.param == "cartpole" else family_fmu("probe", int(request.param[-1]))
-    return {**suggested_config(open_fmu(fmu)), "max_episode_steps": 40}
+    return {**suggest(open_fmu(fmu)).config, "max_episode_steps": 40}
 
 
 def run(env: FMUEnv, steps: int, seed: int = 0) -> list[tuple]:
@@ -54,7 +54,7 @@ def test_render_returns_an_image_that_follows_the_episode(config):
 
 
 def test_a_charting_env_passes_gymnasiums_checks_render_included(family_fmu):
-    env = FMUEnv(suggested_config(open_fmu(family_fmu("probe", 2))), render_mode="rgb_array")
+    env = FMUEnv(suggest(open_fmu(family_fmu("probe", 2))).config, render_mode="rgb_array")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # unbounded observation spaces; no spec to make the env again
         check_env(env, skip_render_check=False)
@@ -62,7 +62,7 @@ def test_a_charting_env_passes_gymnasiums_checks_render_included(family_fmu):
 
 
 def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
-    config = {**suggested_config(open_fmu(cartpole_fmu(2))), "max_episode_steps": 40}
+    config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
     env = FMUEnv(config, render_mode="rgb_array")
     observation, _ = env.reset(seed=3)
     env.action_space.seed(3)
@@ -82,7 +82,7 @@ def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
 
 
 def test_recording_changes_no_result_and_costs_nothing_without_rendering(cartpole_fmu):
-    config = {**suggested_config(open_fmu(cartpole_fmu(2))), "max_episode_steps": 40}
+    config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
     plain, rendering = FMUEnv(config), FMUEnv(config, render_mode="rgb_array")
     # without a render mode: no chart, no per-instance step or reset, the native path
     assert plain.strip_chart is None and plain.render() is None
@@ -98,7 +98,7 @@ def test_recording_changes_no_result_and_costs_nothing_without_rendering(cartpol
 
 
 def test_render_fps_is_real_time(family_fmu):
-    env = FMUEnv(suggested_config(open_fmu(family_fmu("probe", 2))), time_step=0.25, render_mode="rgb_array")
+    env = FMUEnv(suggest(open_fmu(family_fmu("probe", 2))).config, time_step=0.25, render_mode="rgb_array")
     assert env.metadata["render_fps"] == 4.0
     assert FMUEnv.metadata == {"render_modes": ["rgb_array"]}  # set on the instance, not the class
     env.close()
@@ -115,7 +115,7 @@ def test_the_cartpole_keeps_its_own_picture():
 
 
 def test_many_variables_are_grouped_by_role_unit_and_kind(family_fmu):
-    env = FMUEnv(suggested_config(open_fmu(family_fmu("probe", 3))), render_mode="rgb_array")
+    env = FMUEnv(suggest(open_fmu(family_fmu("probe", 3))).config, render_mode="rgb_array")
     series = env.strip_chart.series
     assert len(series) > MAX_PANELS  # the FMI 3.0 probe's arrays count one line per element
     panels, left_out = panels_of(series)
@@ -131,7 +131,7 @@ def test_many_variables_are_grouped_by_role_unit_and_kind(family_fmu):
 
 def test_a_pool_of_charting_envs_draws_what_a_single_env_draws(cartpole_fmu):
     # the cart-pole's config would step natively, a whole slice in one C call, skipping the recording
-    config = {**suggested_config(open_fmu(cartpole_fmu(2))), "max_episode_steps": 40}
+    config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
     make = partial(FMUEnv, config, render_mode="rgb_array")
     with PoolVectorEnv([make] * 2, num_workers=2) as pool:
         pool.reset(seed=0)  # env 0 gets seed 0
@@ -151,7 +151,7 @@ def test_a_pool_of_charting_envs_draws_what_a_single_env_draws(cartpole_fmu):
 
 def test_record_video_writes_a_video_of_any_fmu(family_fmu, tmp_path: Path):
     moviepy = pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (pip install moviepy)")
-    config = {**suggested_config(open_fmu(family_fmu("probe", 2))), "max_episode_steps": 20}
+    config = {**suggest(open_fmu(family_fmu("probe", 2))).config, "max_episode_steps": 20}
     env = RecordVideo(FMUEnv(config, render_mode="rgb_array"), str(tmp_path / "videos"),
                       episode_trigger=lambda _: True, disable_logger=True)
     run(env, 20)
@@ -171,8 +171,8 @@ def test_without_matplotlib_rendering_is_one_line_naming_the_extra(family_fmu):
         sys.modules["matplotlib"] = None  # as if the plots extra were not installed
         from modelicagym import FMUEnv, ModelicaGymError
         from modelicagym.fmu import open_fmu
-        from modelicagym.info import suggested_config
-        config = suggested_config(open_fmu({str(fmu)!r}))
+        from modelicagym.info import suggest
+        config = suggest(open_fmu({str(fmu)!r})).config
         env = FMUEnv(config)  # no render mode: no matplotlib needed
         env.reset(seed=0)
         env.step(env.action_space.sample())
