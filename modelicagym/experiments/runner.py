@@ -38,9 +38,11 @@ from modelicagym.experiments.bounds import DEFAULT_BUDGET, MakeEnv, sweep_bounds
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.plots import plot_sweep
 from modelicagym.experiments.results import (
+    ELSEWHERE,
     PLOT_PNG,
     SweepResult,
     is_complete,
+    read_sweep,
     sweep_dir,
     write_combined_csv,
     write_sweep,
@@ -348,7 +350,9 @@ def run_sweeps(
     episodes.
 
     With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
-    (``None`` in the returned list). An interruption loses only the sweep that was running. The
+    (``None`` in the returned list); their plots are drawn again, and the combined table is made
+    again from the verified sweeps even when nothing ran, so a table or plot damaged since is
+    whole again. An interruption loses only the sweep that was running. The
     longest possible episode of every setting is searched for with single envs from ``make``
     (default ``modelicagym.make``), at most ``bounds_budget`` env steps per setting (0: no search),
     and stored with the results.
@@ -359,13 +363,17 @@ def run_sweeps(
     for config in configs:
         if resume and is_complete(results_dir, config):
             logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
+            plot_sweep(read_sweep(results_dir, config.name), sweep_dir(results_dir, config.name) / PLOT_PNG,
+                       elsewhere=ELSEWHERE)
             outcomes.append(None)
             continue
         result = runner(config, make_vec=make_vec, progress=progress)
         if bounds_budget > 0:
             result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)
-        plot_sweep(result, sweep_dir(results_dir, config.name) / PLOT_PNG)
+        plot_sweep(result, sweep_dir(results_dir, config.name) / PLOT_PNG, elsewhere=ELSEWHERE)
         write_combined_csv(results_dir)
         outcomes.append(result)
+    if all(outcome is None for outcome in outcomes):  # nothing ran: make the table again all the same
+        write_combined_csv(results_dir)
     return outcomes
