@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,17 +25,20 @@ from modelicagym.errors import DiskFullError
 
 __all__ = [
     "DISK_FULL_ERRNOS",
+    "ROOM_TO_BUILD",
     "atomic_write",
+    "build_ran_out_of_room",
     "disk_full",
     "is_disk_full",
-    "output_says_disk_full",
-    "reporting_disk_full",
 ]
 
 #: the errors of a write that found no room: a full file system, a used-up quota
 DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
-#: how tools that write files (the compiler, the linker, CMake) say the same in their output
+#: how tools that write files (the compiler, the linker) say the same in their output
 _DISK_FULL_WORDS = tuple(os.strerror(code) for code in sorted(DISK_FULL_ERRNOS))
+#: a build that fails with less room than this on its file system ran out of room: CMake does
+#: not always say that a write failed (its test compile fails "with no rule to make target")
+ROOM_TO_BUILD = 4 << 20
 _ANYWHERE_ELSE = "write it to another folder"
 
 
@@ -51,7 +55,7 @@ def disk_full(path: str | os.PathLike[str], elsewhere: str = _ANYWHERE_ELSE, cod
 
 
 @contextlib.contextmanager
-def reporting_disk_full(path: str | os.PathLike[str], elsewhere: str = _ANYWHERE_ELSE) -> Iterator[None]:
+def _reporting_disk_full(path: str | os.PathLike[str], elsewhere: str = _ANYWHERE_ELSE) -> Iterator[None]:
     """Raise a full disk met inside the block as a `DiskFullError` naming ``path`` (one raised by
     a nested block, which names its own file, passes unchanged)."""
     try:
@@ -64,13 +68,21 @@ def reporting_disk_full(path: str | os.PathLike[str], elsewhere: str = _ANYWHERE
         raise disk_full(path, elsewhere, error.errno) from error
 
 
-def output_says_disk_full(output: str) -> bool:
-    """Whether a tool's output (a compiler's, CMake's) says it could not write for lack of room."""
-    return any(words in output for words in _DISK_FULL_WORDS)
+def build_ran_out_of_room(output: str, folder: str | os.PathLike[str]) -> bool:
+    """Whether a build that failed, with this ``output``, in ``folder``, failed for lack of room:
+    the tool says so, or the file system has less than `ROOM_TO_BUILD` free."""
+    if any(words in output for words in _DISK_FULL_WORDS):
+        return True
+    try:
+        return shutil.disk_usage(folder).free < ROOM_TO_BUILD
+    except OSError:
+        return False
 
 
 @contextlib.contextmanager
-def atomic_write(path: str | os.PathLike[str], mode: str = "w", *, elsewhere: str = _ANYWHERE_ELSE) -> Iterator[IO[Any]]:
+def atomic_write(
+    path: str | os.PathLike[str], mode: str = "w", *, elsewhere: str = _ANYWHERE_ELSE
+) -> Iterator[IO[Any]]:
     """Open a temporary file next to ``path``; on success sync it and rename it to ``path``, else
     delete it, so ``path`` is the old file or the whole new one, never part of one.
 
@@ -78,7 +90,7 @@ def atomic_write(path: str | os.PathLike[str], mode: str = "w", *, elsewhere: st
     freeing space). Text mode writes UTF-8 with no newline translation.
     """
     path = Path(path)
-    with reporting_disk_full(path, elsewhere):
+    with _reporting_disk_full(path, elsewhere):
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         try:

@@ -7,6 +7,7 @@ command is the real ``modelicagym reproduce`` in a subprocess, its results on an
 
 from __future__ import annotations
 
+import argparse
 import errno
 import os
 import re
@@ -18,11 +19,14 @@ from small_filesystem import FILL, run_with_small_filesystem
 
 from modelicagym import errors
 from modelicagym.cache import FOLDER_MANIFEST, damage
+from modelicagym.console import run_command
 from modelicagym.disk import atomic_write, disk_full
 from modelicagym.experiments.results import completed_sweeps
 
-#: each kind of entry, removed from a warm cache before the disk is filled: the write that fails
-ENTRIES = {"native": "native/*/*.so", "fmu": "fmus/*.fmu", "extraction": "extracted/*/"}
+#: each kind of entry, removed from a warm cache before the disk is filled to leave so many bytes:
+#: too few for the library's link, the FMU's sources, the FMU's CMake build, the extraction
+SCENARIOS = {"native": 16384, "fmu": 16384, "fmu-build": 300_000, "extraction": 16384}
+ENTRIES = {"native": "native/*/*.so", "fmu": "fmus/*.fmu", "fmu-build": "fmus/*.fmu", "extraction": "extracted/*/"}
 
 SCRIPT = """
 set -u
@@ -30,14 +34,15 @@ reproduce() { "$PY" -m modelicagym.cli reproduce --sweeps force --episodes-scale
               --no-progress --out "$@" > /dev/null; }
 export MODELICAGYM_CACHE="$FS/cache"
 reproduce "$OUT/warm" 2> "$OUT/warm.err" || exit 98
-for entry in native fmu extraction; do
+for scenario in $SCENARIOS; do
+    entry=${scenario%=*}
     case $entry in
         native) rm -r "$FS"/cache/native/*/*.so* ;;
-        fmu) rm -r "$FS"/cache/fmus/*.fmu* ;;
+        fmu*) rm -r "$FS"/cache/fmus/*.fmu* ;;
         extraction) rm -r "$FS"/cache/extracted/* ;;
     esac
     rm -f "$FS/filler"
-    "$PY" -c "$FILL" "$FS" 16384
+    "$PY" -c "$FILL" "$FS" "${scenario#*=}"
     reproduce "$OUT/results-$entry" 2> "$OUT/$entry.err"
     echo $? > "$OUT/$entry.rc"
     cp -a "$FS/cache" "$OUT/cache-$entry"
@@ -53,11 +58,12 @@ def _entries(cache: Path, pattern: str) -> set[str]:
 
 
 def test_a_full_disk_under_the_cache_is_one_line_naming_the_entry(tmp_path: Path) -> None:
-    """Each entry is removed from a warm cache, the disk filled to 16 kB of room (less than any
-    entry needs) and ``reproduce`` run; then again with room, which makes the entry."""
+    """Each entry is removed from a warm cache, the disk filled to leave too little room for it
+    and ``reproduce`` run; then again with room, which makes the entry."""
     fs, out = tmp_path / "fs", tmp_path / "out"
     out.mkdir()
-    environment = {**os.environ, "PY": sys.executable, "OUT": str(out), "FILL": FILL}
+    scenarios = " ".join(f"{entry}={room}" for entry, room in SCENARIOS.items())
+    environment = {**os.environ, "PY": sys.executable, "OUT": str(out), "FILL": FILL, "SCENARIOS": scenarios}
     done = run_with_small_filesystem(SCRIPT, fs, "8m", environment)
     assert done.returncode == 0, f"exit {done.returncode}: {done.stderr[-3000:]}"
     for entry, pattern in ENTRIES.items():
@@ -93,3 +99,14 @@ def test_atomic_write_leaves_the_old_file_and_no_temporary_one_when_the_write_fa
         f.write("half")
         raise OSError(errno.EIO, "input/output error")
     assert target.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["table.csv"]
+
+
+def test_the_command_line_prints_a_full_disk_no_writer_of_ours_named_as_one_line(capsys) -> None:
+    def command(args: argparse.Namespace) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device", "/data/out.bin")
+
+    assert run_command(command, argparse.Namespace(debug=False)) == 1
+    assert capsys.readouterr().err == ("error: cannot write /data/out.bin: no space left on device; free space on "
+                                       "its file system, or write it to another folder\n")
+    with pytest.raises(OSError, match="No space left"):
+        run_command(command, argparse.Namespace(debug=True))

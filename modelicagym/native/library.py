@@ -22,7 +22,7 @@ import tempfile
 from pathlib import Path
 
 from modelicagym.cache import cache_dir, ensure, write_manifest
-from modelicagym.disk import disk_full, output_says_disk_full
+from modelicagym.disk import build_ran_out_of_room, disk_full
 from modelicagym.errors import NativeBuildError
 from modelicagym.native.abi import check_layout
 
@@ -112,7 +112,7 @@ def _build(compiler: str, folder: Path, path: Path) -> None:
         command = [compiler, *_FLAGS, "-o", tmp, *c_files, "-lm"]
         logger.info("building the native step library: %s", " ".join(command))
         result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        if result.returncode != 0 and output_says_disk_full(result.stdout):
+        if result.returncode != 0 and build_ran_out_of_room(result.stdout, folder):
             raise disk_full(path)
         if result.returncode != 0:
             raise NativeBuildError(f"building the native step library failed ({' '.join(command)}):\n{result.stdout}")
