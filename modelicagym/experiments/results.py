@@ -27,7 +27,7 @@ import logging
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
@@ -117,15 +117,16 @@ def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
             with atomic_write(csv_path.parent / AGENT_NPZ, "wb", elsewhere=ELSEWHERE) as f:
                 result.agent.save(f)
             written.append(csv_path.parent / AGENT_NPZ)
+        files = {path.name: file_record(path) for path in written}
+        files[EPISODES_CSV]["rows"] = result.lengths.size
         document = {
             "experiment": result.config.name,
             "config": result.config.to_dict(),
             "timing": result.timing,
             "machine": result.machine,
             "bounds": result.bounds,
-            "files": {path.name: file_record(path) for path in written},
+            "files": files,
         }
-        document["files"][EPISODES_CSV]["rows"] = result.lengths.size
         with atomic_write(json_path, elsewhere=ELSEWHERE) as f:
             json.dump(document, f, indent=2, default=_json_default)
             f.write("\n")

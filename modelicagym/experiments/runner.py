@@ -331,6 +331,10 @@ class LocalRunner:
         return run_sweep(config, make_vec=make_vec, num_workers=self.num_workers, progress=progress)
 
 
+def _plot(results_dir: Path, result: SweepResult) -> None:
+    plot_sweep(result, sweep_dir(results_dir, result.config.name) / PLOT_PNG, elsewhere=ELSEWHERE)
+
+
 def run_sweeps(
     configs: Sequence[SweepConfig],
     results_dir: str | Path,
@@ -363,15 +367,14 @@ def run_sweeps(
     for config in configs:
         if resume and is_complete(results_dir, config):
             logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
-            plot_sweep(read_sweep(results_dir, config.name), sweep_dir(results_dir, config.name) / PLOT_PNG,
-                       elsewhere=ELSEWHERE)
+            _plot(results_dir, read_sweep(results_dir, config.name))
             outcomes.append(None)
             continue
         result = runner(config, make_vec=make_vec, progress=progress)
         if bounds_budget > 0:
             result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)
-        plot_sweep(result, sweep_dir(results_dir, config.name) / PLOT_PNG, elsewhere=ELSEWHERE)
+        _plot(results_dir, result)
         write_combined_csv(results_dir)
         outcomes.append(result)
     if all(outcome is None for outcome in outcomes):  # nothing ran: make the table again all the same
