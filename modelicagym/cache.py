@@ -30,9 +30,11 @@ try:
 except ImportError:  # no fcntl (Windows): atomic renames alone keep results valid
     fcntl = None
 
+from modelicagym.disk import atomic_write, disk_full, is_disk_full
 from modelicagym.errors import CacheError
 
 __all__ = [
+    "ELSEWHERE",
     "FOLDER_MANIFEST",
     "cache_dir",
     "damage",
@@ -48,6 +50,9 @@ logger = logging.getLogger(__name__)
 
 #: the manifest of a folder entry, inside it; a file entry's manifest is ``<file>.manifest.json``
 FOLDER_MANIFEST = ".modelicagym-manifest.json"
+
+#: what to do, besides freeing space, when the cache finds its disk full
+ELSEWHERE = "set MODELICAGYM_CACHE to a folder on a file system with room"
 
 _CHUNK = 1 << 20
 _verified: set[tuple[str, int, int]] = set()
@@ -125,10 +130,8 @@ def write_manifest(entry: Path, published_as: Path | None = None) -> None:
     files = {name: file_record(path) for name, path in _files(entry).items()}
     if not entry.is_dir() and published_as is not None:
         files = {published_as.name: files.pop(entry.name)}
-    target = _manifest_path(entry, published_as)
-    partial = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    partial.write_text(json.dumps({"files": files}, indent=1, sort_keys=True), encoding="utf-8")
-    os.replace(partial, target)
+    with atomic_write(_manifest_path(entry, published_as)) as f:
+        json.dump({"files": files}, f, indent=1, sort_keys=True)
 
 
 def damage(entry: Path) -> str | None:
@@ -169,6 +172,8 @@ def ensure(entry: Path, make: Callable[[], None], what: str) -> Path:
                 _remove(entry)
             make()
     except OSError as error:
+        if is_disk_full(error):
+            raise disk_full(entry, ELSEWHERE, error.errno) from error
         if error.errno not in (errno.EACCES, errno.EPERM, errno.EROFS):
             raise
         raise CacheError(

@@ -2,8 +2,8 @@
 
 A user of ``modelicagym`` (or ``python -m modelicagym.experiments``) should see what went wrong
 and what to do, not a traceback: any :class:`~modelicagym.errors.ModelicaGymError` (and a missing
-file) is printed as one line on stderr and the command exits with status 1; ``--debug`` shows the
-full traceback instead. Ctrl-C exits with status 130, quietly.
+file, a full disk) is printed as one line on stderr and the command exits with status 1; ``--debug``
+shows the full traceback instead. Ctrl-C exits with status 130, quietly.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import argparse
 import sys
 from collections.abc import Callable
 
+from modelicagym.disk import disk_full, is_disk_full
 from modelicagym.errors import ModelicaGymError
 
 __all__ = ["add_debug_flag", "run_command"]
@@ -40,6 +41,11 @@ def run_command(command: Callable[[argparse.Namespace], int], args: argparse.Nam
         if args.debug:
             raise
         print(f"error: {one_line(error)}", file=sys.stderr)
+        return 1
+    except OSError as error:  # a full disk where no writer of ours named the file
+        if args.debug or not is_disk_full(error):
+            raise
+        print(f"error: {disk_full(error.filename or 'a file', code=error.errno)}", file=sys.stderr)
         return 1
 
 

@@ -18,6 +18,7 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     ├── NotFoundError (FileNotFoundError)   a file or results directory that does not exist
     ├── DataError (ValueError)              a file whose content cannot be used
     ├── CacheError (OSError)                a damaged cache entry that cannot be made again
+    ├── DiskFullError (OSError)             a file could not be written: its file system is full
     ├── BuildError (RuntimeError)           C sources could not be compiled
     │   └── NativeBuildError                our native library (modelicagym.native)
     ├── ExtraNotInstalledError (ImportError) a feature's optional extra is missing (e.g. `plots`)
@@ -46,6 +47,7 @@ __all__ = [
     "ConfigError",
     "ConfigTypeError",
     "DataError",
+    "DiskFullError",
     "ExtraNotInstalledError",
     "ModelicaGymError",
     "NativeBuildError",
@@ -91,6 +93,18 @@ class DataError(ModelicaGymError, ValueError):
 
 class CacheError(ModelicaGymError, OSError):
     """A cache entry is damaged and cannot be rebuilt or extracted again (a read-only cache)."""
+
+
+class DiskFullError(ModelicaGymError, OSError):
+    """A file could not be written because its file system is full (or the quota is used up).
+
+    Made by `modelicagym.disk.disk_full`: ``errno`` is the original's (ENOSPC or EDQUOT),
+    ``filename`` the file that was being written, and the message one line that names it and
+    says what to do.
+    """
+
+    def __str__(self) -> str:
+        return self.strerror or super().__str__()
 
 
 class BuildError(ModelicaGymError, RuntimeError):

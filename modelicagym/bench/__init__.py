@@ -10,11 +10,12 @@ import json
 import logging
 import os
 import statistics
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+from modelicagym.disk import atomic_write
 
 logger = logging.getLogger(__name__)
 
@@ -66,12 +67,11 @@ def format_table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
 
 
 def write_json(path: str | os.PathLike[str], data: dict[str, Any]) -> Path:
-    """Write ``data`` atomically (a temp file renamed into place): never a half-written result."""
+    """Write ``data`` atomically (a temp file renamed into place): never a half-written result; a
+    full disk is a `DiskFullError` naming the file."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile("w", dir=path.parent, suffix=".tmp", delete=False) as handle:
+    with atomic_write(path, elsewhere="choose another file for it (--json)") as handle:
         json.dump(data, handle, indent=2)
-    os.replace(handle.name, path)
     return path
 
 

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from modelicagym.experiments.analysis import WINDOW, moving_average
-from modelicagym.experiments.results import SweepResult, atomic_write
+from modelicagym.disk import atomic_write
+from modelicagym.experiments.results import SweepResult
 
 __all__ = ["plot_learning_curve", "plot_sweep"]
 
@@ -45,8 +46,16 @@ def plot_learning_curve(curve: list[tuple[float, float, float]], path: str | Pat
     return Path(path)
 
 
-def plot_sweep(result: SweepResult, path: str | Path, *, window: int = WINDOW, title: str | None = None) -> Path | None:
-    """Draw the learning curves of ``result`` into a PNG at ``path``; ``None`` without matplotlib."""
+def plot_sweep(
+    result: SweepResult,
+    path: str | Path,
+    *,
+    window: int = WINDOW,
+    title: str | None = None,
+    elsewhere: str = "choose another folder for it",
+) -> Path | None:
+    """Draw the learning curves of ``result`` into a PNG at ``path``; ``None`` without matplotlib.
+    ``elsewhere`` is what a `DiskFullError` suggests besides freeing space."""
     try:
         import matplotlib
 
@@ -69,7 +78,7 @@ def plot_sweep(result: SweepResult, path: str | Path, *, window: int = WINDOW, t
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend()
-    with atomic_write(path, "wb") as f:
+    with atomic_write(path, "wb", elsewhere=elsewhere) as f:
         fig.savefig(f, format="png", dpi=110)
     plt.close(fig)
     return path

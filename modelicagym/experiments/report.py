@@ -23,7 +23,8 @@ from modelicagym.experiments.analysis import LEARNING_RATIO, WINDOW, SettingSumm
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.paper import FINDINGS, PAPER_NUMBERS, PAPER_SECONDS_PER_STEP, PAPER_SWEEPS, PaperNumbers
 from modelicagym.experiments.plots import plot_sweep
-from modelicagym.experiments.results import SweepResult, atomic_write, completed_sweeps, read_sweep
+from modelicagym.disk import atomic_write
+from modelicagym.experiments.results import SweepResult, completed_sweeps, read_sweep
 
 __all__ = ["TITLES", "read_notes", "render_report"]
 
@@ -36,6 +37,8 @@ TITLES = {
     "time_step": "Simulation time step",
 }
 
+#: what to do, besides freeing space, when the report finds its disk full
+_ELSEWHERE = "choose another folder for the report (report --docs)"
 _NO_NOTES = "_Discussion not written yet: add a `## {key}` section to `{notes}`._"
 
 
@@ -322,6 +325,7 @@ def render_report(
             result,
             docs_dir / "figures" / f"{name}.png",
             title=f"{TITLES.get(name, name)}: mean of {result.config.repeats} repeats, band = min..max",
+            elsewhere=_ELSEWHERE,
         )
         section, found = _sweep_section(name, result, figure, docs_dir, notes, notes_path)
         sections.append(section)
@@ -354,7 +358,7 @@ def render_report(
         ]
     )
     output = docs_dir / output_name
-    with atomic_write(output) as f:
+    with atomic_write(output, elsewhere=_ELSEWHERE) as f:
         f.write(document + "\n")
     logger.info("wrote %s", output)
     return output

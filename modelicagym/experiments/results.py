@@ -2,7 +2,8 @@
 
 Layout of a results directory::
 
-    episodes.csv            all completed sweeps in one tidy table (rewritten after every sweep)
+    episodes.csv            all completed sweeps in one tidy table (made again from the verified
+                            sweeps after every sweep and on every run, so --resume repairs it)
     <name>/episodes.csv     tidy episodes of one sweep: experiment,setting,repeat,episode,length,reward
     <name>/agent.npz        the trained Q-tables, one per (setting, repeat) in env order (see below)
     <name>/run.json         the sweep's config, timing, machine and the manifest of the files above
@@ -13,6 +14,8 @@ Every file is written to a temporary file in the same directory, synced and rena
 A sweep counts as complete only while its files match the manifest in its ``run.json``: a file cut
 short or changed after the run (a full disk, a crash while copying) makes it incomplete, so
 ``--resume`` runs it again and the combined table leaves it out, each with a warning that says why.
+A full disk is a `~modelicagym.errors.DiskFullError` naming the file; the sweep's files written so
+far are removed again, and its ``run.json`` is not written.
 """
 
 from __future__ import annotations
@@ -21,22 +24,22 @@ import contextlib
 import csv
 import json
 import logging
-import os
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
 from modelicagym.agents import QLearningAgent
 from modelicagym.cache import file_record, mismatch
+from modelicagym.disk import atomic_write
 from modelicagym.errors import ArgumentTypeError, DataError, NotFoundError
 from modelicagym.experiments.config import SweepConfig
 
 __all__ = [
     "COLUMNS",
+    "ELSEWHERE",
     "PLOT_PNG",
     "SweepResult",
     "atomic_write",
@@ -56,6 +59,8 @@ EPISODES_CSV = "episodes.csv"
 RUN_JSON = "run.json"
 AGENT_NPZ = "agent.npz"
 PLOT_PNG = "episode_lengths.png"
+#: what to do, besides freeing space, when a results file finds its disk full
+ELSEWHERE = "choose another results folder (reproduce --out)"
 
 
 @dataclass
@@ -84,23 +89,6 @@ class SweepResult:
         return self.lengths.sum(axis=(1, 2))
 
 
-@contextlib.contextmanager
-def atomic_write(path: Path, mode: str = "w") -> Iterator[IO[Any]]:
-    """Open a temporary file next to ``path``; on success rename it to ``path``, else delete it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, mode, **({"newline": "", "encoding": "utf-8"} if "b" not in mode else {})) as f:
-            yield f
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
-
-
 def _paths(results_dir: Path, name: str) -> tuple[Path, Path]:
     return sweep_dir(results_dir, name) / EPISODES_CSV, sweep_dir(results_dir, name) / RUN_JSON
 
@@ -115,29 +103,38 @@ def _rows(result: SweepResult) -> Iterator[tuple[Any, ...]]:
 
 def write_sweep(results_dir: str | Path, result: SweepResult) -> None:
     """Write the sweep's episodes, its agent (if any) and last ``run.json`` (the completion
-    marker), each atomically."""
+    marker), each atomically. If one cannot be written (a full disk: `DiskFullError`), the
+    files this call already wrote are removed again: no incomplete set is left behind."""
     csv_path, json_path = _paths(Path(results_dir), result.config.name)
-    with atomic_write(csv_path) as f:
-        writer = csv.writer(f)
-        writer.writerow(COLUMNS)
-        writer.writerows(_rows(result))
-    if result.agent is not None:
-        with atomic_write(csv_path.parent / AGENT_NPZ, "wb") as f:
-            result.agent.save(f)
-    files = {EPISODES_CSV: file_record(csv_path) | {"rows": result.lengths.size}}
-    if result.agent is not None:
-        files[AGENT_NPZ] = file_record(csv_path.parent / AGENT_NPZ)
-    document = {
-        "experiment": result.config.name,
-        "config": result.config.to_dict(),
-        "timing": result.timing,
-        "machine": result.machine,
-        "bounds": result.bounds,
-        "files": files,
-    }
-    with atomic_write(json_path) as f:
-        json.dump(document, f, indent=2, default=_json_default)
-        f.write("\n")
+    written: list[Path] = []
+    try:
+        with atomic_write(csv_path, elsewhere=ELSEWHERE) as f:
+            writer = csv.writer(f)
+            writer.writerow(COLUMNS)
+            writer.writerows(_rows(result))
+        written.append(csv_path)
+        if result.agent is not None:
+            with atomic_write(csv_path.parent / AGENT_NPZ, "wb", elsewhere=ELSEWHERE) as f:
+                result.agent.save(f)
+            written.append(csv_path.parent / AGENT_NPZ)
+        files = {path.name: file_record(path) for path in written}
+        files[EPISODES_CSV]["rows"] = result.lengths.size
+        document = {
+            "experiment": result.config.name,
+            "config": result.config.to_dict(),
+            "timing": result.timing,
+            "machine": result.machine,
+            "bounds": result.bounds,
+            "files": files,
+        }
+        with atomic_write(json_path, elsewhere=ELSEWHERE) as f:
+            json.dump(document, f, indent=2, default=_json_default)
+            f.write("\n")
+    except BaseException:
+        for path in written:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+        raise
     logger.info("wrote %s and %s", csv_path, json_path)
 
 
@@ -238,10 +235,11 @@ def read_sweep(results_dir: str | Path, name: str) -> SweepResult:
 
 
 def write_combined_csv(results_dir: str | Path) -> Path:
-    """Concatenate the CSVs of all completed sweeps into ``episodes.csv``."""
+    """Concatenate the CSVs of all completed sweeps into ``episodes.csv``, atomically: the table is
+    made again from the sweeps' verified files, whatever it held before."""
     results_dir = Path(results_dir)
     combined = results_dir / EPISODES_CSV
-    with atomic_write(combined) as out:
+    with atomic_write(combined, elsewhere=ELSEWHERE) as out:
         out.write(",".join(COLUMNS) + "\n")
         for name in completed_sweeps(results_dir):
             with open(results_dir / name / EPISODES_CSV, encoding="utf-8", newline="") as f:

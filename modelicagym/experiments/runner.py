@@ -38,9 +38,11 @@ from modelicagym.experiments.bounds import DEFAULT_BUDGET, MakeEnv, sweep_bounds
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.plots import plot_sweep
 from modelicagym.experiments.results import (
+    ELSEWHERE,
     PLOT_PNG,
     SweepResult,
     is_complete,
+    read_sweep,
     sweep_dir,
     write_combined_csv,
     write_sweep,
@@ -329,6 +331,10 @@ class LocalRunner:
         return run_sweep(config, make_vec=make_vec, num_workers=self.num_workers, progress=progress)
 
 
+def _plot(results_dir: Path, result: SweepResult) -> None:
+    plot_sweep(result, sweep_dir(results_dir, result.config.name) / PLOT_PNG, elsewhere=ELSEWHERE)
+
+
 def run_sweeps(
     configs: Sequence[SweepConfig],
     results_dir: str | Path,
@@ -348,7 +354,9 @@ def run_sweeps(
     episodes.
 
     With ``resume``, sweeps already complete in ``results_dir`` with the same config are skipped
-    (``None`` in the returned list). An interruption loses only the sweep that was running. The
+    (``None`` in the returned list); their plots are drawn again, and the combined table is made
+    again from the verified sweeps even when nothing ran, so a table or plot damaged since is
+    whole again. An interruption loses only the sweep that was running. The
     longest possible episode of every setting is searched for with single envs from ``make``
     (default ``modelicagym.make``), at most ``bounds_budget`` env steps per setting (0: no search),
     and stored with the results.
@@ -359,13 +367,16 @@ def run_sweeps(
     for config in configs:
         if resume and is_complete(results_dir, config):
             logger.info("sweep %r already complete in %s: skipped", config.name, results_dir)
+            _plot(results_dir, read_sweep(results_dir, config.name))
             outcomes.append(None)
             continue
         result = runner(config, make_vec=make_vec, progress=progress)
         if bounds_budget > 0:
             result.bounds = sweep_bounds(config, make=make, budget=bounds_budget)
         write_sweep(results_dir, result)
-        plot_sweep(result, sweep_dir(results_dir, config.name) / PLOT_PNG)
+        _plot(results_dir, result)
         write_combined_csv(results_dir)
         outcomes.append(result)
+    if all(outcome is None for outcome in outcomes):  # nothing ran: make the table again all the same
+        write_combined_csv(results_dir)
     return outcomes

@@ -37,6 +37,7 @@ from xml.etree import ElementTree
 import fmpy
 
 from modelicagym.cache import cache_dir, ensure, write_manifest
+from modelicagym.disk import build_ran_out_of_room, disk_full
 from modelicagym.errors import ArgumentError, BuildError, NotFoundError
 from modelicagym.fmu.errors import FMUError
 
@@ -372,6 +373,8 @@ def _compile(unzipdir: Path, build_dir: Path, identifier: str, c_files: list[str
         result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         output.append(result.stdout)
         logger.debug("%s\n%s", " ".join(command), result.stdout)
+        if result.returncode != 0 and build_ran_out_of_room(result.stdout, build_dir):
+            raise disk_full(unzipdir / "binaries")
         if result.returncode != 0:
             raise FMUBuildError(f"building {unzipdir} failed ({' '.join(command)}):\n" + "".join(output))
     if "warning:" in output[-1]:

@@ -10,6 +10,7 @@ Nothing compiled is ever committed.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import hashlib
@@ -21,6 +22,7 @@ import tempfile
 from pathlib import Path
 
 from modelicagym.cache import cache_dir, ensure, write_manifest
+from modelicagym.disk import build_ran_out_of_room, disk_full
 from modelicagym.errors import NativeBuildError
 from modelicagym.native.abi import check_layout
 
@@ -106,13 +108,19 @@ def _build(compiler: str, folder: Path, path: Path) -> None:
     c_files = [str(p) for p in _sources() if p.suffix == ".c"]
     with tempfile.NamedTemporaryFile(dir=folder, suffix=".so.tmp", delete=False) as handle:
         tmp = handle.name
-    command = [compiler, *_FLAGS, "-o", tmp, *c_files, "-lm"]
-    logger.info("building the native step library: %s", " ".join(command))
-    result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    if result.returncode != 0:
-        os.unlink(tmp)
-        raise NativeBuildError(f"building the native step library failed ({' '.join(command)}):\n{result.stdout}")
-    if result.stdout.strip():
-        logger.warning("compiler output while building the native step library:\n%s", result.stdout)
-    write_manifest(Path(tmp), published_as=path)
-    os.replace(tmp, path)
+    try:
+        command = [compiler, *_FLAGS, "-o", tmp, *c_files, "-lm"]
+        logger.info("building the native step library: %s", " ".join(command))
+        result = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        if result.returncode != 0 and build_ran_out_of_room(result.stdout, folder):
+            raise disk_full(path)
+        if result.returncode != 0:
+            raise NativeBuildError(f"building the native step library failed ({' '.join(command)}):\n{result.stdout}")
+        if result.stdout.strip():
+            logger.warning("compiler output while building the native step library:\n%s", result.stdout)
+        write_manifest(Path(tmp), published_as=path)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise

@@ -473,6 +473,40 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
     assert main(["report", "--results", str(tmp_path / "empty")]) == 1
 
 
+SMALLEST = ["--sweeps", "force,reward", "--episodes-scale", "0.03", "--no-progress", "--bounds-budget", "0"]
+
+
+@pytest.mark.parametrize("damage", ["cut short", "garbled", "deleted", "plot deleted"])
+def test_resume_leaves_the_combined_table_and_the_plots_whole(tmp_path, monkeypatch, damage):
+    """``reproduce --resume`` after the combined table (or a plot) was damaged, with every sweep
+    complete so nothing runs: the table is made again from the verified sweeps and equals an
+    undamaged run's (it used to stay cut short, with exit status 0)."""
+    monkeypatch.setattr(modelicagym, "make_vec", Recorder(), raising=False)
+    undamaged, out = tmp_path / "undamaged", tmp_path / "results"
+    assert main(["reproduce", "--out", str(undamaged), *SMALLEST]) == 0
+    assert main(["reproduce", "--out", str(out), *SMALLEST]) == 0
+    combined, plot = out / "episodes.csv", out / "reward" / "episode_lengths.png"
+    text = combined.read_text()
+    assert text == (undamaged / "episodes.csv").read_text()
+    if damage == "cut short":
+        combined.write_text(text[: len(text) // 2])
+    elif damage == "garbled":
+        combined.write_text(text.replace("force,", "f\x00rce;", 7))
+    elif damage == "deleted":
+        combined.unlink()
+    else:
+        plot.unlink()
+    recorder = Recorder()
+    monkeypatch.setattr(modelicagym, "make_vec", recorder, raising=False)
+    assert main(["reproduce", "--out", str(out), "--resume", *SMALLEST]) == 0
+    assert recorder.calls == []  # both sweeps were complete: nothing ran
+    assert combined.read_text() == (undamaged / "episodes.csv").read_text()
+    with open(combined, newline="") as f:
+        assert len(list(csv.DictReader(f))) == 3 * 5 * 3 + 3 * 5 * 6
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(out.rglob("*.tmp"))
+
+
 def test_tiny_sweep_on_the_real_cartpole_pool(tmp_path):
     """The default ``make_vec`` (the FMU env in the multi-process pool), end to end."""
     config = tiny(settings=(Setting("0.05 s", {}), Setting("0.5 s", {"time_step": 0.5})), episodes=2)
