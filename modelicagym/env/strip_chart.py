@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from modelicagym.disk import atomic_write
 from modelicagym.errors import ExtraNotInstalledError
 from modelicagym.fmu import FMUInstance
 from modelicagym.fmu.buffers import ValueBuffer
@@ -162,9 +163,11 @@ class StripChart:
         return np.ascontiguousarray(np.asarray(canvas.buffer_rgba())[:, :, :3])
 
     def save(self, path: str | Path) -> Path:
-        """Write the chart of the episode so far as a PNG at ``path``."""
+        """Write the chart of the episode so far as a PNG at ``path`` (whole or not at all: a full
+        disk is one `DiskFullError` naming it)."""
         canvas = self._update()
-        canvas.print_png(str(path))
+        with atomic_write(path, "wb", elsewhere="choose another file (try --out)") as f:
+            canvas.print_png(f)
         return Path(path)
 
     def _update(self) -> Any:
