@@ -21,7 +21,7 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     ├── BuildError (RuntimeError)           C sources could not be compiled
     │   └── NativeBuildError                our native library (modelicagym.native)
     ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
-    │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, ...)
+    │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, LoadTrialError, ...)
     ├── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
     │   (EnvError, WorkerDiedError, WorkerTimeoutError, ...; misuse errors are also
     │   Gymnasium's AlreadyPendingCallError, NoAsyncCallError, ClosedEnvironmentError)

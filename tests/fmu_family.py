@@ -21,6 +21,10 @@ for FMI 1.0 model exchange, ``modelDescription_fmi1_me.xml``, built directly in 
 ``stiff``
     a stiff linear model without events (eigenvalues ``-lambda = -1e4`` and -1), with a Float64
     input; its co-simulation RK4 runs at ``cs_step_size = 1e-5`` to stay stable.
+``crashy``
+    a first-order lag whose variants (``crashy_segfault``, ``crashy_exit``, ``crashy_abort``,
+    ``crashy_hang``) crash, exit, abort or hang while loaded, for the load trial
+    (``modelicagym/fmu/trial.py``); ``crashy`` itself is well behaved.
 
 Tests get built members through the ``family_fmu(name, fmi_version)`` fixture of ``conftest.py``.
 """
@@ -43,6 +47,7 @@ PROBE_DIR = FMUS_DIR / "probe"
 BALL_DIR = FMUS_DIR / "ball"
 STAIRCASE_DIR = FMUS_DIR / "staircase"
 STIFF_DIR = FMUS_DIR / "stiff"
+CRASHY_DIR = FMUS_DIR / "crashy"
 FMI_VERSIONS = (2, 3)
 
 # Names of the models' variables (the probe's per FMI version).
@@ -89,6 +94,12 @@ VARIANTS: dict[str, Variant] = {
     "staircase": Variant(STAIRCASE_DIR),
     # stiff linear model, no events, model exchange + co-simulation
     "stiff": Variant(STIFF_DIR),
+    # a first-order lag that loads fine, and its variants that misbehave while loaded (tests/fmus/crashy/config.h)
+    "crashy": Variant(CRASHY_DIR),
+    "crashy_segfault": Variant(CRASHY_DIR, {"CRASH_IN_INSTANTIATE": None}),
+    "crashy_exit": Variant(CRASHY_DIR, {"EXIT_IN_INSTANTIATE": None}),
+    "crashy_abort": Variant(CRASHY_DIR, {"ABORT_IN_INITIALIZE": None}),
+    "crashy_hang": Variant(CRASHY_DIR, {"HANG_IN_INSTANTIATE": None}),
 }
 
 

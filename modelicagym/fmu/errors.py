@@ -41,6 +41,17 @@ class UnsupportedFeatureError(FMUError):
     """The FMU lacks a capability that was asked for (an interface type, state snapshots, ...)."""
 
 
+class LoadTrialError(FMUError):
+    """The FMU's binary crashed, ended its process or hung while tried in a child process before
+    its first load (`modelicagym.fmu.trial`); it is not loaded, so that it cannot take the caller's
+    process down. ``function`` is the FMI call it died in, ``messages`` its last log lines."""
+
+    def __init__(self, message: str, function: str, messages: list[str]):
+        super().__init__(message)
+        self.function = function
+        self.messages = list(messages)
+
+
 class VariableError(FMUError, KeyError):
     """A variable name is unknown, or the variable cannot be used the way it was asked to."""
 

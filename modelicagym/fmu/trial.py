@@ -1,0 +1,327 @@
+"""Try an FMU's binary in a short-lived child process before its first load on this machine.
+
+A third-party FMU can take down the process that loads it: a licensed FMU without its licence
+logs "license file was not found" and segfaults inside ``fmi2Instantiate``; others call
+``exit()`` or hang. So the first time a binary (by content: the shared library's SHA-256, and the
+mode) is loaded on a machine, `check_first_load` runs `modelicagym.fmu.trial_child` in a child
+process: load the library, instantiate, enter and exit initialization mode with the default
+values, free. The child reports each FMI call before making it and each message the FMU logs, so
+a crash, an ``exit()`` or a hang there becomes a one-line `LoadTrialError` naming the FMU, the
+call and the FMU's last log lines, and the caller's process lives on.
+
+The verdict is kept in the cache (``load-trials/<sha256>-<mode>.json``), so later loads in any
+process read one small file, and a verdict known in this process costs nothing. Concurrent first
+loads (a pool's workers) take the verdict's lock: one runs the trial, the others read its verdict.
+A failed verdict is tried again when the FMU file changes (or when a hang was judged with a
+shorter timeout than the one now set). A clean refusal in the child (a missing system library, a
+failing ``fmi2Instantiate``) is not a verdict: the caller's own load raises it as usual.
+
+The models shipped in ``modelicagym/models``, built from our own sources, skip the trial.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+from modelicagym.cache import FOLDER_MANIFEST, cache_dir, file_digest, locked
+from modelicagym.errors import ConfigError
+from modelicagym.fmu.build import bundled_fmus
+from modelicagym.fmu.description import FMUDescription
+from modelicagym.fmu.errors import LoadTrialError
+
+__all__ = ["DEFAULT_TIMEOUT", "TIMEOUT_VARIABLE", "check_first_load", "mark_safe_here", "trial_timeout"]
+
+logger = logging.getLogger(__name__)
+
+TIMEOUT_VARIABLE = "MODELICAGYM_LOAD_TRIAL_TIMEOUT"
+#: seconds one FMI call of the trial may take: generous, as some FMUs initialize for minutes
+DEFAULT_TIMEOUT = 300.0
+#: seconds the child may take to start Python and import the runtime, before its first FMI call
+_STARTUP_SECONDS = 60.0
+#: seconds a child that closed its report pipe may take to exit
+_EXIT_SECONDS = 10.0
+_LOG_LINES = 3
+_OUTPUT_LINES = 3
+
+#: the libraries known in this process to load safely
+_safe: set[Path] = set()
+
+
+def trial_timeout() -> float:
+    """Seconds one FMI call may take in the trial: ``$MODELICAGYM_LOAD_TRIAL_TIMEOUT``, else 300."""
+    value = os.environ.get(TIMEOUT_VARIABLE)
+    if value is None:
+        return DEFAULT_TIMEOUT
+    try:
+        seconds = float(value)
+    except ValueError:
+        seconds = float("nan")
+    if not seconds > 0:
+        raise ConfigError(f"${TIMEOUT_VARIABLE}={value!r} is not a positive number of seconds")
+    return seconds
+
+
+@dataclass
+class Verdict:
+    """What a trial found, as kept in the cache."""
+
+    outcome: str
+    """``"ok"``, ``"crashed"`` (a signal), ``"exited"`` (the process ended) or ``"hung"``."""
+    fmu: str
+    """The FMU file's identity when tried: a failed verdict holds only while it is the same."""
+    function: str = ""
+    detail: str = ""
+    """The signal's name, the exit code, or the timeout in seconds."""
+    messages: list[str] = field(default_factory=list)
+    timeout: float = 0.0
+    tried_at: str = ""
+
+    def holds_for(self, fmu: str, timeout: float) -> bool:
+        """Whether this verdict still answers for the FMU ``fmu`` under ``timeout``."""
+        if self.outcome == "ok":
+            return True
+        return self.fmu == fmu and (self.outcome != "hung" or timeout <= self.timeout)
+
+
+def check_first_load(description: FMUDescription, mode: str, library: Path) -> None:
+    """Make sure ``library`` (``description``'s binary for ``mode``) is safe to load here.
+
+    Nothing to do when its verdict is known; otherwise try it in a child process, under the
+    verdict's lock. Raise `LoadTrialError` when the binary crashed, exited or hung there (now or
+    in an earlier trial of the same FMU file).
+    """
+    if library in _safe:
+        return
+    path = _verdict_path(description, mode, library)
+    verdict = _read(path)
+    if verdict is None and Path(description.path).resolve() in bundled_fmus():
+        verdict = Verdict("ok", "built from modelicagym's own sources")
+    fmu, timeout = _fmu_identity(description), trial_timeout()
+    if verdict is None or not verdict.holds_for(fmu, timeout):
+        verdict = _tried_under_lock(description, mode, path, fmu, timeout)
+    if verdict is None or verdict.outcome == "ok":
+        _safe.add(library)
+        return
+    raise _error(description, verdict, path)
+
+
+def mark_safe_here(library: Path) -> None:
+    """Load ``library`` in this process without a trial (the trial's own child process)."""
+    _safe.add(library)
+
+
+def _tried_under_lock(description: FMUDescription, mode: str, path: Path, fmu: str, timeout: float) -> Verdict | None:
+    """The verdict of a trial run now, or of the one a concurrent process just ran."""
+    try:
+        with locked(path.with_name(path.name + ".lock")):
+            verdict = _read(path)
+            if verdict is not None and verdict.holds_for(fmu, timeout):
+                return verdict
+            verdict = _run(description, mode, fmu, timeout)
+            if verdict is not None:
+                _write(path, verdict)
+            return verdict
+    except OSError as error:  # a read-only cache: try without keeping the verdict
+        logger.warning("cannot keep the load trial's verdict for %s in %s (%s): trying it without", description.name,
+                       path.parent, error)
+        return _run(description, mode, fmu, timeout)
+
+
+# -- the child -----------------------------------------------------------------------------------
+
+
+def _run(description: FMUDescription, mode: str, fmu: str, timeout: float) -> Verdict | None:
+    """Run the trial in a child process; ``None`` when it says nothing about the binary's safety
+    (a clean refusal, which the caller's own load will raise, or a child that could not start)."""
+    logger.info("%s: first load of this binary here; trying it in a child process", description.name)
+    started = time.monotonic()
+    read_fd, write_fd = os.pipe()
+    with tempfile.TemporaryFile() as output:
+        try:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "modelicagym.fmu.trial_child", str(write_fd), str(description.unzip_dir), mode],
+                stdin=subprocess.PIPE, stdout=output, stderr=subprocess.STDOUT, pass_fds=(write_fd,),
+                start_new_session=True, env=_child_environment(),
+            )
+        finally:
+            os.close(write_fd)
+        report, hung = _Report(), True
+        try:
+            hung = not _follow(read_fd, report, timeout)
+        finally:
+            os.close(read_fd)
+            _end(process, wait=not hung)
+        output.seek(0)
+        printed = output.read().decode("utf-8", errors="replace").splitlines()
+    logger.info("%s: load trial took %.2f s", description.name, time.monotonic() - started)
+    verdict = Verdict("ok", fmu, timeout=timeout, tried_at=datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    if report.done:
+        return verdict
+    if report.refusal is not None:
+        logger.debug("%s: the load trial ended in a clean refusal: %s", description.name, report.refusal)
+        return None
+    if not report.calls:
+        logger.warning("%s: the load trial's child process ended before trying the FMU (exit code %s): %s; loading "
+                       "without a trial", description.name, process.returncode, " | ".join(printed[-_OUTPUT_LINES:]))
+        return None
+    verdict.function = report.calls[-1]
+    verdict.messages = report.messages[-_LOG_LINES:] or [f"(printed) {line}" for line in printed[-_OUTPUT_LINES:]]
+    if hung:
+        verdict.outcome, verdict.detail = "hung", f"{timeout:g} s"
+    elif process.returncode < 0:
+        verdict.outcome, verdict.detail = "crashed", _signal_name(-process.returncode)
+    else:
+        verdict.outcome, verdict.detail = "exited", str(process.returncode)
+    return verdict
+
+
+def _child_environment() -> dict[str, str]:
+    """This environment, with the folder this modelicagym is imported from first on the path, so
+    that the child runs the same code."""
+    environment = dict(os.environ)
+    root = str(Path(__file__).resolve().parents[2])
+    environment["PYTHONPATH"] = os.pathsep.join(p for p in (root, environment.get("PYTHONPATH")) if p)
+    return environment
+
+
+class _Report:
+    """What the child said: the calls it entered, the FMU's messages, and how it ended."""
+
+    def __init__(self) -> None:
+        self.calls: list[str] = []
+        self.messages: list[str] = []
+        self.done = False
+        self.refusal: str | None = None
+        self._partial = b""
+
+    def take(self, chunk: bytes) -> bool:
+        """Read a chunk of the child's lines; True when one was a call (its clock starts)."""
+        lines = (self._partial + chunk).split(b"\n")
+        self._partial = lines.pop()
+        called = False
+        for line in lines:
+            kind, _, text = line.decode("utf-8", errors="replace").partition(" ")
+            if kind == "call":
+                self.calls.append(text)
+                called = True
+            elif kind == "log":
+                self.messages.append(text)
+            elif kind == "done":
+                self.done = True
+            elif kind == "refused":
+                self.refusal = text
+        return called
+
+
+def _follow(read_fd: int, report: _Report, timeout: float) -> bool:
+    """Read the child's report until it closes it; False if a call outlasted ``timeout`` (or the
+    child its start-up allowance)."""
+    deadline = time.monotonic() + _STARTUP_SECONDS
+    while True:
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            return False
+        if select.select([read_fd], [], [], remaining)[0]:
+            chunk = os.read(read_fd, 65536)
+            if not chunk:
+                return True
+            if report.take(chunk):
+                deadline = time.monotonic() + timeout
+
+
+def _end(process: subprocess.Popen, wait: bool) -> None:
+    """End the child: closing its stdin tells it its parent is done with it; one that closed its
+    report (``wait``) may take a moment to exit, any other is killed. Whatever it started (its
+    session's process group) is killed too, so that nothing is left behind."""
+    assert process.stdin is not None
+    process.stdin.close()
+    try:
+        process.wait(_EXIT_SECONDS if wait else 0)
+    except subprocess.TimeoutExpired:
+        pass
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    process.wait()
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+# -- verdicts ------------------------------------------------------------------------------------
+
+
+def _verdict_path(description: FMUDescription, mode: str, library: Path) -> Path:
+    return cache_dir() / "load-trials" / f"{_library_digest(description, library)[:24]}-{mode}.json"
+
+
+def _library_digest(description: FMUDescription, library: Path) -> str:
+    """The library's SHA-256: from the extraction's manifest (checked when the FMU was opened)
+    when the FMU came as a file, else hashed."""
+    if Path(description.path).is_file():
+        try:
+            manifest = json.loads((description.unzip_dir / FOLDER_MANIFEST).read_text(encoding="utf-8"))
+            record = manifest["files"][library.relative_to(description.unzip_dir).as_posix()]
+            if record["bytes"] == library.stat().st_size:
+                return str(record["sha256"])
+        except (OSError, ValueError, KeyError, TypeError):
+            pass
+    return file_digest(library)
+
+
+def _fmu_identity(description: FMUDescription) -> str:
+    """What changes when the FMU does: an FMU file's content key (its extraction's name), an
+    extracted folder's files by name, size and modification time."""
+    if Path(description.path).is_file():
+        return description.unzip_dir.name
+    files = sorted(p for p in Path(description.unzip_dir).rglob("*") if p.is_file())
+    return repr([(p.relative_to(description.unzip_dir).as_posix(), p.stat().st_size, p.stat().st_mtime_ns)
+                 for p in files])
+
+
+def _read(path: Path) -> Verdict | None:
+    try:
+        return Verdict(**json.loads(path.read_text(encoding="utf-8")))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, TypeError) as error:
+        logger.warning("the load trial's verdict %s is unreadable (%s): trying the FMU again", path, error)
+        return None
+
+
+def _write(path: Path, verdict: Verdict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    partial.write_text(json.dumps(asdict(verdict), indent=1), encoding="utf-8")
+    os.replace(partial, path)
+
+
+def _error(description: FMUDescription, verdict: Verdict, path: Path) -> LoadTrialError:
+    what = {
+        "crashed": f"crashed ({verdict.detail}) in {verdict.function}",
+        "exited": f"ended its process with exit({verdict.detail}) in {verdict.function}",
+        "hung": f"did not return from {verdict.function} within {verdict.detail} (if it only initializes slowly, "
+                f"set ${TIMEOUT_VARIABLE} to more seconds)",
+    }[verdict.outcome]
+    said = f"; its last log lines: {' | '.join(verdict.messages)}" if verdict.messages else "; it logged nothing"
+    return LoadTrialError(
+        f"{description.name} {what} when tried in a child process on {verdict.tried_at}{said}. It is not loaded, so "
+        f"that it cannot take this process down; the verdict is kept in {path} until the FMU file changes "
+        "(delete it to try again)", verdict.function, verdict.messages)
+
