@@ -46,10 +46,13 @@ class LoadTrialError(FMUError):
     its first load (`modelicagym.fmu.trial`); it is not loaded, so that it cannot take the caller's
     process down. ``function`` is the FMI call it died in, ``messages`` its last log lines."""
 
-    def __init__(self, message: str, function: str, messages: list[str]):
+    def __init__(self, message: str, function: str = "", messages: list[str] | tuple[str, ...] = ()):
         super().__init__(message)
         self.function = function
         self.messages = list(messages)
+
+    def __reduce__(self) -> tuple:  # a pool's worker sends it to the parent
+        return type(self), (str(self), self.function, self.messages)
 
 
 class VariableError(FMUError, KeyError):
