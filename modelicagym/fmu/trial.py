@@ -49,6 +49,8 @@ TIMEOUT_VARIABLE = "MODELICAGYM_LOAD_TRIAL_TIMEOUT"
 DEFAULT_TIMEOUT = 300.0
 #: seconds the child may take to start Python and import the runtime, before its first FMI call
 _STARTUP_SECONDS = 60.0
+#: seconds after which a call still running in the trial is said (once), so that it is not taken for a hang
+_NOTE_SECONDS = 10.0
 #: seconds a child that closed its report pipe may take to exit
 _EXIT_SECONDS = 10.0
 _LOG_LINES = 3
@@ -158,7 +160,7 @@ def _run(description: FMUDescription, mode: str, fmu: str, timeout: float) -> Ve
             os.close(write_fd)
         report, hung = _Report(), True
         try:
-            hung = not _follow(read_fd, report, timeout)
+            hung = not _follow(read_fd, report, timeout, description.name)
         finally:
             os.close(read_fd)
             _end(process, wait=not hung)
@@ -224,20 +226,28 @@ class _Report:
         return called
 
 
-def _follow(read_fd: int, report: _Report, timeout: float) -> bool:
+def _follow(read_fd: int, report: _Report, timeout: float, fmu_name: str) -> bool:
     """Read the child's report until it closes it; False if a call outlasted ``timeout`` (or the
-    child its start-up allowance)."""
+    child its start-up allowance). A call that takes long is said once, so that a slow first load
+    does not look like a hang."""
     deadline = time.monotonic() + _STARTUP_SECONDS
+    note = time.monotonic() + _NOTE_SECONDS
     while True:
-        remaining = deadline - time.monotonic()
-        if remaining <= 0:
+        now = time.monotonic()
+        if now >= deadline:
             return False
-        if select.select([read_fd], [], [], remaining)[0]:
+        if now >= note:
+            if report.calls:
+                logger.warning("%s: %s has taken %.0f s so far in the load trial (it gives up after %g s: $%s)",
+                               fmu_name, report.calls[-1], now - (deadline - timeout), timeout, TIMEOUT_VARIABLE)
+            note = deadline
+        if select.select([read_fd], [], [], min(deadline, note) - now)[0]:
             chunk = os.read(read_fd, 65536)
             if not chunk:
                 return True
             if report.take(chunk):
                 deadline = time.monotonic() + timeout
+                note = time.monotonic() + _NOTE_SECONDS
 
 
 def _end(process: subprocess.Popen, wait: bool) -> None:

@@ -238,3 +238,17 @@ def test_a_pool_of_a_crashing_fmu_raises_in_the_parent(family_fmu):
         make_vec(config, 2, num_workers=2)
     with pytest.raises(ModelicaGymError, match=r"SIGSEGV\) in fmi2Instantiate"):
         make_vec(config, 3)
+
+
+def test_a_hang_is_tried_again_with_a_longer_timeout(first_load, tmp_path, monkeypatch):
+    path = first_load("crashy_hang", 2)
+    with pytest.raises(LoadTrialError, match="within 2 s"):
+        FMUInstance(path)
+    judged = children_cpu()
+    with pytest.raises(LoadTrialError, match="within 2 s"):
+        FMUInstance(path)
+    assert children_cpu() == judged, "the same timeout: the kept verdict holds"
+    monkeypatch.setenv(TIMEOUT_VARIABLE, "2.5")
+    with pytest.raises(LoadTrialError, match="within 2.5 s"):
+        FMUInstance(path)
+    assert children_cpu() > judged, "a longer timeout than the verdict's: tried again"
