@@ -30,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -109,9 +110,10 @@ def check_first_load(description: FMUDescription, mode: str, library: Path) -> N
     verdict = _read(path)
     if verdict is None and Path(description.path).resolve() in bundled_fmus():
         verdict = Verdict("ok", "built from modelicagym's own sources")
-    fmu, timeout = _fmu_identity(description), trial_timeout()
-    if verdict is None or not verdict.holds_for(fmu, timeout):
-        verdict = _tried_under_lock(description, mode, path, fmu, timeout)
+    if verdict is None or verdict.outcome != "ok":
+        fmu, timeout = _fmu_identity(description), trial_timeout()
+        if verdict is None or not verdict.holds_for(fmu, timeout):
+            verdict = _tried_under_lock(description, mode, path, fmu, timeout)
     if verdict is None or verdict.outcome == "ok":
         _safe.add(library)
         return
@@ -124,20 +126,22 @@ def mark_safe_here(library: Path) -> None:
 
 
 def _tried_under_lock(description: FMUDescription, mode: str, path: Path, fmu: str, timeout: float) -> Verdict | None:
-    """The verdict of a trial run now, or of the one a concurrent process just ran."""
-    try:
-        with locked(path.with_name(path.name + ".lock")):
-            verdict = _read(path)
-            if verdict is not None and verdict.holds_for(fmu, timeout):
-                return verdict
-            verdict = _run(description, mode, fmu, timeout)
-            if verdict is not None:
-                _write(path, verdict)
+    """The verdict of a trial run now, or of the one a concurrent process just ran. Where the
+    cache is read-only the trial runs without keeping its verdict."""
+    with ExitStack() as stack:
+        try:
+            stack.enter_context(locked(path.with_name(path.name + ".lock")))
+        except OSError as error:
+            logger.warning("%s: the load trial's verdict cannot be kept in %s (%s)", description.name, path.parent,
+                           error)
+            return _run(description, mode, fmu, timeout)
+        verdict = _read(path)
+        if verdict is not None and verdict.holds_for(fmu, timeout):
             return verdict
-    except OSError as error:  # a read-only cache: try without keeping the verdict
-        logger.warning("cannot keep the load trial's verdict for %s in %s (%s): trying it without", description.name,
-                       path.parent, error)
-        return _run(description, mode, fmu, timeout)
+        verdict = _run(description, mode, fmu, timeout)
+        if verdict is not None:
+            _write(path, verdict, description.name)
+        return verdict
 
 
 # -- the child -----------------------------------------------------------------------------------
@@ -148,24 +152,9 @@ def _run(description: FMUDescription, mode: str, fmu: str, timeout: float) -> Ve
     (a clean refusal, which the caller's own load will raise, or a child that could not start)."""
     logger.info("%s: first load of this binary here; trying it in a child process", description.name)
     started = time.monotonic()
-    read_fd, write_fd = os.pipe()
-    with tempfile.TemporaryFile() as output:
-        try:
-            process = subprocess.Popen(
-                [sys.executable, "-m", "modelicagym.fmu.trial_child", str(write_fd), str(description.unzip_dir), mode],
-                stdin=subprocess.PIPE, stdout=output, stderr=subprocess.STDOUT, pass_fds=(write_fd,),
-                start_new_session=True, env=_child_environment(),
-            )
-        finally:
-            os.close(write_fd)
-        report, hung = _Report(), True
-        try:
-            hung = not _follow(read_fd, report, timeout, description.name)
-        finally:
-            os.close(read_fd)
-            _end(process, wait=not hung)
-        output.seek(0)
-        printed = output.read().decode("utf-8", errors="replace").splitlines()
+    report = _watch_child(description, mode, timeout)
+    if report is None:
+        return None
     logger.info("%s: load trial took %.2f s", description.name, time.monotonic() - started)
     verdict = Verdict("ok", fmu, timeout=timeout, tried_at=datetime.now(timezone.utc).isoformat(timespec="seconds"))
     if report.done:
@@ -174,18 +163,48 @@ def _run(description: FMUDescription, mode: str, fmu: str, timeout: float) -> Ve
         logger.debug("%s: the load trial ended in a clean refusal: %s", description.name, report.refusal)
         return None
     if not report.calls:
-        logger.warning("%s: the load trial's child process ended before trying the FMU (exit code %s): %s; loading "
-                       "without a trial", description.name, process.returncode, " | ".join(printed[-_OUTPUT_LINES:]))
+        logger.warning("%s: the load trial's child process failed before trying the FMU (exit code %s): %s; loading "
+                       "without a trial", description.name, report.exit_code,
+                       " | ".join(report.printed[-_OUTPUT_LINES:]))
         return None
     verdict.function = report.calls[-1]
-    verdict.messages = report.messages[-_LOG_LINES:] or [f"(printed) {line}" for line in printed[-_OUTPUT_LINES:]]
-    if hung:
+    printed = [f"(printed) {line}" for line in report.printed[-_OUTPUT_LINES:]]
+    verdict.messages = report.messages[-_LOG_LINES:] or printed
+    if report.hung:
         verdict.outcome, verdict.detail = "hung", f"{timeout:g} s"
-    elif process.returncode < 0:
-        verdict.outcome, verdict.detail = "crashed", _signal_name(-process.returncode)
+    elif report.exit_code < 0:
+        verdict.outcome, verdict.detail = "crashed", _signal_name(-report.exit_code)
     else:
-        verdict.outcome, verdict.detail = "exited", str(process.returncode)
+        verdict.outcome, verdict.detail = "exited", str(report.exit_code)
     return verdict
+
+
+def _watch_child(description: FMUDescription, mode: str, timeout: float) -> _Report | None:
+    """Start the child, follow its report, end it; ``None`` if it cannot start."""
+    read_fd, write_fd = os.pipe()
+    with tempfile.TemporaryFile() as output:
+        try:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "modelicagym.fmu.trial_child", str(write_fd), str(description.unzip_dir), mode],
+                stdin=subprocess.PIPE, stdout=output, stderr=subprocess.STDOUT, pass_fds=(write_fd,),
+                start_new_session=True, env=_child_environment(),
+            )
+        except OSError as error:
+            os.close(read_fd)
+            logger.warning("%s: the load trial's child process cannot start (%s); loading without a trial",
+                           description.name, error)
+            return None
+        finally:
+            os.close(write_fd)
+        report = _Report()
+        try:
+            report.hung = not _follow(read_fd, report, timeout, description.name)
+        finally:
+            os.close(read_fd)
+            report.exit_code = _end(process, wait=not report.hung)
+        output.seek(0)
+        report.printed = output.read().decode("utf-8", errors="replace").splitlines()
+    return report
 
 
 def _child_environment() -> dict[str, str]:
@@ -198,13 +217,18 @@ def _child_environment() -> dict[str, str]:
 
 
 class _Report:
-    """What the child said: the calls it entered, the FMU's messages, and how it ended."""
+    """What the child said (the calls it entered, the FMU's messages), printed, and how it ended."""
 
     def __init__(self) -> None:
         self.calls: list[str] = []
         self.messages: list[str] = []
         self.done = False
         self.refusal: str | None = None
+        self.hung = True
+        self.exit_code = 0
+        """The child's exit code (``-signal`` when a signal ended it)."""
+        self.printed: list[str] = []
+        """What the child printed (stdout and stderr)."""
         self._partial = b""
 
     def take(self, chunk: bytes) -> bool:
@@ -250,10 +274,10 @@ def _follow(read_fd: int, report: _Report, timeout: float, fmu_name: str) -> boo
                 note = time.monotonic() + _NOTE_SECONDS
 
 
-def _end(process: subprocess.Popen, wait: bool) -> None:
+def _end(process: subprocess.Popen, wait: bool) -> int:
     """End the child: closing its stdin tells it its parent is done with it; one that closed its
     report (``wait``) may take a moment to exit, any other is killed. Whatever it started (its
-    session's process group) is killed too, so that nothing is left behind."""
+    session's process group) is killed too, so that nothing is left behind. Returns its exit code."""
     assert process.stdin is not None
     process.stdin.close()
     try:
@@ -264,7 +288,7 @@ def _end(process: subprocess.Popen, wait: bool) -> None:
         os.killpg(process.pid, signal.SIGKILL)
     except (ProcessLookupError, PermissionError):
         pass
-    process.wait()
+    return process.wait()
 
 
 def _signal_name(number: int) -> str:
@@ -315,11 +339,15 @@ def _read(path: Path) -> Verdict | None:
         return None
 
 
-def _write(path: Path, verdict: Verdict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
+def _write(path: Path, verdict: Verdict, fmu_name: str) -> None:
+    """Keep ``verdict`` (atomically); one that cannot be written (a full disk) holds for this process only."""
     partial = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    partial.write_text(json.dumps(asdict(verdict), indent=1), encoding="utf-8")
-    os.replace(partial, path)
+    try:
+        partial.write_text(json.dumps(asdict(verdict), indent=1), encoding="utf-8")
+        os.replace(partial, path)
+    except OSError as error:
+        partial.unlink(missing_ok=True)
+        logger.warning("%s: the load trial's verdict cannot be kept in %s (%s)", fmu_name, path, error)
 
 
 def _error(description: FMUDescription, verdict: Verdict, path: Path) -> LoadTrialError:
