@@ -24,7 +24,8 @@ for FMI 1.0 model exchange, ``modelDescription_fmi1_me.xml``, built directly in 
 ``crashy``
     a first-order lag whose variants (``crashy_segfault``, ``crashy_exit``, ``crashy_abort``,
     ``crashy_hang``) crash, exit, abort or hang while loaded, for the load trial
-    (``modelicagym/fmu/trial.py``); ``crashy`` itself is well behaved.
+    (``modelicagym/fmu/trial.py``); ``crashy`` itself is well behaved, ``crashy_tau_required``
+    refuses to initialize until its parameter ``tau`` is set.
 
 Tests get built members through the ``family_fmu(name, fmi_version)`` fixture of ``conftest.py``.
 """
@@ -100,6 +101,7 @@ VARIANTS: dict[str, Variant] = {
     "crashy_exit": Variant(CRASHY_DIR, {"EXIT_IN_INSTANTIATE": None}),
     "crashy_abort": Variant(CRASHY_DIR, {"ABORT_IN_INITIALIZE": None}),
     "crashy_hang": Variant(CRASHY_DIR, {"HANG_IN_INSTANTIATE": None}),
+    "crashy_tau_required": Variant(CRASHY_DIR, {"TAU_REQUIRED": None}),
 }
 
 

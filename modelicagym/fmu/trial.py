@@ -14,7 +14,9 @@ process read one small file, and a verdict known in this process costs nothing. 
 loads (a pool's workers) take the verdict's lock: one runs the trial, the others read its verdict.
 A failed verdict is tried again when the FMU file changes (or when a hang was judged with a
 shorter timeout than the one now set). A clean refusal in the child (a missing system library, a
-failing ``fmi2Instantiate``) is not a verdict: the caller's own load raises it as usual.
+failing ``fmi2Instantiate``) is not a verdict: the caller's own load raises it as usual. One in
+initialization (with the default values; the caller may set others) is, as the binary survived
+what the trial can tell.
 
 The models shipped in ``modelicagym/models``, built from our own sources, skip the trial.
 """
@@ -26,6 +28,7 @@ import logging
 import os
 import select
 import signal
+import site
 import subprocess
 import sys
 import tempfile
@@ -159,7 +162,10 @@ def _run(description: FMUDescription, mode: str, fmu: str, timeout: float) -> Ve
     verdict = Verdict("ok", fmu, timeout=timeout, tried_at=datetime.now(timezone.utc).isoformat(timespec="seconds"))
     if report.done:
         return verdict
-    if report.refusal is not None:
+    if report.refusal is not None and report.instantiated:  # survived instantiation; initialized with other values
+        verdict.detail = f"initialization with the default values refused: {report.refusal}"
+        return verdict
+    if report.refusal is not None:  # may change with the machine (a system library, a licence installed)
         logger.debug("%s: the load trial ended in a clean refusal: %s", description.name, report.refusal)
         return None
     if not report.calls:
@@ -208,11 +214,13 @@ def _watch_child(description: FMUDescription, mode: str, timeout: float) -> _Rep
 
 
 def _child_environment() -> dict[str, str]:
-    """This environment, with the folder this modelicagym is imported from first on the path, so
-    that the child runs the same code."""
+    """This environment; where this modelicagym comes from a source folder rather than an installed
+    package, that folder first on the path, so that the child runs the same code."""
     environment = dict(os.environ)
-    root = str(Path(__file__).resolve().parents[2])
-    environment["PYTHONPATH"] = os.pathsep.join(p for p in (root, environment.get("PYTHONPATH")) if p)
+    root = Path(__file__).resolve().parents[2]
+    installed = {Path(folder).resolve() for folder in (*site.getsitepackages(), site.getusersitepackages())}
+    if root not in installed:
+        environment["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), environment.get("PYTHONPATH")) if p)
     return environment
 
 
@@ -223,6 +231,7 @@ class _Report:
         self.calls: list[str] = []
         self.messages: list[str] = []
         self.done = False
+        self.instantiated = False
         self.refusal: str | None = None
         self.hung = True
         self.exit_code = 0
@@ -245,6 +254,8 @@ class _Report:
                 self.messages.append(text)
             elif kind == "done":
                 self.done = True
+            elif kind == "instantiated":
+                self.instantiated = True
             elif kind == "refused":
                 self.refusal = text
         return called

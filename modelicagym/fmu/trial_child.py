@@ -4,7 +4,8 @@ instantiate, initialize with the default values, free — and say everything as 
 Run as ``python -m modelicagym.fmu.trial_child <report fd> <extracted FMU folder> <mode>``. Each
 line written to the report pipe is one of ``call <FMI function>`` (written before the call is
 made, so the parent knows where the process died), ``log <message>`` (each message the FMU logs),
-``refused <error>`` (a clean error: the caller's own load will raise it) and ``done``. The
+``instantiated`` (an instance was made), ``refused <error>`` (a clean error, which the caller's
+own load will raise) and ``done``. The
 child ends when its parent closes its stdin (or dies), and leaves by ``os._exit`` so that no
 exit handler of the FMU runs.
 """
@@ -105,6 +106,7 @@ def try_fmu(unzip_dir: Path, mode: str, reporter: _Reporter) -> None:
     binding = _BINDINGS[description.fmi_version](description, mode)
     binding.raw = _Announced(binding.raw, lambda name: reporter.line("call", name))
     binding.instantiate()
+    reporter.line("instantiated")
     binding.enter_initialization(description.default_experiment.start_time, None, None)
     binding.exit_initialization()
     binding.free_instance()

@@ -152,6 +152,25 @@ def test_a_good_fmu_is_tried_once_then_loads_in_any_process_without_a_child(firs
     assert (tmp_path / "cache" / "load-trials" / name).stat().st_mtime_ns == written
 
 
+def test_an_fmu_that_needs_a_parameter_is_tried_once_and_loads_with_it(first_load, tmp_path):
+    """Initialization with the default values fails cleanly in the trial: the binary survived it,
+    which is the verdict; the env's own values then initialize it."""
+    path = first_load("crashy_tau_required", 2)
+    before = children_cpu()
+    with FMUInstance(path, outputs=["y"]) as fmu:
+        with pytest.raises(FMUError, match="need tau > 0"):
+            fmu.reset()
+        fmu.reset({"tau": 2.0})
+    [verdict] = verdicts(tmp_path).values()
+    assert verdict["outcome"] == "ok" and "need tau > 0" in verdict["detail"]
+    tried = children_cpu()
+    assert tried > before
+    result = subprocess.run([sys.executable, "-c", LOAD_SCRIPT.replace("fmu.reset()", "fmu.reset({'tau': 2.0})"),
+                             str(path)], capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(REPO)},
+                            check=True)
+    assert float(result.stdout) == 0.0
+
+
 def test_concurrent_first_loads_run_one_trial(first_load, tmp_path):
     """Three processes load the same never-tried FMU at once: one runs the trial, the others wait
     for its verdict under the lock (each prints the CPU time of the children its load started)."""

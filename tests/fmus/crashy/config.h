@@ -14,6 +14,8 @@
  *                         framework's initialize hook, which runs there when
  *                         nothing is read in initialization mode)
  *   HANG_IN_INSTANTIATE   fmiInstantiate never returns (until killed)
+ *   TAU_REQUIRED          tau starts at 0, which initialization refuses (an
+ *                         FMU that needs a parameter set): a clean error
  * Without any of them the FMU is well behaved.
  */
 #ifndef CRASHY_CONFIG_H

@@ -9,7 +9,11 @@
 
 static void set_start_values(ModelData *m) {
     m->u = 0.0;
+#ifdef TAU_REQUIRED
+    m->tau = 0.0; /* not set: initialization refuses it */
+#else
     m->tau = 1.0;
+#endif
     m->x_0 = 0.0;
     m->x = m->x_0;
 }
