@@ -60,8 +60,8 @@ _EXIT_SECONDS = 10.0
 _LOG_LINES = 3
 _OUTPUT_LINES = 3
 
-#: the libraries known in this process to load safely
-_safe: set[Path] = set()
+#: the libraries known in this process to load safely, with their mode
+_safe: set[tuple[Path, str]] = set()
 
 
 def trial_timeout() -> float:
@@ -107,7 +107,7 @@ def check_first_load(description: FMUDescription, mode: str, library: Path) -> N
     verdict's lock. Raise `LoadTrialError` when the binary crashed, exited or hung there (now or
     in an earlier trial of the same FMU file).
     """
-    if library in _safe:
+    if (library, mode) in _safe:
         return
     path = _verdict_path(description, mode, library)
     verdict = _read(path)
@@ -118,14 +118,14 @@ def check_first_load(description: FMUDescription, mode: str, library: Path) -> N
         if verdict is None or not verdict.holds_for(fmu, timeout):
             verdict = _tried_under_lock(description, mode, path, fmu, timeout)
     if verdict is None or verdict.outcome == "ok":
-        _safe.add(library)
+        _safe.add((library, mode))
         return
     raise _error(description, verdict, path)
 
 
-def mark_safe_here(library: Path) -> None:
-    """Load ``library`` in this process without a trial (the trial's own child process)."""
-    _safe.add(library)
+def mark_safe_here(library: Path, mode: str) -> None:
+    """Load ``library`` for ``mode`` in this process without a trial (the trial's own child process)."""
+    _safe.add((library, mode))
 
 
 def _tried_under_lock(description: FMUDescription, mode: str, path: Path, fmu: str, timeout: float) -> Verdict | None:

@@ -100,7 +100,7 @@ def try_fmu(unzip_dir: Path, mode: str, reporter: _Reporter) -> None:
     """Load, instantiate, initialize with the default values and free the FMU in ``unzip_dir``."""
     description = open_fmu(unzip_dir, validate=False)
     library = description.library_path(mode)
-    trial.mark_safe_here(library)  # this process is the trial
+    trial.mark_safe_here(library, mode)  # this process is the trial
     _report_messages(description.model_name, reporter)
     reporter.line("call", f"loading {library.name} (dlopen)")
     binding = _BINDINGS[description.fmi_version](description, mode)

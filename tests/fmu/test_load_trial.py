@@ -105,11 +105,17 @@ def test_a_misbehaving_fmu_is_one_line_naming_the_call_and_its_log(first_load, t
     assert verdict["outcome"] in ("crashed", "exited", "hung") and verdict["function"] == function
 
 
-def test_model_exchange_is_tried_in_its_own_mode(first_load, tmp_path):
-    path = first_load("crashy_segfault", 2)
-    with pytest.raises(LoadTrialError, match=r"crashed \(SIGSEGV\) in fmi2Instantiate.*license file was not found"):
-        FMUInstance(path, mode="me")
-    assert [name.rsplit("-", 1)[1] for name in verdicts(tmp_path)] == ["me.json"]
+def test_each_mode_is_tried_on_its_own(first_load, tmp_path, fmi_version):
+    path = first_load("crashy", fmi_version)
+    FMUInstance(path, mode="cs").close()
+    tried = children_cpu()
+    FMUInstance(path, mode="me").close()
+    assert children_cpu() > tried
+    assert sorted(name.rsplit("-", 1)[1] for name in verdicts(tmp_path)) == ["cs.json", "me.json"]
+    crashing = first_load("crashy_segfault", fmi_version)
+    function = "fmi2Instantiate" if fmi_version == 2 else "fmi3InstantiateModelExchange"
+    with pytest.raises(LoadTrialError, match=rf"crashed \(SIGSEGV\) in {function}.*license file was not found"):
+        FMUInstance(crashing, mode="me")
 
 
 def test_a_failed_verdict_is_remembered_until_the_fmu_changes(first_load, tmp_path):
