@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import time
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -23,6 +24,7 @@ from pathlib import Path
 import fmpy
 import pytest
 from fmu_family import rewrite
+from vector_leaks import descendants, process_state
 
 from modelicagym import make_vec
 from modelicagym.fmu import FMUError, FMUInstance, InvalidFMUError, LoadTrialError, open_fmu
@@ -277,3 +279,33 @@ def test_a_hang_is_tried_again_with_a_longer_timeout(first_load, tmp_path, monke
     with pytest.raises(LoadTrialError, match="within 2.5 s"):
         FMUInstance(path)
     assert children_cpu() > judged, "a longer timeout than the verdict's: tried again"
+
+
+def trial_children(pid: int) -> set[int]:
+    """The trial's child processes among the descendants of ``pid``."""
+    def command(child: int) -> bytes:
+        try:
+            return Path(f"/proc/{child}/cmdline").read_bytes()
+        except OSError:
+            return b""
+
+    return {child for child in descendants(pid) if b"modelicagym.fmu.trial_child" in command(child)}
+
+
+def test_the_trial_ends_with_its_parent(first_load, monkeypatch):
+    """A process killed while its trial's child hangs leaves no child behind."""
+    path = first_load("crashy_hang", 2)
+    monkeypatch.setenv(TIMEOUT_VARIABLE, "600")
+    parent = subprocess.Popen([sys.executable, "-c", LOAD_SCRIPT, str(path)], stdout=subprocess.DEVNULL,
+                              env={**os.environ, "PYTHONPATH": str(REPO)})
+    deadline = time.monotonic() + 60
+    while not (children := trial_children(parent.pid)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert children, "the trial's child started"
+    time.sleep(1.0)  # most likely hanging in fmi2Instantiate by then; wherever it is, it must end
+    parent.kill()
+    parent.wait()
+    deadline = time.monotonic() + 10
+    while any(process_state(pid) not in (None, "Z") for pid in children) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert all(process_state(pid) in (None, "Z") for pid in children)
