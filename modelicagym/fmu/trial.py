@@ -59,6 +59,8 @@ _NOTE_SECONDS = 10.0
 _EXIT_SECONDS = 10.0
 _LOG_LINES = 3
 _OUTPUT_LINES = 3
+#: how much of what the child printed is read back (an FMU may print without end)
+_OUTPUT_TAIL_BYTES = 1 << 16
 
 #: the libraries known in this process to load safely, with their mode
 _safe: set[tuple[Path, str]] = set()
@@ -208,7 +210,7 @@ def _watch_child(description: FMUDescription, mode: str, timeout: float) -> _Rep
         finally:
             os.close(read_fd)
             report.exit_code = _end(process, wait=not report.hung)
-        output.seek(0)
+        output.seek(max(0, output.seek(0, os.SEEK_END) - _OUTPUT_TAIL_BYTES))
         report.printed = output.read().decode("utf-8", errors="replace").splitlines()
     return report
 
