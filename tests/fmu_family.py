@@ -98,6 +98,7 @@ VARIANTS: dict[str, Variant] = {
     # a first-order lag that loads fine, and its variants that misbehave while loaded (tests/fmus/crashy/config.h)
     "crashy": Variant(CRASHY_DIR),
     "crashy_segfault": Variant(CRASHY_DIR, {"CRASH_IN_INSTANTIATE": None}),
+    "crashy_segfault_printed": Variant(CRASHY_DIR, {"CRASH_IN_INSTANTIATE": None, "PRINT_TO_STDOUT": None}),
     "crashy_exit": Variant(CRASHY_DIR, {"EXIT_IN_INSTANTIATE": None}),
     "crashy_abort": Variant(CRASHY_DIR, {"ABORT_IN_INITIALIZE": None}),
     "crashy_hang": Variant(CRASHY_DIR, {"HANG_IN_INSTANTIATE": None}),

@@ -12,7 +12,6 @@ exit handler of the FMU runs.
 
 from __future__ import annotations
 
-import ctypes
 import logging
 import os
 import sys
@@ -75,15 +74,6 @@ def _exit_with_parent() -> None:
     threading.Thread(target=watch, daemon=True).start()
 
 
-def _unbuffered_c_output() -> None:
-    """Make the C library's stdout unbuffered, so that what the FMU prints before a crash is kept."""
-    try:
-        libc = ctypes.CDLL(None)
-        libc.setvbuf(ctypes.c_void_p.in_dll(libc, "stdout"), None, 2, 0)  # _IONBF
-    except (OSError, AttributeError, ValueError):
-        pass
-
-
 def _report_messages(model_name: str, reporter: _Reporter) -> None:
     """Send every message the FMU logs to the report: those of its instances (`FMULog`'s logger)
     and those no instance claims (the runtime's own ``modelicagym.fmu`` logger)."""
@@ -116,7 +106,6 @@ def main(argv: list[str]) -> None:
     reporter = _Reporter(int(argv[0]))
     os.set_inheritable(reporter.fd, False)  # nothing the FMU starts keeps the report open
     _exit_with_parent()
-    _unbuffered_c_output()
     try:
         try_fmu(Path(argv[1]), argv[2], reporter)
     except Exception as error:  # a clean refusal, which the caller's own load will raise

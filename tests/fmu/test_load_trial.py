@@ -107,6 +107,12 @@ def test_a_misbehaving_fmu_is_one_line_naming_the_call_and_its_log(first_load, t
     assert verdict["outcome"] in ("crashed", "exited", "hung") and verdict["function"] == function
 
 
+def test_what_an_fmu_printed_before_crashing_stands_for_its_log(first_load):
+    """An FMU that prints its reason to stdout rather than logging it: the error quotes the print."""
+    with pytest.raises(LoadTrialError, match=r"SIGSEGV\) in fmi2Instantiate.*\(printed\) license file was not found"):
+        FMUInstance(first_load("crashy_segfault_printed", 2))
+
+
 def test_each_mode_is_tried_on_its_own(first_load, tmp_path, fmi_version):
     path = first_load("crashy", fmi_version)
     FMUInstance(path, mode="cs").close()

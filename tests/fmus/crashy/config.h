@@ -9,6 +9,8 @@
  * each logging a line through the importer's logger first:
  *   CRASH_IN_INSTANTIATE  "license file was not found", then SIGSEGV inside
  *                         fmiInstantiate (a licensed FMU without its licence)
+ *   PRINT_TO_STDOUT       with CRASH_IN_INSTANTIATE: print the line to stdout
+ *                         instead (as some exporters do), not to the logger
  *   EXIT_IN_INSTANTIATE   exit(0) inside fmiInstantiate
  *   ABORT_IN_INITIALIZE   abort() inside fmiExitInitializationMode (the
  *                         framework's initialize hook, which runs there when
