@@ -5,9 +5,8 @@ Run as ``python -m modelicagym.fmu.trial_child <report fd> <extracted FMU folder
 line written to the report pipe is one of ``call <FMI function>`` (written before the call is
 made, so the parent knows where the process died), ``log <message>`` (each message the FMU logs),
 ``instantiated`` (an instance was made), ``refused <error>`` (a clean error, which the caller's
-own load will raise) and ``done``. The
-child ends when its parent closes its stdin (or dies), and leaves by ``os._exit`` so that no
-exit handler of the FMU runs.
+own load will raise) and ``done``. The child ends when its parent closes its stdin (or dies), and
+leaves by ``os._exit`` so that no exit handler of the FMU runs.
 """
 
 from __future__ import annotations
