@@ -23,7 +23,7 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     │   └── NativeBuildError                our native library (modelicagym.native)
     ├── ExtraNotInstalledError (ImportError) a feature's optional extra is missing (e.g. `plots`)
     ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
-    │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, ...)
+    │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, LoadTrialError, ...)
     ├── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
     │   (EnvError, WorkerDiedError, WorkerTimeoutError, ...; misuse errors are also
     │   Gymnasium's AlreadyPendingCallError, NoAsyncCallError, ClosedEnvironmentError)

@@ -21,6 +21,11 @@ for FMI 1.0 model exchange, ``modelDescription_fmi1_me.xml``, built directly in 
 ``stiff``
     a stiff linear model without events (eigenvalues ``-lambda = -1e4`` and -1), with a Float64
     input; its co-simulation RK4 runs at ``cs_step_size = 1e-5`` to stay stable.
+``crashy``
+    a first-order lag whose variants (``crashy_segfault``, ``crashy_exit``, ``crashy_abort``,
+    ``crashy_hang``) crash, exit, abort or hang while loaded, for the load trial
+    (``modelicagym/fmu/trial.py``); ``crashy`` itself is well behaved, ``crashy_tau_required``
+    refuses to initialize until its parameter ``tau`` is set.
 
 Tests get built members through the ``family_fmu(name, fmi_version)`` fixture of ``conftest.py``.
 """
@@ -43,6 +48,7 @@ PROBE_DIR = FMUS_DIR / "probe"
 BALL_DIR = FMUS_DIR / "ball"
 STAIRCASE_DIR = FMUS_DIR / "staircase"
 STIFF_DIR = FMUS_DIR / "stiff"
+CRASHY_DIR = FMUS_DIR / "crashy"
 FMI_VERSIONS = (2, 3)
 
 # Names of the models' variables (the probe's per FMI version).
@@ -98,6 +104,14 @@ VARIANTS: dict[str, Variant] = {
     "structural": Variant(FMUS_DIR / "structural"),
     # an input in Pa without min/max (start 101325) that breaks doStep far from it
     "unbounded": Variant(FMUS_DIR / "unbounded"),
+    # a first-order lag that loads fine, and its variants that misbehave while loaded (tests/fmus/crashy/config.h)
+    "crashy": Variant(CRASHY_DIR),
+    "crashy_segfault": Variant(CRASHY_DIR, {"CRASH_IN_INSTANTIATE": None}),
+    "crashy_segfault_printed": Variant(CRASHY_DIR, {"CRASH_IN_INSTANTIATE": None, "PRINT_TO_STDOUT": None}),
+    "crashy_exit": Variant(CRASHY_DIR, {"EXIT_IN_INSTANTIATE": None}),
+    "crashy_abort": Variant(CRASHY_DIR, {"ABORT_IN_INITIALIZE": None}),
+    "crashy_hang": Variant(CRASHY_DIR, {"HANG_IN_INSTANTIATE": None}),
+    "crashy_tau_required": Variant(CRASHY_DIR, {"TAU_REQUIRED": None}),
 }
 
 

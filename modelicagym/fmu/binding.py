@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import ctypes
 import logging
+import os
 from collections.abc import Callable
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import fmpy
@@ -27,6 +29,7 @@ import numpy as np
 from modelicagym.fmu.description import FMUDescription
 from modelicagym.fmu.errors import DISCARD, ERROR, FATAL, OK, WARNING, FMUCallError, FMUError
 from modelicagym.fmu.logs import FMULog
+from modelicagym.fmu.trial import check_first_load
 
 __all__ = ["DISCARD", "ERROR", "FATAL", "OK", "TERMINATED", "WARNING", "FMIBinding", "FunctionTable"]
 
@@ -89,32 +92,41 @@ class FMIBinding:
         self.mode = mode
         self.fmu_name = description.name
         self.instance_name = instance_name or description.interface(mode).modelIdentifier
-        library = description.library_path(mode)
-        try:
-            self._fmu = self._load_library(str(library))
-        except Exception as error:
-            raise FMUError(f"{self.fmu_name}: cannot load {library}: {error}") from error
+        self._fmu = self._load_library(description.library_path(mode))
         self.raw = FunctionTable(self._fmu.dll, self.fmu_name)
         self._addresses: dict[str, int] = {}
         self.component: Any = None
         self.log = FMULog(description.model_name, self.instance_name)
 
-    def _load_library(self, library: str) -> Any:
+    def _load_library(self, library: Path) -> Any:
         """fmpy's object for ``library``, made once per process and mode: it declares the C
         signatures on its ``dll``, which every instance of the library then shares (declaring them
-        costs ~2 ms, which a pool of many envs used to pay per env)."""
+        costs ~2 ms, which a pool of many envs used to pay per env).
+
+        The first load of a binary on this machine is tried in a child process first
+        (`modelicagym.fmu.trial`). fmpy changes the working directory to the binary's folder while
+        it loads the library and, if that fails, leaves it there: it is put back either way.
+        """
         fmpy_class = self.FMPY_CLASSES[self.mode]
         identifier = self.description.interface(self.mode).modelIdentifier
-        key = (fmpy_class, library, identifier)
+        key = (fmpy_class, str(library), identifier)
         loaded = _LOADED.get(key)
         if loaded is None:
-            loaded = _LOADED[key] = fmpy_class(
-                guid=self.description.guid,
-                modelIdentifier=identifier,
-                unzipDirectory=str(self.description.unzip_dir),
-                instanceName=self.instance_name,
-                libraryPath=library,
-            )
+            check_first_load(self.description, self.mode, library)
+            working_directory = os.getcwd()
+            try:
+                loaded = fmpy_class(
+                    guid=self.description.guid,
+                    modelIdentifier=identifier,
+                    unzipDirectory=str(self.description.unzip_dir),
+                    instanceName=self.instance_name,
+                    libraryPath=str(library),
+                )
+            except Exception as error:
+                raise FMUError(f"{self.fmu_name}: cannot load {library}: {error}") from error
+            finally:
+                os.chdir(working_directory)
+            _LOADED[key] = loaded
         return loaded
 
     def _check_instantiated(self, function: str) -> None:

@@ -19,6 +19,7 @@ a reader never sees a partial FMU.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import os
@@ -28,7 +29,7 @@ import subprocess
 import sys
 import tempfile
 import zipfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Union
@@ -48,6 +49,7 @@ __all__ = [
     "MODELS_DIR",
     "build_all_models",
     "build_source_fmu",
+    "bundled_fmus",
     "cache_dir",
     "compile_sources",
     "description_name",
@@ -106,9 +108,7 @@ def build_source_fmu(
         cache: cache folder, default :func:`cache_dir`.
     """
     job = _BuildJob.create(Path(model_dir), fmi_version, mode, model_description, defines or {})
-    fmus = Path(cache) if cache is not None else cache_dir()
-    flavour = f"fmi1{job.mode}" if fmi_version == 1 else f"fmi{fmi_version}"
-    target = fmus / "fmus" / f"{job.identifier}-{flavour}-{job.key}.fmu"
+    target = job.target(cache)
     return ensure(target, lambda: job.build(target), f"the built FMU {target.name}")
 
 
@@ -119,13 +119,29 @@ def build_all_models(cache: str | os.PathLike | None = None,
     versions = sorted(_ADAPTERS) if fmi_versions is None else sorted(set(fmi_versions))
     for version in versions:
         _check_version(version)
-    built = []
+    return [build_source_fmu(model_dir, version, mode, cache=cache) for model_dir, version, mode in _bundled(versions)]
+
+
+def bundled_fmus(cache: str | os.PathLike | None = None) -> frozenset[Path]:
+    """Where `build_source_fmu` puts (or would put) each model shipped in ``modelicagym/models``:
+    FMUs built from our own sources, which need no first-load trial (`modelicagym.fmu.trial`).
+    Computed once per process and cache folder (it hashes the models' sources)."""
+    return _bundled_targets(Path(cache) if cache is not None else cache_dir())
+
+
+@functools.cache
+def _bundled_targets(cache: Path) -> frozenset[Path]:
+    return frozenset(_BuildJob.create(model_dir, version, mode, None, {}).target(cache)
+                     for model_dir, version, mode in _bundled(FMI_VERSIONS))
+
+
+def _bundled(versions: Sequence[int]) -> Iterator[tuple[Path, int, str | None]]:
+    """``(model folder, FMI version, mode)`` of every build of a shipped model in ``versions``."""
     for model_dir in sorted(p for p in MODELS_DIR.iterdir() if p.is_dir() and p != FRAMEWORK_DIR):
         for version in versions:
             for mode in _MODES if version == 1 else (None,):
                 if (model_dir / description_name(version, mode)).is_file():
-                    built.append(build_source_fmu(model_dir, version, mode, cache=cache))
-    return built
+                    yield model_dir, version, mode
 
 
 def _check_version(fmi_version: object) -> None:
@@ -197,6 +213,12 @@ class _BuildJob:
         for name in sorted(self.sources):
             h.update(name.encode() + b"\0" + self.sources[name] + b"\0")
         return h.hexdigest()[:16]
+
+    def target(self, cache: str | os.PathLike | None) -> Path:
+        """Where this build is published in the cache folder ``cache`` (default: `cache_dir`)."""
+        fmus = Path(cache) if cache is not None else cache_dir()
+        flavour = f"fmi1{self.mode}" if self.fmi_version == 1 else f"fmi{self.fmi_version}"
+        return fmus / "fmus" / f"{self.identifier}-{flavour}-{self.key}.fmu"
 
     def build(self, target: Path) -> None:
         """Assemble, compile and zip into ``target`` (atomically)."""

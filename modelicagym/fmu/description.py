@@ -170,6 +170,14 @@ class FMUDescription:
         identifier = self.interface(mode).modelIdentifier
         library = self.unzip_dir / "binaries" / self.platform_dir / (identifier + fmpy.sharedLibraryExtension)
         if not library.is_file():
+            others = sorted(p.name for p in library.parent.glob(f"*{fmpy.sharedLibraryExtension}*") if p.is_file())
+            if others:
+                raise InvalidFMUError(
+                    f"{self.name}: its model identifier {identifier!r} (modelDescription.xml, {_MODE_NAMES[mode]}) "
+                    f"matches no binary: expected binaries/{self.platform_dir}/{library.name}, but that folder holds "
+                    f"only {', '.join(others)}. The model identifier must be the library's name without "
+                    f"{fmpy.sharedLibraryExtension}: fix one or the other"
+                )
             hint = (
                 " It contains C sources: build a binary with `modelicagym build "
                 f"{self.path}` (or fmpy.util.compile_platform_binary)." if self.has_sources else ""

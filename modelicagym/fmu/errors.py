@@ -60,6 +60,20 @@ class UnsupportedFeatureError(FMUError):
     """The FMU lacks a capability that was asked for (an interface type, state snapshots, ...)."""
 
 
+class LoadTrialError(FMUError):
+    """The FMU's binary crashed, ended its process or hung while tried in a child process before
+    its first load (`modelicagym.fmu.trial`); it is not loaded, so that it cannot take the caller's
+    process down. ``function`` is the FMI call it died in, ``messages`` its last log lines."""
+
+    def __init__(self, message: str, function: str = "", messages: list[str] | tuple[str, ...] = ()):
+        super().__init__(message)
+        self.function = function
+        self.messages = list(messages)
+
+    def __reduce__(self) -> tuple:  # a pool's worker sends it to the parent
+        return type(self), (str(self), self.function, self.messages)
+
+
 class VariableError(FMUError, KeyError):
     """A variable name is unknown, or the variable cannot be used the way it was asked to."""
 

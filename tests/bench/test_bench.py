@@ -23,6 +23,7 @@ BENCHMARKS = {
     "partial-batches": (["--n", "4", "--workers", "2", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "solver-accuracy": (["--repeats", "1"], {"rows"}),
     "autoreset": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
+    "load-trial": (["--repeats", "1"], {"seconds", "samples"}),
 }
 
 
