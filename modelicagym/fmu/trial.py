@@ -40,6 +40,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from modelicagym.cache import FOLDER_MANIFEST, cache_dir, file_digest, locked
+from modelicagym.disk import atomic_write
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.build import bundled_fmus
 from modelicagym.fmu.description import FMUDescription
@@ -355,12 +356,10 @@ def _read(path: Path) -> Verdict | None:
 
 def _write(path: Path, verdict: Verdict, fmu_name: str) -> None:
     """Keep ``verdict`` (atomically); one that cannot be written (a full disk) holds for this process only."""
-    partial = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        partial.write_text(json.dumps(asdict(verdict), indent=1), encoding="utf-8")
-        os.replace(partial, path)
+        with atomic_write(path) as f:
+            f.write(json.dumps(asdict(verdict), indent=1))
     except OSError as error:
-        partial.unlink(missing_ok=True)
         logger.warning("%s: the load trial's verdict cannot be kept in %s (%s)", fmu_name, path, error)
 
 
