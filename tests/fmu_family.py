@@ -89,6 +89,8 @@ VARIANTS: dict[str, Variant] = {
     "staircase": Variant(STAIRCASE_DIR),
     # stiff linear model, no events, model exchange + co-simulation
     "stiff": Variant(STIFF_DIR),
+    # doStep calls exit(0), abort() or segfaults on request (FMI 2.0, co-simulation only)
+    "quitter": Variant(FMUS_DIR / "quitter"),
 }
 
 

@@ -1,6 +1,13 @@
 """How a pool comes together: its worker processes started, the calling process's slice created,
 shared memory handed out, the envs placed, and the dispatcher over all of it. Either everything
-runs afterwards, or nothing is left behind (no process, no mapping, no env)."""
+runs afterwards, or nothing is left behind (no process, no mapping, no env).
+
+By default the calling process steps a slice only of envs that are safe there
+(`modelicagym.vector.env_contract.safe_in_caller`). Unless the env fns promise it, the pool asks:
+one more worker starts with the caller's slice and creates its envs; if they all say they are
+safe, that worker stops and the calling process creates its own; if not, the worker keeps them.
+So an env that does not say it is safe is never created in the calling process, and the pool
+costs one process start more only while it learns."""
 
 from __future__ import annotations
 
@@ -12,8 +19,10 @@ import gymnasium as gym
 
 from modelicagym.vector.creation import close_envs
 from modelicagym.vector.dispatch import Dispatcher
+from modelicagym.vector.env_contract import fn_safe_in_caller
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.placement import Placement, place_envs
+from modelicagym.vector.plan import Layout
 from modelicagym.vector.protocol import EnvDescription, WorkerConfig
 from modelicagym.vector.worker_set import WorkerSet
 
@@ -29,27 +38,45 @@ class PoolParts:
     dispatcher: Dispatcher
     first: EnvDescription
 
+    @property
+    def caller_steps(self) -> bool:
+        """Whether the calling process steps a slice of the envs."""
+        return self.dispatcher.local is not None
+
 
 def assemble(
     env_fns: Sequence[Callable[[], gym.Env]],
-    slices: list[range],
-    local_slice: range | None,
+    layout: Layout,
     start_method: str,
     config: WorkerConfig,
     adapt_layout: bool | None,
 ) -> PoolParts:
-    """Start a worker per slice of ``slices``, create ``local_slice`` here, share memory, place the
-    envs (`modelicagym.vector.placement`) and set up the dispatcher; on any failure release it all
-    and raise."""
+    """Start a worker per slice of the layout, create the caller's slice here (if it is safe
+    there, with ``layout.caller_if_safe``: see the module docstring), share memory, place the envs
+    (`modelicagym.vector.placement`) and set up the dispatcher; on any failure release it all and
+    raise."""
+    slices, local_slice = list(layout.worker_slices), layout.caller_slice
+    ask = layout.caller_if_safe and not all(fn_safe_in_caller(fn) for fn in env_fns[local_slice.start:local_slice.stop])
+    if ask:
+        slices.append(local_slice)
     workers = WorkerSet(env_fns, slices, multiprocessing.get_context(start_method), config, config.startup_timeout)
     workers.launch()
     local = None
+    isolated = None
     try:
+        if ask:
+            if workers.await_created()[-1].safe_in_caller:
+                workers.drop_last()
+                slices.pop()
+            else:
+                isolated = (f"every env is in a worker: env {local_slice.start} does not say it is safe in the calling "
+                            "process (safe_in_caller: only the bundled models do; caller_steps=True puts a slice there)")
+                local_slice = None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)
         )
         first = workers.connect(local)
-        placement, local = place_envs(list(env_fns), workers, local, config.autoreset_mode, adapt_layout)
+        placement, local = place_envs(list(env_fns), workers, local, config.autoreset_mode, adapt_layout, isolated)
     except BaseException:
         if local is not None:
             close_envs(local.envs)

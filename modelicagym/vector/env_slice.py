@@ -28,7 +28,7 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
-from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv
+from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
@@ -50,7 +50,7 @@ def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "
     step_path = StepPath("python", reason) if reason else StepPath("native", "the config defines the whole step")
     description = EnvDescription(
         first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec, step_path,
-        tuple(observation_spaces),
+        tuple(observation_spaces), all(safe_in_caller(env) for env in envs),
     )
     try:
         ForkingPickler.dumps(description.spec)

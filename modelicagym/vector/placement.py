@@ -221,13 +221,14 @@ def place_envs(
     local: EnvSlice | None,
     autoreset_mode: AutoresetMode,
     adapt_layout: bool | None,
+    isolated: str | None = None,
 ) -> tuple[Placement, EnvSlice | None]:
     """The placement of a pool's envs, and the calling process's slice: for an adaptive layout,
-    every env (copies of the worker envs, then its own). Raises `ConfigError` if
-    ``adapt_layout=True`` cannot be, saying why."""
+    every env (copies of the worker envs, then its own). ``isolated`` says why every env is in a
+    worker, if the pool chose that. Raises `ConfigError` if ``adapt_layout=True`` cannot be, saying why."""
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
-    reason = _fixed_layout_reason(workers, local, adapt_layout)
+    reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
     if reason is None:
         copies: list[gym.Env] = []
         try:
@@ -267,6 +268,10 @@ def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice | None, adapt_layou
         return "num_workers=0: every env is in the calling process"
     if futex_library() is None:
         return "no native library: the pool signals through semaphores"
+    unsafe = workers.unsafe_in_caller()
+    if unsafe is not None:
+        return (f"env {unsafe} does not say it is safe in the calling process (safe_in_caller), so no copy of it "
+                "is made there")
     paths = {path for path in workers.step_paths if path.path != "native"}
     if paths:
         return f"an env steps on the Python path: {next(iter(paths)).reason}"

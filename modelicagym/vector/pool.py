@@ -232,11 +232,9 @@ class PoolVectorEnv(VectorEnv):
         self.restart_dead_workers = restart_dead_workers
         self.startup_timeout = startup_timeout
         self.copy = copy
-        slices, local_slice = plan_layout(
+        layout = plan_layout(
             self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout, caller_steps
         )
-        self.caller_steps = local_slice is not None
-        self.num_workers = len(slices)
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
         self._timing = TimingRecorder()
@@ -252,10 +250,12 @@ class PoolVectorEnv(VectorEnv):
             num_envs=self.num_envs,
         )
         try:
-            parts = assemble(self.env_fns, slices, local_slice, self.start_method, config, adapt_layout)
+            parts = assemble(self.env_fns, layout, self.start_method, config, adapt_layout)
         except BaseException:
             self.closed = True
             raise
+        self.caller_steps = parts.caller_steps
+        self.num_workers = len(parts.workers.handles)
         self._workers, self._placement, self._dispatcher = parts.workers, parts.placement, parts.dispatcher
         first = parts.first
         self.metadata = {**first.metadata, "autoreset_mode": self.autoreset_mode}

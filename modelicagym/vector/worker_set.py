@@ -70,6 +70,8 @@ class WorkerSet:
         self._config = config
         self.buffers: SharedBuffers | None = None
         self.description: EnvDescription | None = None
+        #: what each worker reported once its envs were created (:meth:`await_created`)
+        self.descriptions: list[EnvDescription] = []
         #: per env, the path its slice steps on, and its observation space
         self.step_paths: list[StepPath] = []
         self.observation_spaces: list[Space] = [None] * self.num_envs
@@ -90,14 +92,40 @@ class WorkerSet:
             self.release()
             raise
 
+    def await_created(self) -> list[EnvDescription]:
+        """Wait until every worker has created its envs; what each reported (kept in
+        :attr:`descriptions`). Releases everything if anything fails."""
+        try:
+            deadline = self._deadline()
+            self.descriptions += [self._await_ready(handle, deadline) for handle in self.handles[len(self.descriptions):]]
+        except BaseException:
+            self.release()
+            raise
+        return self.descriptions
+
+    def drop_last(self) -> None:
+        """Stop the last worker, whose envs have been created and described but not yet given
+        memory: the calling process steps its slice instead."""
+        handle = self.handles.pop()
+        del self.descriptions[len(self.handles):]
+        handle.release()
+
+    def unsafe_in_caller(self) -> int | None:
+        """The first env of the first worker whose envs are not all safe in the calling process
+        (`env_contract.safe_in_caller`), or ``None``."""
+        for handle, description in zip(self.handles, self.descriptions):
+            if not description.safe_in_caller:
+                return handle.env_indices.start
+        return None
+
     def connect(self, local: EnvSlice | None) -> EnvDescription:
         """Wait for the workers' envs, check all envs agree on the spaces, create the shared memory
         and hand it out (to ``local`` too, the slice the calling process steps itself); returns
         the description of the first env (``local``'s when there are no workers). Releases
         everything if anything fails."""
+        descriptions = list(self.await_created())
         try:
             deadline = self._deadline()
-            descriptions = [self._await_ready(handle, deadline) for handle in self.handles]
             if local is not None:
                 descriptions.append(describe_envs(local.envs, local.first, self._config.observation_mode))
             self.description = descriptions[0]
