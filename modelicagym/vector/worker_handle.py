@@ -189,9 +189,11 @@ class WorkerHandle:
         self.process.join(_TERMINATE_GRACE)
         exitcode = self.process.exitcode
         where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
+        # a worker exits by itself only when told to close: an exit status means the env's code called exit()
+        cause = "; code in the env called exit()" if exitcode is not None and exitcode >= 0 else ""
         return WorkerDiedError(
             f"worker {self.index} (pid {self.process.pid}) {describe_exitcode(exitcode)} "
-            f"during {doing} of {where}",
+            f"during {doing} of {where}{cause}",
             env_index,
             self.index,
             exitcode,
