@@ -127,6 +127,13 @@ class CountEnv(gym.Env):
         return (x for x in range(3))
 
 
+class SafeCountEnv(CountEnv):
+    """A :class:`CountEnv` that says it is safe in the calling process (it runs no native code),
+    as the bundled models do: the pool's default layout may step it there."""
+
+    safe_in_caller = True
+
+
 def count_fns(n: int, **kwargs: Any) -> list[Callable[[], CountEnv]]:
     """Env fns whose episodes end at different times (``max_len`` differs per env)."""
     return [partial(CountEnv, max_len=4 + 3 * i, **kwargs) for i in range(n)]
