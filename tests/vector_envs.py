@@ -134,6 +134,18 @@ class SafeCountEnv(CountEnv):
     safe_in_caller = True
 
 
+class MadeElsewhere:
+    """An env fn that refuses to make its env in process ``pid`` (the test's: "never in the caller")."""
+
+    def __init__(self, fn: Callable[[], gym.Env], pid: int) -> None:
+        self.fn, self.pid = fn, pid
+
+    def __call__(self) -> gym.Env:
+        if os.getpid() == self.pid:
+            raise AssertionError("this env was made in the calling process")
+        return self.fn()
+
+
 def count_fns(n: int, **kwargs: Any) -> list[Callable[[], CountEnv]]:
     """Env fns whose episodes end at different times (``max_len`` differs per env)."""
     return [partial(CountEnv, max_len=4 + 3 * i, **kwargs) for i in range(n)]
