@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from fmu_family import build
 from step_paths import probe_env
-from vector_envs import MadeElsewhere
+from vector_envs import MadeElsewhere, SafeCountEnv
 
 import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
@@ -101,6 +101,16 @@ def test_the_bundled_models_keep_the_caller_stepping_layout() -> None:
         assert layout.adaptive or futex_library() is None, layout
     with modelicagym.make_vec("pendulum", n=2) as pool:
         assert pool.caller_steps, pool.layout
+
+
+@pytest.mark.usefixtures("no_leaks")
+def test_the_worker_that_learnt_an_env_is_safe_in_the_caller_is_gone() -> None:
+    """The caller's slice is first made in one more worker; once its envs say they are safe there,
+    that worker stops and the calling process makes its own."""
+    with PoolVectorEnv([partial(SafeCountEnv, max_len=4 + i) for i in range(4)]) as pool:
+        assert pool.caller_steps and len(pool.worker_pids) == pool.num_workers
+        assert os.getpid() in pool.call("pid")
+        assert set(pool.call("pid")) - {os.getpid()} == set(pool.worker_pids)
 
 
 def test_a_users_fmu_is_never_made_in_the_calling_process_even_when_it_is_ours_by_path() -> None:
