@@ -6,10 +6,10 @@ at once, a compile takes a core. For the default (light) cart-pole and a heavy o
 of ``single`` (one env in a plain loop), ``sync`` (`gymnasium.vector.SyncVectorEnv`), ``pool``
 (``modelicagym.make_vec``, its default: adaptive layout) and ``pool0`` (``num_workers=0``: every env
 in the calling process), under four loads. The setting ``user`` is the light cart-pole's FMU given
-as a user gives any FMU (a plain ``FMUEnv`` config over its path; ``user-heavy``: the heavy one): the pool's default keeps it out
-of the calling process (crash isolation), and the extra candidate ``caller`` (``caller_steps=True``:
-the calling process steps a slice, the layout adapts) is what the default was before, so the rows
-say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every env in fewer workers,
+as a user gives any FMU (a plain ``FMUEnv`` config over its path; ``user-heavy``: the heavy one):
+the pool's default keeps it out of the calling process (crash isolation), and the extra candidate
+``caller`` (``caller_steps=True``: the calling process steps a slice, the layout adapts) is what the
+default was before, so the rows say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every env in fewer workers,
 isolated, as many parties as cores) shows what consolidating a crowded pool's envs into fewer
 workers instead of into the caller would keep.
 
@@ -81,7 +81,8 @@ def users_config(options: dict[str, Any]) -> dict[str, Any]:
 
     with modelicagym.make("cartpole", **options) as env:
         config = env.config
-        return {field.name: getattr(config, field.name) for field in dataclasses.fields(config)} | {"fmu": str(config.fmu)}
+        fields = {field.name: getattr(config, field.name) for field in dataclasses.fields(config)}
+        return {**fields, "fmu": str(config.fmu)}
 
 
 def make_candidate(candidate: str, setting: str, n: int, stack: ExitStack) -> Callable[[Callable[[], None]], Run]:
@@ -205,7 +206,8 @@ def measure_group(load: str, setting: str, n: int, repeats: int, seconds: float)
         for _ in range(repeats):
             for name, run in runs.items():
                 samples[name].append(run(seconds))
-        layouts = {name: str(makers[name].envs.layout) for name in ("pool", "caller") if name in makers}  # type: ignore[attr-defined]
+        layouts = {name: str(makers[name].envs.layout)  # type: ignore[attr-defined]
+                   for name in ("pool", "caller") if name in makers}
     return _group(load, setting, n, samples, {"pool_layout": layouts["pool"], "layouts": layouts})
 
 

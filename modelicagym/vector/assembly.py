@@ -56,7 +56,7 @@ def assemble(
     (`modelicagym.vector.placement`) and set up the dispatcher; on any failure release it all and
     raise."""
     slices, local_slice = list(layout.worker_slices), layout.caller_slice
-    ask = layout.caller_if_safe and not all(fn_safe_in_caller(fn) for fn in env_fns[local_slice.start:local_slice.stop])
+    ask = layout.caller_if_safe and not all(map(fn_safe_in_caller, env_fns[local_slice.start : local_slice.stop]))
     if ask:
         slices.append(local_slice)
     workers = WorkerSet(env_fns, slices, multiprocessing.get_context(start_method), config, config.startup_timeout)
@@ -69,8 +69,9 @@ def assemble(
                 workers.drop_last()
                 slices.pop()
             else:
-                isolated = (f"every env is in a worker: env {local_slice.start} does not say it is safe in the calling "
-                            "process (safe_in_caller: only the bundled models do; caller_steps=True puts a slice there)")
+                isolated = (f"every env is in a worker: env {local_slice.start} does not say it is safe in the "
+                            "calling process (safe_in_caller: only the bundled models do; caller_steps=True puts a "
+                            "slice there)")
                 local_slice = None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)

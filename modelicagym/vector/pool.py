@@ -207,7 +207,8 @@ class PoolVectorEnv(VectorEnv):
                 (`modelicagym.vector.placement`; :attr:`layout` says what runs where and why).
                 ``None`` (default): when the pool plans its own layout with the caller stepping
                 (``caller_steps``), every env is an FMU env on the native step path whose reset
-                is deterministic and every worker's env is safe in the calling process; ``True`` insists (a `ConfigError` says why it cannot);
+                is deterministic and every worker's env is safe in the calling process; ``True``
+                insists (a `ConfigError` says why it cannot);
                 ``False``: a fixed layout. An adaptive pool keeps a copy of every worker env in
                 the calling process too.
         """

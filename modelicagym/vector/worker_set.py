@@ -97,7 +97,8 @@ class WorkerSet:
         :attr:`descriptions`). Releases everything if anything fails."""
         try:
             deadline = self._deadline()
-            self.descriptions += [self._await_ready(handle, deadline) for handle in self.handles[len(self.descriptions):]]
+            waiting = self.handles[len(self.descriptions):]
+            self.descriptions += [self._await_ready(handle, deadline) for handle in waiting]
         except BaseException:
             self.release()
             raise
