@@ -4,10 +4,11 @@ runs afterwards, or nothing is left behind (no process, no mapping, no env).
 
 By default the calling process steps a slice only of envs that are safe there
 (`modelicagym.vector.env_contract.safe_in_caller`). Unless the env fns promise it, the pool asks:
-one more worker starts with the caller's slice and creates its envs; if they all say they are
-safe, that worker stops and the calling process creates its own; if not, the worker keeps them.
-So an env that does not say it is safe is never created in the calling process, and the pool
-costs one process start more only while it learns."""
+one more worker starts, the stand-in, and creates a copy of every env; if they all say they are
+safe, that worker stops and the calling process creates its own; if not, the stand-in keeps them
+and does the caller's part instead: it steps the caller's slice, and on a crowded machine the
+adaptive layout consolidates every env there (`modelicagym.vector.placement`). So an env that does
+not say it is safe is never created in the calling process."""
 
 from __future__ import annotations
 
@@ -57,27 +58,22 @@ def assemble(
     raise."""
     slices, local_slice = list(layout.worker_slices), layout.caller_slice
     ask = layout.caller_if_safe and not all(map(fn_safe_in_caller, env_fns[local_slice.start : local_slice.stop]))
-    if ask:
-        slices.append(local_slice)
-    workers = WorkerSet(env_fns, slices, multiprocessing.get_context(start_method), config, config.startup_timeout)
+    ctx = multiprocessing.get_context(start_method)
+    workers = WorkerSet(env_fns, slices, ctx, config, config.startup_timeout, stand_in=ask)
     workers.launch()
     local = None
-    isolated = None
+    stand_in_slice = None
     try:
         if ask:
             if workers.await_created()[-1].safe_in_caller:
                 workers.drop_last()
-                slices.pop()
             else:
-                isolated = (f"every env is in a worker: env {local_slice.start} does not say it is safe in the "
-                            "calling process (safe_in_caller: only the bundled models do; caller_steps=True puts a "
-                            "slice there)")
-                local_slice = None
+                stand_in_slice, local_slice = local_slice, None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)
         )
         first = workers.connect(local)
-        placement, local = place_envs(list(env_fns), workers, local, config.autoreset_mode, adapt_layout, isolated)
+        placement, local = place_envs(list(env_fns), workers, local, config.autoreset_mode, adapt_layout, stand_in_slice)
     except BaseException:
         if local is not None:
             close_envs(local.envs)

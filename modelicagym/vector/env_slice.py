@@ -38,6 +38,18 @@ __all__ = ["EnvSlice", "describe_envs"]
 
 logger = logging.getLogger(__name__)
 
+
+def movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
+    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
+    reason = batch_path_reason(envs)
+    if reason is not None:
+        return reason
+    for offset, env in enumerate(envs):
+        if not getattr(env, "reset_is_deterministic", False):
+            return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
+    return None
+
+
 def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
     """What the parent needs to know about the envs; raises if they disagree on their spaces
     (under ``observation_mode``, see `modelicagym.vector.space_checks`)."""
@@ -51,6 +63,7 @@ def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "
     description = EnvDescription(
         first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec, step_path,
         tuple(observation_spaces), all(safe_in_caller(env) for env in envs),
+        movable_reason(envs, "env {}", first_env),
     )
     try:
         ForkingPickler.dumps(description.spec)

@@ -45,7 +45,6 @@ class WorkerHandle:
     restart the worker with fresh envs, a fresh pipe and fresh signals.
     """
 
-    in_caller = False
     process = None
 
     def __init__(
@@ -55,9 +54,13 @@ class WorkerHandle:
         env_fns: Sequence[Callable[[], gym.Env]],
         ctx: BaseContext,
         config: WorkerConfig,
+        stand_in: bool = False,
     ) -> None:
         self.index = index
         self.env_indices = env_indices
+        #: the worker stands in for the calling process: it holds a copy of every env and steps
+        #: those the shared ``in_caller`` array marks (`modelicagym.vector.placement`)
+        self.in_caller = stand_in
         self._env_fns = CloudpickleWrapper(list(env_fns))
         self._ctx = ctx
         self._config = config
@@ -83,7 +86,8 @@ class WorkerHandle:
         self.process = self._ctx.Process(
             target=run_worker,
             name=f"modelicagym-pool-worker-{self.index}",
-            args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config),
+            args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config,
+                  self.in_caller),
             daemon=True,
         )
         self.conn = parent_conn

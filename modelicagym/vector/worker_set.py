@@ -60,11 +60,14 @@ class WorkerSet:
         ctx: BaseContext,
         config: WorkerConfig,
         startup_timeout: float | None,
+        stand_in: bool = False,
     ) -> None:
         self.handles = [
             WorkerHandle(k, indices, env_fns[indices.start : indices.stop], ctx, config)
             for k, indices in enumerate(slices)
         ]
+        if stand_in:  # one more worker, with a copy of every env (`WorkerHandle.in_caller`)
+            self.handles.append(WorkerHandle(len(slices), range(len(env_fns)), env_fns, ctx, config, stand_in=True))
         self.num_envs = len(env_fns)
         self.startup_timeout = startup_timeout
         self._config = config
@@ -73,7 +76,7 @@ class WorkerSet:
         #: what each worker reported once its envs were created (:meth:`await_created`)
         self.descriptions: list[EnvDescription] = []
         #: per env, the path its slice steps on, and its observation space
-        self.step_paths: list[StepPath] = []
+        self.step_paths: list[StepPath] = [StepPath("python", "not created yet")] * self.num_envs
         self.observation_spaces: list[Space] = [None] * self.num_envs
         self._resources = _Resources(self.handles)
         self._finalizer = weakref.finalize(self, self._resources.release)
@@ -111,6 +114,11 @@ class WorkerSet:
         del self.descriptions[len(self.handles):]
         handle.release()
 
+    @property
+    def stand_in(self) -> WorkerHandle | None:
+        """The worker that stands in for the calling process (a copy of every env), if any."""
+        return self.handles[-1] if self.handles and self.handles[-1].in_caller else None
+
     def unsafe_in_caller(self) -> int | None:
         """The first env of the first worker whose envs are not all safe in the calling process
         (`env_contract.safe_in_caller`), or ``None``."""
@@ -132,7 +140,8 @@ class WorkerSet:
             self.description = descriptions[0]
             for party, description in zip([*self.handles, local], descriptions):
                 self._check_spaces(party, description)
-                self.step_paths += [description.step_path] * len(party.env_indices)
+                self.step_paths[party.env_indices.start : party.env_indices.stop] = [description.step_path] * len(
+                    party.env_indices)
             slots = len(self.handles) + (local is not None)
             spec = BufferSpec(self.description.observation_space, self.description.action_space, self.num_envs, slots)
             self.buffers, self._resources.fd = SharedBuffers.create(spec)
