@@ -22,7 +22,7 @@ from modelicagym.vector.creation import close_envs
 from modelicagym.vector.dispatch import Dispatcher
 from modelicagym.vector.env_contract import fn_safe_in_caller
 from modelicagym.vector.env_slice import EnvSlice
-from modelicagym.vector.placement import Placement, place_envs
+from modelicagym.vector.placement import Placement, place_envs, stand_in_fixed_reason
 from modelicagym.vector.plan import Layout
 from modelicagym.vector.protocol import EnvDescription, WorkerConfig
 from modelicagym.vector.worker_set import WorkerSet
@@ -62,18 +62,27 @@ def assemble(
     workers = WorkerSet(env_fns, slices, ctx, config, config.startup_timeout, stand_in=ask)
     workers.launch()
     local = None
-    stand_in_slice = None
+    stand_in_slice = isolated = None
     try:
         if ask:
-            if workers.await_created()[-1].safe_in_caller:
+            description = workers.await_created()[-1]
+            fixed = stand_in_fixed_reason(description, adapt_layout)
+            if description.safe_in_caller:
                 workers.drop_last()
-            else:
+            elif fixed is None:
                 stand_in_slice, local_slice = local_slice, None
+            else:  # its copies would only be reset and called, with resets that may differ: a plain worker
+                workers.drop_last(replacement=local_slice)
+                isolated = (f"every env is in a worker: its envs do not all say they are safe in the calling process "
+                            f"(safe_in_caller; caller_steps=True puts a slice there), and {fixed}")
+                local_slice = None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)
         )
         first = workers.connect(local)
-        placement, local = place_envs(list(env_fns), workers, local, config.autoreset_mode, adapt_layout, stand_in_slice)
+        placement, local = place_envs(
+            list(env_fns), workers, local, config.autoreset_mode, adapt_layout, stand_in_slice, isolated
+        )
     except BaseException:
         if local is not None:
             close_envs(local.envs)

@@ -51,7 +51,7 @@ from modelicagym.vector.protocol import EnvDescription
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.worker_set import WorkerSet
 
-__all__ = ["LayoutState", "Placement", "place_envs"]
+__all__ = ["LayoutState", "Placement", "place_envs", "stand_in_fixed_reason"]
 
 #: the policy's measurements come in parts of this many batches (summed in C)
 PART_BATCHES = 64
@@ -237,17 +237,18 @@ def place_envs(
     autoreset_mode: AutoresetMode,
     adapt_layout: bool | None,
     stand_in_slice: range | None = None,
+    isolated: str | None = None,
 ) -> tuple[Placement, EnvSlice | None]:
     """The placement of a pool's envs, and the calling process's slice: for an adaptive layout,
     every env (copies of the worker envs, then its own). With a stand-in worker (``workers.stand_in``:
     envs not safe in the calling process), that worker steps ``stand_in_slice`` instead, and
-    consolidates the envs when that is faster. Raises `ConfigError` if ``adapt_layout=True``
-    cannot be, saying why."""
+    consolidates the envs when that is faster. ``isolated`` says why every env is in a worker,
+    with no stand-in. Raises `ConfigError` if ``adapt_layout=True`` cannot be, saying why."""
     if stand_in_slice is not None:
         return _place_with_stand_in(workers, stand_in_slice, autoreset_mode, adapt_layout), None
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
-    reason = _fixed_layout_reason(workers, local, adapt_layout)
+    reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
     if reason is None:
         copies: list[gym.Env] = []
         try:
@@ -281,27 +282,21 @@ def _place_with_stand_in(
     workers: WorkerSet, home: range, autoreset_mode: AutoresetMode, adapt_layout: bool | None
 ) -> Placement:
     """The placement of a pool whose calling process steps nothing: a worker stands in for it,
-    with a copy of every env, and steps ``home``; adaptive, it takes every env when that is faster."""
-    description = workers.descriptions[-1]
-    isolated = ("every env is in a worker (its envs do not all say they are safe in the calling process: "
-                "safe_in_caller; caller_steps=True puts a slice there)")
-    reason = _stand_in_fixed_reason(description, adapt_layout)
-    if reason is not None and adapt_layout:
-        raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
-    policy = None
-    if reason is None:
-        policy = ConsolidationPolicy(workers.num_envs - len(home), len(home))
-        reason = f"{isolated}; its envs can move to one worker at episode boundaries"
-    else:
-        reason = f"{isolated}; {reason}"
+    with a copy of every env, and steps ``home``; it takes every env when that is faster (the
+    pool made it only for a layout that can adapt: `stand_in_fixed_reason`)."""
+    policy = ConsolidationPolicy(workers.num_envs - len(home), len(home))
+    reason = ("every env is in a worker: its envs do not all say they are safe in the calling process "
+              "(safe_in_caller; caller_steps=True puts a slice there); they can move to one worker at episode "
+              "boundaries")
     worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
     buffers = workers.buffers
     return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, autoreset_mode, policy, reason,
                      stand_in=True)
 
 
-def _stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
-    """Why a layout with a stand-in worker cannot adapt (``None``: it can)."""
+def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
+    """Why a layout with a stand-in worker whose envs ``description`` describes could not adapt
+    (``None``: it can)."""
     if adapt_layout is False:
         return "adapt_layout=False"
     if futex_library() is None:

@@ -62,7 +62,7 @@ class WorkerHandle:
         #: those the shared ``in_caller`` array marks (`modelicagym.vector.placement`)
         self.in_caller = stand_in
         self._env_fns = CloudpickleWrapper(list(env_fns))
-        self._ctx = ctx
+        self.ctx = ctx
         self._config = config
         self.process = None
         self.conn: Connection | None = None
@@ -80,10 +80,10 @@ class WorkerHandle:
 
     def start(self) -> None:
         """Start the worker process; it begins creating its envs at once."""
-        parent_conn, child_conn = self._ctx.Pipe()
+        parent_conn, child_conn = self.ctx.Pipe()
         if not self._config.shared_signals:
-            self.go, self.done = SemaphoreSignal(self._ctx), SemaphoreSignal(self._ctx)
-        self.process = self._ctx.Process(
+            self.go, self.done = SemaphoreSignal(self.ctx), SemaphoreSignal(self.ctx)
+        self.process = self.ctx.Process(
             target=run_worker,
             name=f"modelicagym-pool-worker-{self.index}",
             args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config,

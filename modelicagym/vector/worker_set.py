@@ -69,6 +69,7 @@ class WorkerSet:
         if stand_in:  # one more worker, with a copy of every env (`WorkerHandle.in_caller`)
             self.handles.append(WorkerHandle(len(slices), range(len(env_fns)), env_fns, ctx, config, stand_in=True))
         self.num_envs = len(env_fns)
+        self._env_fns = env_fns
         self.startup_timeout = startup_timeout
         self._config = config
         self.buffers: SharedBuffers | None = None
@@ -107,12 +108,17 @@ class WorkerSet:
             raise
         return self.descriptions
 
-    def drop_last(self) -> None:
+    def drop_last(self, replacement: range | None = None) -> None:
         """Stop the last worker, whose envs have been created and described but not yet given
-        memory: the calling process steps its slice instead."""
+        memory: the calling process steps its slice instead, or a plain worker started for the
+        envs ``replacement``."""
         handle = self.handles.pop()
         del self.descriptions[len(self.handles):]
         handle.release()
+        if replacement is not None:
+            fns = self._env_fns[replacement.start : replacement.stop]
+            self.handles.append(WorkerHandle(handle.index, replacement, fns, handle.ctx, self._config))
+            self.handles[-1].start()
 
     @property
     def stand_in(self) -> WorkerHandle | None:

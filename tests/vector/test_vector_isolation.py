@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 from fmu_family import build
 from step_paths import probe_env
-from vector_envs import MadeElsewhere, SafeCountEnv
+from vector_envs import MadeElsewhere, SafeCountEnv, count_fns
 
 import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
+from modelicagym.vector.plan import usable_cores
 from modelicagym.vector.sync import futex_library
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
@@ -111,6 +112,18 @@ def test_the_worker_that_learnt_an_env_is_safe_in_the_caller_is_gone() -> None:
         assert pool.caller_steps and len(pool.worker_pids) == pool.num_workers
         assert os.getpid() in pool.call("pid")
         assert set(pool.call("pid")) - {os.getpid()} == set(pool.worker_pids)
+
+
+@pytest.mark.usefixtures("no_leaks")
+def test_envs_that_cannot_move_get_plain_workers_and_no_stand_in() -> None:
+    """A stand-in's copies serve only a layout that moves envs: for envs that cannot move (here
+    on the Python path), the pool replaces it by a plain worker of the caller's slice."""
+    with PoolVectorEnv([MadeElsewhere(fn, os.getpid()) for fn in count_fns(4)]) as pool:
+        layout = pool.layout
+        assert not layout.adaptive and layout.envs_in_stand_in == 0 and "standing in" not in str(layout), layout
+        assert "steps on the Python path" in layout.reason
+        assert pool.num_workers == min(usable_cores(), 4) and os.getpid() not in pool.call("pid")
+        assert pool.call("max_len") == (4, 7, 10, 13)
 
 
 def test_a_users_fmu_is_never_made_in_the_calling_process_even_when_it_is_ours_by_path() -> None:
