@@ -152,8 +152,9 @@ class ConsolidationPolicy:
 
     Where the calling process may not step a user's envs, a worker stands in for it
     (`modelicagym.vector.assembly`), and its costs cannot be told apart from the other workers'
-    in the parent's measurement: so this policy compares the two layouts by the batch time the
-    parent measures. After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
+    in the parent's measurement: so this policy compares the two layouts by what the parent
+    measures, its wait for the workers per batch (the rest of a batch, the parent's own Python, is
+    the same in both). After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
     before the next try (0.5 s up to 30 s). ``target``: 0 (the planned layout) or ``movable``
@@ -202,11 +203,12 @@ class ConsolidationPolicy:
                 self._probe_wait, self._switched_at = PROBE_FIRST_SECONDS, now
                 return False
             self._probe_wait = min(2 * self._probe_wait, PROBE_MAX_SECONDS)
-            return self._switch(now, f"a batch took {batch_us:.1f} us with {here}, {left_us:.1f} us with {there}")
+            return self._switch(now, f"the parent waited {batch_us:.1f} us a batch with {here}, {left_us:.1f} us "
+                                     f"with {there}")
         if now - self._switched_at < self._probe_wait:
             return False
         self._left_us = batch_us
-        return self._switch(now, f"a batch takes {batch_us:.1f} us with {here}; {there} are tried")
+        return self._switch(now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} are tried")
 
     def _names(self, target: int) -> str:
         return "every env in the stand-in worker" if target == self.movable else "the envs in their workers"
