@@ -7,11 +7,11 @@ of ``single`` (one env in a plain loop), ``sync`` (`gymnasium.vector.SyncVectorE
 (``modelicagym.make_vec``, its default: adaptive layout) and ``pool0`` (``num_workers=0``: every env
 in the calling process), under four loads. The setting ``user`` is the light cart-pole's FMU given
 as a user gives any FMU (a plain ``FMUEnv`` config over its path; ``user-heavy``: the heavy one):
-the pool's default keeps it out of the calling process (crash isolation), and the extra candidate
-``caller`` (``caller_steps=True``: the calling process steps a slice, the layout adapts) is what the
-default was before, so the rows say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every env in fewer workers,
-isolated, as many parties as cores) shows what consolidating a crowded pool's envs into fewer
-workers instead of into the caller would keep.
+the pool's default keeps it out of the calling process (crash isolation: a worker stands in for
+the calling process and takes every env when that is faster), and the extra candidate ``caller``
+(``caller_steps=True``: the calling process steps a slice, the layout adapts) is what the default
+was before, so the rows say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every
+env in fewer workers, isolated, fixed, as many parties as cores) is the consolidated layout alone.
 
 * ``idle``: nothing else runs (plus ``c_loop``, the one-core C loop: the physical limit);
 * ``busy``: one busy Python process beside it;

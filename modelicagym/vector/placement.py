@@ -178,7 +178,8 @@ class Placement:
         if self._countdown <= 0:
             self._countdown = PART_BATCHES
             times = take_times()
-            if times is not None and self.policy.observe(*times, self._caller_envs, len(self.in_caller), self._settled):
+            policy, envs = self.policy, len(self.in_caller)
+            if times is not None and policy.observe(*times, self._caller_envs, envs, self._settled):
                 self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
@@ -240,12 +241,12 @@ def place_envs(
     isolated: str | None = None,
 ) -> tuple[Placement, EnvSlice | None]:
     """The placement of a pool's envs, and the calling process's slice: for an adaptive layout,
-    every env (copies of the worker envs, then its own). With a stand-in worker (``workers.stand_in``:
+    every env (copies of the worker envs, then its own). With a stand-in worker (the last one, for
     envs not safe in the calling process), that worker steps ``stand_in_slice`` instead, and
     consolidates the envs when that is faster. ``isolated`` says why every env is in a worker,
     with no stand-in. Raises `ConfigError` if ``adapt_layout=True`` cannot be, saying why."""
     if stand_in_slice is not None:
-        return _place_with_stand_in(workers, stand_in_slice, autoreset_mode, adapt_layout), None
+        return _place_with_stand_in(workers, stand_in_slice, autoreset_mode), None
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
     reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
@@ -278,9 +279,7 @@ def place_envs(
     return placement, local
 
 
-def _place_with_stand_in(
-    workers: WorkerSet, home: range, autoreset_mode: AutoresetMode, adapt_layout: bool | None
-) -> Placement:
+def _place_with_stand_in(workers: WorkerSet, home: range, autoreset_mode: AutoresetMode) -> Placement:
     """The placement of a pool whose calling process steps nothing: a worker stands in for it,
     with a copy of every env, and steps ``home``; it takes every env when that is faster (the
     pool made it only for a layout that can adapt: `stand_in_fixed_reason`)."""

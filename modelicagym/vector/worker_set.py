@@ -120,11 +120,6 @@ class WorkerSet:
             self.handles.append(WorkerHandle(handle.index, replacement, fns, handle.ctx, self._config))
             self.handles[-1].start()
 
-    @property
-    def stand_in(self) -> WorkerHandle | None:
-        """The worker that stands in for the calling process (a copy of every env), if any."""
-        return self.handles[-1] if self.handles and self.handles[-1].in_caller else None
-
     def unsafe_in_caller(self) -> int | None:
         """The first env of the first worker whose envs are not all safe in the calling process
         (`env_contract.safe_in_caller`), or ``None``."""
