@@ -175,3 +175,29 @@ def test_an_fmu_ending_the_calling_process_that_opted_in_names_the_env_and_never
     expected = {"exit": "called exit(0)", "abort": "crashed with SIGABRT", "segfault": "crashed with SIGSEGV"}[quit]
     assert expected in lines[0]
     assert result.returncode == {"exit": 70, "abort": -signal.SIGABRT, "segfault": -signal.SIGSEGV}[quit]
+
+
+PASSING_SCRIPT = """
+import ctypes
+import sys
+import numpy as np
+import modelicagym
+
+pool = modelicagym.make_vec({config!r}, n=3, caller_steps=True)
+pool.reset(seed=0)
+for _ in range(5):
+    pool.step(np.zeros((3, 1)))
+if {how!r} == "segfault":
+    ctypes.string_at(0)  # outside any env's code
+sys.exit(3)  # the pool still open, no env running
+"""
+
+
+@pytest.mark.skipif(futex_library() is None, reason="the last word is the native library's")
+@pytest.mark.parametrize("how", ["exit", "segfault"])
+def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how: str) -> None:
+    script = textwrap.dedent(PASSING_SCRIPT.format(config=quitter_config(), how=how))
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=100,
+                            env={**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR), *sys.path])})
+    assert "modelicagym: env" not in result.stderr
+    assert result.returncode == (3 if how == "exit" else -signal.SIGSEGV), result.stderr
