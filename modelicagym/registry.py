@@ -57,13 +57,15 @@ class EnvFactory:
     """A picklable ``() -> env`` for one environment, sent to pool workers.
 
     ``max_envs_per_process`` tells the pool to keep FMUs that may be instantiated only once per
-    process one to a worker.
+    process one to a worker; ``safe_in_caller`` that its envs (a bundled model's) may run in the
+    calling process, without the pool asking a worker first (`modelicagym.vector.env_contract`).
     """
 
     def __init__(self, entry_point: str, options: dict[str, Any], max_envs_per_process: int | None = None):
         self.entry_point = entry_point
         self.options = options
         self.max_envs_per_process = max_envs_per_process
+        self.safe_in_caller = getattr(_load(entry_point), "safe_in_caller", False) is True
 
     def __call__(self) -> gym.Env:
         return _load(self.entry_point)(**self.options)

@@ -127,6 +127,25 @@ class CountEnv(gym.Env):
         return (x for x in range(3))
 
 
+class SafeCountEnv(CountEnv):
+    """A :class:`CountEnv` that says it is safe in the calling process (it runs no native code),
+    as the bundled models do: the pool's default layout may step it there."""
+
+    safe_in_caller = True
+
+
+class MadeElsewhere:
+    """An env fn that refuses to make its env in process ``pid`` (the test's: "never in the caller")."""
+
+    def __init__(self, fn: Callable[[], gym.Env], pid: int) -> None:
+        self.fn, self.pid = fn, pid
+
+    def __call__(self) -> gym.Env:
+        if os.getpid() == self.pid:
+            raise AssertionError("this env was made in the calling process")
+        return self.fn()
+
+
 def count_fns(n: int, **kwargs: Any) -> list[Callable[[], CountEnv]]:
     """Env fns whose episodes end at different times (``max_len`` differs per env)."""
     return [partial(CountEnv, max_len=4 + 3 * i, **kwargs) for i in range(n)]

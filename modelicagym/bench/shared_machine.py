@@ -5,7 +5,13 @@ at once, a compile takes a core. For the default (light) cart-pole and a heavy o
 (``cs_step_size=1e-4``, ~95 us of FMU work a step), at each n, this measures env steps per second
 of ``single`` (one env in a plain loop), ``sync`` (`gymnasium.vector.SyncVectorEnv`), ``pool``
 (``modelicagym.make_vec``, its default: adaptive layout) and ``pool0`` (``num_workers=0``: every env
-in the calling process), under four loads:
+in the calling process), under four loads. The setting ``user`` is the light cart-pole's FMU given
+as a user gives any FMU (a plain ``FMUEnv`` config over its path; ``user-heavy``: the heavy one):
+the pool's default keeps it out of the calling process (crash isolation: a worker stands in for
+the calling process and takes every env when that is faster), and the extra candidate ``caller``
+(``caller_steps=True``: the calling process steps a slice, the layout adapts) is what the default
+was before, so the rows say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every
+env in fewer workers, isolated, fixed, as many parties as cores) is the consolidated layout alone.
 
 * ``idle``: nothing else runs (plus ``c_loop``, the one-core C loop: the physical limit);
 * ``busy``: one busy Python process beside it;
@@ -24,6 +30,7 @@ idle: pool >= 1.0x single at n=2, >= 2.2x at n=8, >= 1.75x the C loop at n=64, h
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import logging
 import os
@@ -34,16 +41,21 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
 from modelicagym.bench.throughput import EPISODE_STEPS, c_loop, make_vector
+from modelicagym.vector.plan import usable_cores
 
 logger = logging.getLogger(__name__)
 
-SETTINGS = {"light": {}, "heavy": {"cs_step_size": 1e-4}}
+SETTINGS = {"light": {}, "heavy": {"cs_step_size": 1e-4}, "user": {}, "user-heavy": {"cs_step_size": 1e-4}}
 LOADS = ("idle", "busy", "two", "learner")
 CANDIDATES = ("single", "sync", "pool", "pool0")
+#: the settings whose env is a user's FMU, with their extra candidate: the calling process steps a slice
+USER_SETTINGS = ("user", "user-heavy")
+USER_CANDIDATES = (*CANDIDATES, "caller", "one_worker")
 #: seconds of numpy work per batch in the ``learner`` load
 LEARNER_SECONDS = 1e-3
 #: the busy process's command line carries this, so that tests can find it
@@ -57,14 +69,32 @@ def _options(setting: str) -> dict[str, Any]:
     return dict(SETTINGS[setting], max_episode_steps=EPISODE_STEPS)
 
 
+def candidates(setting: str) -> tuple[str, ...]:
+    """The candidates measured for ``setting``."""
+    return USER_CANDIDATES if setting in USER_SETTINGS else CANDIDATES
+
+
+def users_config(options: dict[str, Any]) -> dict[str, Any]:
+    """The cart-pole's ``FMUEnv`` config, as a user would write it for the cart-pole's FMU: the
+    same env, but nothing says its FMU is ours."""
+    import modelicagym
+
+    with modelicagym.make("cartpole", **options) as env:
+        config = env.config
+        fields = {field.name: getattr(config, field.name) for field in dataclasses.fields(config)}
+        return {**fields, "fmu": str(config.fmu)}
+
+
 def make_candidate(candidate: str, setting: str, n: int, stack: ExitStack) -> Callable[[Callable[[], None]], Run]:
     """The candidate's loop; given what to do after each batch (the learner's work), a ``Run``."""
     import modelicagym
 
     options = _options(setting)
     actions = _Actions(n)
+    user = setting in USER_SETTINGS
     if candidate in ("single", "c_loop"):
-        env = stack.enter_context(modelicagym.make("cartpole", **options))
+        env = stack.enter_context(modelicagym.FMUEnv(users_config(options)) if user
+                                  else modelicagym.make("cartpole", **options))
         if candidate == "c_loop":
             run_c = c_loop(env)
             return lambda after: _timed(lambda: run_c(4096))
@@ -80,7 +110,13 @@ def make_candidate(candidate: str, setting: str, n: int, stack: ExitStack) -> Ca
                 return n
             return _timed(batch)
         return single
-    if candidate == "pool0":
+    layouts = {"pool": {}, "pool0": {"num_workers": 0}, "caller": {"caller_steps": True},
+               "one_worker": {"num_workers": max(1, usable_cores() - 1)}}
+    if user and candidate == "sync":
+        envs = gym.vector.SyncVectorEnv([functools.partial(modelicagym.FMUEnv, users_config(options))] * n)
+    elif user:
+        envs = modelicagym.make_vec(users_config(options), n=n, **layouts[candidate])
+    elif candidate == "pool0":
         envs = modelicagym.make_vec("cartpole", n=n, num_workers=0, **options)
     else:
         envs = make_vector(candidate, n, options)
@@ -158,7 +194,7 @@ def measure_group(load: str, setting: str, n: int, repeats: int, seconds: float)
     """Rates of every candidate for one (load, setting, n), medians of interleaved rounds."""
     if load == "two":
         return _measure_two(setting, n, repeats, seconds)
-    names = [*CANDIDATES, "c_loop"] if load == "idle" else list(CANDIDATES)
+    names = [*candidates(setting), "c_loop"] if load == "idle" else list(candidates(setting))
     after = learner_work() if load == "learner" else (lambda: None)
     samples: dict[str, list[float]] = {name: [] for name in names}
     layout = None
@@ -170,17 +206,18 @@ def measure_group(load: str, setting: str, n: int, repeats: int, seconds: float)
         for _ in range(repeats):
             for name, run in runs.items():
                 samples[name].append(run(seconds))
-        layout = str(makers["pool"].envs.layout)  # type: ignore[attr-defined]
-    return _group(load, setting, n, samples, {"pool_layout": layout})
+        layouts = {name: str(makers[name].envs.layout)  # type: ignore[attr-defined]
+                   for name in ("pool", "caller") if name in makers}
+    return _group(load, setting, n, samples, {"pool_layout": layouts["pool"], "layouts": layouts})
 
 
 def _measure_two(setting: str, n: int, repeats: int, seconds: float) -> dict[str, Any]:
     """Each candidate in two processes at once; per round the sum of their rates."""
-    samples: dict[str, list[float]] = {name: [] for name in CANDIDATES}
-    pairs: dict[str, list[list[float]]] = {name: [] for name in CANDIDATES}
+    samples: dict[str, list[float]] = {name: [] for name in candidates(setting)}
+    pairs: dict[str, list[list[float]]] = {name: [] for name in candidates(setting)}
     children: dict[str, list[subprocess.Popen]] = {}
     try:
-        for name in CANDIDATES:
+        for name in candidates(setting):
             children[name] = [_start_child(name, setting, n, seconds) for _ in range(2)]
         for pair in children.values():
             for child in pair:
@@ -226,7 +263,8 @@ def child_main(candidate: str, setting: str, n: int, seconds: float) -> None:
 
 def _group(load: str, setting: str, n: int, samples: dict[str, list[float]], extra: dict[str, Any]) -> dict[str, Any]:
     rates = {name: median(values) for name, values in samples.items()}
-    ratios = {f"{name}/single": rates[name] / rates["single"] for name in ("pool", "pool0", "sync")}
+    ratios = {f"{name}/single": rates[name] / rates["single"]
+              for name in ("pool", "pool0", "sync", "caller", "one_worker") if name in rates}
     if "c_loop" in rates:
         ratios["pool/c_loop"] = rates["pool"] / rates["c_loop"]
     return {"load": load, "setting": setting, "n": n, "steps_per_second": rates, "samples": samples,
@@ -268,11 +306,12 @@ def report(results: list[dict[str, Any]], target_rows: list[dict[str, Any]]) -> 
         rows = [r for r in results if r["load"] == load]
         if not rows:
             continue
-        columns = [*CANDIDATES, "c_loop"] if load == "idle" else list(CANDIDATES)
+        columns = [*USER_CANDIDATES, "c_loop"] if load == "idle" else list(USER_CANDIDATES)
+        ratios = ("pool/single", "pool0/single", "caller/single", "one_worker/single")
         table = format_table(
-            ("setting", "n", *columns, "pool/single", "pool0/single"),
-            [(r["setting"], r["n"], *(f"{r['steps_per_second'][c]:,.0f}" for c in columns),
-              f"{r['ratios']['pool/single']:.2f}x", f"{r['ratios']['pool0/single']:.2f}x") for r in rows],
+            ("setting", "n", *columns, *ratios),
+            [(r["setting"], r["n"], *(_cell(r["steps_per_second"].get(c), "{:,.0f}") for c in columns),
+              *(_cell(r["ratios"].get(ratio), "{:.2f}x") for ratio in ratios)) for r in rows],
         )
         summed = " (two processes at once, rates summed)" if load == "two" else ""
         parts.append(f"{load}{summed}: env steps per second\n{table}")
@@ -282,6 +321,10 @@ def report(results: list[dict[str, Any]], target_rows: list[dict[str, Any]]) -> 
             [(t["target"], f"{t['measured']:.2f}", f"{t['bound']:.2f}", "yes" if t["met"] else "no") for t in target_rows],
         ))
     return "\n\n".join(parts)
+
+
+def _cell(value: float | None, form: str) -> str:
+    return "-" if value is None else form.format(value)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -76,6 +76,10 @@ class FMUEnv(gym.Env):
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
+    #: the FMU's native code is ours (built from this project's sources), so a pool may step this env
+    #: in the calling process by default (`modelicagym.vector.env_contract`): only the bundled
+    #: models say so; an FMUEnv over any FMU a user gives, even a copy of ours, does not
+    safe_in_caller: bool = False
 
     def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
         self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
@@ -204,6 +208,11 @@ class FMUEnv(gym.Env):
         logger.warning("%s: episode truncated at t=%g: %s", self.description.name, self.fmu.time, error)
         self.elapsed_steps += 1
         return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
+
+    @property
+    def fault_label(self) -> str:
+        """What this env runs, for the line that names it if its FMU ends the process: the FMU's path."""
+        return f"FMU {self.config.fmu}"
 
     @property
     def reset_is_deterministic(self) -> bool:

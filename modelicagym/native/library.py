@@ -33,7 +33,7 @@ logger = logging.getLogger(__name__)
 SOURCES_DIR = Path(__file__).resolve().parent / "csrc"
 _NAME = "libmodelicagym_native.so"
 #: -ffp-contract=off: no fused multiply-add, so C does the arithmetic of the Python path and of fmpy's binaries
-_FLAGS = ("-O2", "-shared", "-fPIC", "-std=c11", "-Wall", "-ffp-contract=off")
+_FLAGS = ("-O2", "-shared", "-fPIC", "-pthread", "-std=c11", "-Wall", "-ffp-contract=off")
 
 
 def _compiler() -> str:
@@ -68,6 +68,8 @@ SIGNATURES = {
     "mg_env_step": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
     "mg_env_reset": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_step_batch": (ctypes.c_int64, (ctypes.c_void_p,)),
+    "mg_watch_register": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),
+    "mg_watch_unregister": (None, (ctypes.c_void_p,)),
     "mg_serve": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_collect": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_first_outside_int64": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64)),

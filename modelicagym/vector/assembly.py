@@ -1,6 +1,14 @@
 """How a pool comes together: its worker processes started, the calling process's slice created,
 shared memory handed out, the envs placed, and the dispatcher over all of it. Either everything
-runs afterwards, or nothing is left behind (no process, no mapping, no env)."""
+runs afterwards, or nothing is left behind (no process, no mapping, no env).
+
+By default the calling process steps a slice only of envs that are safe there
+(`modelicagym.vector.env_contract.safe_in_caller`). Unless the env fns promise it, the pool asks:
+one more worker starts, the stand-in, and creates a copy of every env; if they all say they are
+safe, that worker stops and the calling process creates its own; if not, the stand-in keeps them
+and does the caller's part instead: it steps the caller's slice, and on a crowded machine the
+adaptive layout consolidates every env there (`modelicagym.vector.placement`). So an env that does
+not say it is safe is never created in the calling process."""
 
 from __future__ import annotations
 
@@ -12,8 +20,10 @@ import gymnasium as gym
 
 from modelicagym.vector.creation import close_envs
 from modelicagym.vector.dispatch import Dispatcher
+from modelicagym.vector.env_contract import fn_safe_in_caller
 from modelicagym.vector.env_slice import EnvSlice
-from modelicagym.vector.placement import Placement, place_envs
+from modelicagym.vector.placement import Placement, place_envs, stand_in_fixed_reason
+from modelicagym.vector.plan import Layout
 from modelicagym.vector.protocol import EnvDescription, WorkerConfig
 from modelicagym.vector.worker_set import WorkerSet
 
@@ -29,27 +39,50 @@ class PoolParts:
     dispatcher: Dispatcher
     first: EnvDescription
 
+    @property
+    def caller_steps(self) -> bool:
+        """Whether the calling process steps a slice of the envs."""
+        return self.dispatcher.local is not None
+
 
 def assemble(
     env_fns: Sequence[Callable[[], gym.Env]],
-    slices: list[range],
-    local_slice: range | None,
+    layout: Layout,
     start_method: str,
     config: WorkerConfig,
     adapt_layout: bool | None,
 ) -> PoolParts:
-    """Start a worker per slice of ``slices``, create ``local_slice`` here, share memory, place the
-    envs (`modelicagym.vector.placement`) and set up the dispatcher; on any failure release it all
-    and raise."""
-    workers = WorkerSet(env_fns, slices, multiprocessing.get_context(start_method), config, config.startup_timeout)
+    """Start a worker per slice of the layout, create the caller's slice here (if it is safe
+    there, with ``layout.caller_if_safe``: see the module docstring), share memory, place the envs
+    (`modelicagym.vector.placement`) and set up the dispatcher; on any failure release it all and
+    raise."""
+    slices, local_slice = list(layout.worker_slices), layout.caller_slice
+    ask = layout.caller_if_safe and not all(map(fn_safe_in_caller, env_fns[local_slice.start : local_slice.stop]))
+    ctx = multiprocessing.get_context(start_method)
+    workers = WorkerSet(env_fns, slices, ctx, config, config.startup_timeout, stand_in=ask)
     workers.launch()
     local = None
+    stand_in_slice = isolated = None
     try:
+        if ask:
+            description = workers.await_created()[-1]
+            fixed = stand_in_fixed_reason(description, adapt_layout)
+            if description.safe_in_caller:
+                workers.drop_last()
+            elif fixed is None:
+                stand_in_slice, local_slice = local_slice, None
+            else:  # its copies would only be reset and called, with resets that may differ: a plain worker
+                workers.drop_last(replacement=local_slice)
+                isolated = (f"every env is in a worker: its envs do not all say they are safe in the calling process "
+                            f"(safe_in_caller; caller_steps=True puts a slice there), and {fixed}")
+                local_slice = None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)
         )
         first = workers.connect(local)
-        placement, local = place_envs(list(env_fns), workers, local, config.autoreset_mode, adapt_layout)
+        placement, local = place_envs(
+            list(env_fns), workers, local, config.autoreset_mode, adapt_layout, stand_in_slice, isolated
+        )
     except BaseException:
         if local is not None:
             close_envs(local.envs)

@@ -60,7 +60,7 @@ class Dispatcher:
         self.step_timeout = step_timeout
         self.pending: list[PendingCommand] = []
         #: the calling process's slice as a party, or ``None``
-        self.caller = None if local is None else CallerParty(local, buffers.reply)
+        self.caller = None if local is None else CallerParty(local, buffers)
         #: every party in slot order: the workers, then the calling process
         self._parties: list[Party] = [*handles, self.caller] if self.caller is not None else list(handles)
         self._step_all: list[PendingCommand] = []
@@ -109,7 +109,7 @@ class Dispatcher:
         self.pending = []
         self.buffers = self._replies = self._collector = None
         if self.caller is not None:
-            self.caller.forget()
+            self.caller.close()
             close_envs(self.local.envs)
             self.local.detach()
 
@@ -220,7 +220,7 @@ class Dispatcher:
             self.pending = []
             return True
         if status == COLLECT_LOCAL_PYTHON:
-            self.caller.hold(self.local.finish_native_step())
+            self.caller.finish_native_step()
         return False
 
     @staticmethod

@@ -12,12 +12,24 @@ env that offers more gets more, and the pool asks for it by these names only:
 * ``env.reset_is_deterministic`` (a reset without seed or options starts the same episode in any
   env the same env fn makes): with it, and the native step path, a pool whose layout it plans may
   move the env between the calling process and its worker at an episode boundary
-  (`~modelicagym.vector.placement`).
+  (`~modelicagym.vector.placement`);
+* ``env.unwrapped.safe_in_caller is True`` says that the env runs no native code but ours (the
+  bundled models, built from this project's sources, say so): the pool may then step it in the
+  calling process by default (``caller_steps=None``), where a crash would be the caller's. Any env
+  that does not say so -- every `~modelicagym.FMUEnv` over a user's FMU, any other env -- runs
+  only in worker processes unless the user asks for the calling process (``caller_steps=True``,
+  ``num_workers=0``). The pool learns it from a worker that made the env, so an env that does not
+  say so is never even created in the calling process (`safe_in_caller`);
+* ``env.unwrapped.fault_label`` (a ``str``, optional) names what the env runs, e.g. its FMU's
+  path: the one line printed when an env stepped in the calling process ends it (a crash,
+  ``exit()``) names the env by its index and this label.
 
 And of the env fn, the callable that makes an env: ``max_envs_per_process`` (an attribute of it) caps
 the envs of one worker process (1 for FMUs with ``canBeInstantiatedOnlyOncePerProcess``); it is
 pickled with cloudpickle and called in the worker, so it must not capture live FMU instances
-(ctypes handles), only what is needed to create one.
+(ctypes handles), only what is needed to create one. ``safe_in_caller`` (an attribute of it, as of
+the env) promises that its envs are safe in the calling process, so the pool need not ask a worker
+first (the registry's env fns for the bundled models carry it).
 """
 
 from __future__ import annotations
@@ -26,7 +38,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from gymnasium import Space
 
-__all__ = ["NativeEnv", "PoolEnv", "StepResult", "TimedEnv"]
+__all__ = ["NativeEnv", "PoolEnv", "StepResult", "TimedEnv", "fault_label", "fn_safe_in_caller", "safe_in_caller"]
 
 #: ``(observation, reward, terminated, truncated, info)``, as ``gymnasium.Env.step`` returns it
 StepResult = tuple[Any, float, bool, bool, dict[str, Any]]
@@ -74,3 +86,22 @@ class NativeEnv(PoolEnv, Protocol):
 
     def native_step_failure(self) -> StepResult:
         """The step result of an FMU call that failed in C, raised or handled as the Python path would."""
+
+
+def safe_in_caller(env: Any) -> bool:
+    """Whether ``env`` says it runs no native code but ours (see the module docstring); ``False``
+    unless its unwrapped env has ``safe_in_caller`` set to ``True``."""
+    return getattr(getattr(env, "unwrapped", env), "safe_in_caller", False) is True
+
+
+def fn_safe_in_caller(env_fn: Any) -> bool:
+    """Whether the env fn promises envs that are safe in the calling process (its ``safe_in_caller``)."""
+    return getattr(env_fn, "safe_in_caller", False) is True
+
+
+def fault_label(env: Any) -> str:
+    """What ``env`` runs, for the line that names it when it ends the calling process: its
+    ``fault_label`` (e.g. an FMU's path), or its type's name."""
+    unwrapped = getattr(env, "unwrapped", env)
+    label = getattr(unwrapped, "fault_label", None)
+    return label if isinstance(label, str) and label else type(unwrapped).__name__

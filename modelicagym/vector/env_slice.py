@@ -28,7 +28,7 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
-from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv
+from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
@@ -37,6 +37,18 @@ from modelicagym.vector.space_checks import check_action_spaces, check_observati
 __all__ = ["EnvSlice", "describe_envs"]
 
 logger = logging.getLogger(__name__)
+
+
+def movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
+    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
+    reason = batch_path_reason(envs)
+    if reason is not None:
+        return reason
+    for offset, env in enumerate(envs):
+        if not getattr(env, "reset_is_deterministic", False):
+            return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
+    return None
+
 
 def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
     """What the parent needs to know about the envs; raises if they disagree on their spaces
@@ -50,7 +62,8 @@ def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "
     step_path = StepPath("python", reason) if reason else StepPath("native", "the config defines the whole step")
     description = EnvDescription(
         first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec, step_path,
-        tuple(observation_spaces),
+        tuple(observation_spaces), all(safe_in_caller(env) for env in envs),
+        movable_reason(envs, "env {}", first_env),
     )
     try:
         ForkingPickler.dumps(description.spec)

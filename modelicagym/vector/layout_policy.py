@@ -14,7 +14,7 @@ import statistics
 import time
 from collections.abc import Callable
 
-__all__ = ["IdleCores", "LayoutPolicy"]
+__all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
 
 logger = logging.getLogger(__name__)
 
@@ -75,10 +75,13 @@ class LayoutPolicy:
         self._envs = (0, 0)
         self._window_start = self._clock()
 
-    def observe(self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int) -> bool:
+    def observe(
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True
+    ) -> bool:
         """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
         in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all;
-        ``True`` when the target changed."""
+        ``True`` when the target changed. (``settled`` does not matter here: the costs per env it
+        measures hold in a layout that is still moving too.)"""
         if batches and local_envs:
             self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_ns / (local_envs * batches) / 1e3))
             self._envs = (local_envs, all_envs)
@@ -140,6 +143,80 @@ class LayoutPolicy:
         self.target, self._switched_at = target, now
         self.switches += 1
         self.last_decision = f"{self.home + target} envs to the calling process: {why}"
+        logger.debug("pool layout: %s", self.last_decision)
+        return True
+
+
+class ConsolidationPolicy:
+    """Decides whether a stand-in worker steps every env (consolidated) or only its own slice.
+
+    Where the calling process may not step a user's envs, a worker stands in for it
+    (`modelicagym.vector.assembly`), and its costs cannot be told apart from the other workers'
+    in the parent's measurement: so this policy compares the two layouts by what the parent
+    measures, its wait for the workers per batch (the rest of a batch, the parent's own Python, is
+    the same in both). After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
+    ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
+    the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
+    before the next try (0.5 s up to 30 s). ``target``: 0 (the planned layout) or ``movable``
+    (every env in the stand-in).
+
+    Args:
+        movable: the other workers' envs; ``home``: the stand-in's own.
+        clock: seconds, monotonic (a parameter for tests).
+    """
+
+    def __init__(self, movable: int, home: int, clock: Callable[[], float] = time.monotonic) -> None:
+        self.movable, self.home = movable, home
+        self.target = 0
+        self.switches = 0
+        self.last_decision = ""
+        self._clock = clock
+        self._probe_wait = PROBE_FIRST_SECONDS
+        self._switched_at = clock()
+        #: the batch time of the layout a try left, while the try's window runs
+        self._left_us: float | None = None
+        self._window()
+
+    def _window(self) -> None:
+        self._parts: list[float] = []
+        self._window_start = self._clock()
+
+    def observe(
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True
+    ) -> bool:
+        """Account a part of ``batches`` batches that took ``local_ns + wait_ns`` in all (the
+        parent's measurement, as `LayoutPolicy.observe`'s); ``True`` when the target changed."""
+        if not settled:
+            self._window()
+            return False
+        if batches:
+            self._parts.append((local_ns + wait_ns) / batches / 1e3)
+        now = self._clock()
+        if now - self._window_start < WINDOW_SECONDS or len(self._parts) < WINDOW_PARTS:
+            return False
+        batch_us = statistics.median(self._parts)
+        self._window()
+        here, there = self._names(self.target), self._names(self.movable - self.target)
+        if self._left_us is not None:
+            left_us, self._left_us = self._left_us, None
+            if MARGIN * batch_us < left_us:
+                self._probe_wait, self._switched_at = PROBE_FIRST_SECONDS, now
+                return False
+            self._probe_wait = min(2 * self._probe_wait, PROBE_MAX_SECONDS)
+            return self._switch(now, f"the parent waited {batch_us:.1f} us a batch with {here}, {left_us:.1f} us "
+                                     f"with {there}")
+        if now - self._switched_at < self._probe_wait:
+            return False
+        self._left_us = batch_us
+        return self._switch(now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} are tried")
+
+    def _names(self, target: int) -> str:
+        return "every env in the stand-in worker" if target == self.movable else "the envs in their workers"
+
+    def _switch(self, now: float, why: str) -> bool:
+        self.target, self._switched_at = self.movable - self.target, now
+        self.switches += 1
+        self.last_decision = f"{self.home + self.target} envs to the stand-in worker: {why}"
         logger.debug("pool layout: %s", self.last_decision)
         return True
 

@@ -15,6 +15,8 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.caller_watch import CallerWatch
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.errors import PoolError
 from modelicagym.vector.protocol import Command, Message, Reply
@@ -83,11 +85,14 @@ class CallerParty:
     in_caller = True
     process = "the calling process"
 
-    def __init__(self, envs: EnvSlice, reply: np.ndarray) -> None:
+    def __init__(self, envs: EnvSlice, buffers: SharedBuffers) -> None:
         self.envs = envs
         self.index = envs.index
         self.env_indices = envs.env_indices
-        self._reply_slot = reply
+        self._reply_slot = buffers.reply
+        #: names the env that ends this process, if one does (`modelicagym.vector.caller_watch`)
+        self.watch = CallerWatch(buffers.current_env[envs.slot : envs.slot + 1], envs.envs, envs.first,
+                                 len(buffers.in_caller))
         self._command: tuple[int, Message | None] | None = None
         self._reply: Message | None = None
 
@@ -105,7 +110,19 @@ class CallerParty:
         command, self._command = self._command, None
         if command is not None:
             code, message = command
-            self.hold(self.envs.step() if code == Command.STEP else self.envs.run(code, message))
+            self.watch.enter()
+            try:
+                self.hold(self.envs.step() if code == Command.STEP else self.envs.run(code, message))
+            finally:
+                self.watch.leave()
+
+    def finish_native_step(self) -> None:
+        """Finish, in Python, what the native collection left of this slice's step."""
+        self.watch.enter()
+        try:
+            self.hold(self.envs.finish_native_step())
+        finally:
+            self.watch.leave()
 
     def hold(self, reply: Message | None) -> None:
         """Keep ``reply`` for :meth:`answer` (e.g. what Python finished of a native step)."""
@@ -128,3 +145,8 @@ class CallerParty:
     def forget(self) -> None:
         """Drop the posted command and the held reply (the pool stopped)."""
         self._command = self._reply = None
+
+    def close(self) -> None:
+        """The pool is closing: nothing of its envs runs here any more."""
+        self.forget()
+        self.watch.close()

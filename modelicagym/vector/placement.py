@@ -43,15 +43,15 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.creation import close_envs, create_envs
-from modelicagym.vector.env_slice import EnvSlice
+from modelicagym.vector.env_slice import EnvSlice, movable_reason
 from modelicagym.vector.errors import PoolMemoryError
-from modelicagym.vector.layout_policy import LayoutPolicy
-from modelicagym.vector.native_slice import batch_path_reason
+from modelicagym.vector.layout_policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.plan import usable_cores
+from modelicagym.vector.protocol import EnvDescription
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.worker_set import WorkerSet
 
-__all__ = ["LayoutState", "Placement", "place_envs"]
+__all__ = ["LayoutState", "Placement", "place_envs", "stand_in_fixed_reason"]
 
 #: the policy's measurements come in parts of this many batches (summed in C)
 PART_BATCHES = 64
@@ -65,7 +65,8 @@ class LayoutState:
     adaptive: bool
     #: why the layout adapts, or why it cannot
     reason: str
-    #: envs the calling process is to step (it gets them at their next episode boundaries)
+    #: envs the calling process (or the worker standing in for it) is to step (it gets them at
+    #: their next episode boundaries)
     target_in_caller: int
     #: envs the calling process steps now, of ``num_envs``
     envs_in_caller: int
@@ -77,10 +78,16 @@ class LayoutState:
     switches: int
     #: the measurement behind the last change of target (empty before the first)
     last_decision: str
+    #: envs the worker standing in for the calling process steps now (where the calling process may
+    #: not step the envs: `modelicagym.vector.assembly`), of ``num_envs``
+    envs_in_stand_in: int = 0
+    #: that worker, for messages ("" without one)
+    stand_in: str = ""
 
     def __str__(self) -> str:
         kind = "adaptive" if self.adaptive else "fixed"
-        where = (f"{self.envs_in_caller}/{self.num_envs} envs in the calling process, "
+        held = f"{self.envs_in_stand_in}/{self.num_envs} envs in {self.stand_in}, " if self.stand_in else ""
+        where = (f"{held}{self.envs_in_caller}/{self.num_envs} envs in the calling process, "
                  f"{self.workers_stepping}/{self.num_workers} workers stepping")
         decision = f"; last change: {self.last_decision}" if self.last_decision else ""
         return f"{kind} layout ({self.reason}): {where}{decision}"
@@ -95,6 +102,9 @@ class Placement:
         autoreset_mode: the pool's.
         policy: the adaptive layout's policy, or ``None`` (a fixed layout).
         reason: why the layout adapts or why it does not.
+        stand_in: the envs marked ``in_caller`` are stepped by one more worker, after those of
+            ``worker_slices``, that holds a copy of every env (`modelicagym.vector.assembly`),
+            rather than by the calling process.
     """
 
     def __init__(
@@ -104,8 +114,9 @@ class Placement:
         worker_slices: list[range],
         caller_slice: range | None,
         autoreset_mode: AutoresetMode,
-        policy: LayoutPolicy | None,
+        policy: LayoutPolicy | ConsolidationPolicy | None,
         reason: str,
+        stand_in: bool = False,
     ) -> None:
         self.in_caller = in_caller
         self.needs_reset = needs_reset
@@ -117,8 +128,10 @@ class Placement:
         in_caller[:] = 0
         if caller_slice is not None:
             in_caller[caller_slice.start : caller_slice.stop] = 1
-        #: per worker, uint8: it steps at least one env (only those are woken for a step)
-        self.stepping = np.ones(len(worker_slices), dtype=np.uint8)
+        #: per worker, uint8: it steps at least one env (only those are woken for a step); a
+        #: stand-in always steps its own slice
+        self.stepping = np.ones(len(worker_slices) + stand_in, dtype=np.uint8)
+        self._stand_in = f"worker {len(worker_slices)} (standing in for the calling process)" if stand_in else ""
         self._movable = np.zeros(len(in_caller), dtype=np.bool_)
         #: the movable envs in the order they go to the caller: the last env of every worker, then
         #: the one before, ... (so that the workers give up envs evenly)
@@ -141,10 +154,12 @@ class Placement:
     def state(self) -> LayoutState:
         """What runs where now, and why."""
         policy = self.policy
+        held = int(self.in_caller.sum())
         return LayoutState(
-            self.adaptive, self.reason, int(self._want.sum()), int(self.in_caller.sum()),
-            len(self.in_caller), int(self.stepping.sum()), len(self.stepping),
+            self.adaptive, self.reason, int(self._want.sum()), 0 if self._stand_in else held, len(self.in_caller),
+            int(self.stepping[: len(self._worker_slices)].sum()), len(self._worker_slices),
             0 if policy is None else policy.switches, "" if policy is None else policy.last_decision,
+            held if self._stand_in else 0, self._stand_in,
         )
 
     def due(self) -> bool:
@@ -163,7 +178,8 @@ class Placement:
         if self._countdown <= 0:
             self._countdown = PART_BATCHES
             times = take_times()
-            if times is not None and self.policy.observe(*times, self._caller_envs, len(self.in_caller)):
+            policy, envs = self.policy, len(self.in_caller)
+            if times is not None and policy.observe(*times, self._caller_envs, envs, self._settled):
                 self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
@@ -208,10 +224,10 @@ class Placement:
             self.needs_reset[movers] = needs_reset
         self.in_caller[movers] = self._want[movers]
         self._caller_envs = int(self.in_caller.sum())
-        stepping = np.array([not self.in_caller[s.start : s.stop].all() for s in self._worker_slices], dtype=np.uint8)
-        if np.array_equal(stepping, self.stepping):
+        stepping = [not self.in_caller[s.start : s.stop].all() for s in self._worker_slices]
+        if np.array_equal(stepping, self.stepping[: len(stepping)]):
             return False
-        self.stepping[:] = stepping
+        self.stepping[: len(stepping)] = stepping
         return True
 
 
@@ -221,18 +237,24 @@ def place_envs(
     local: EnvSlice | None,
     autoreset_mode: AutoresetMode,
     adapt_layout: bool | None,
+    stand_in_slice: range | None = None,
+    isolated: str | None = None,
 ) -> tuple[Placement, EnvSlice | None]:
     """The placement of a pool's envs, and the calling process's slice: for an adaptive layout,
-    every env (copies of the worker envs, then its own). Raises `ConfigError` if
-    ``adapt_layout=True`` cannot be, saying why."""
+    every env (copies of the worker envs, then its own). With a stand-in worker (the last one, for
+    envs not safe in the calling process), that worker steps ``stand_in_slice`` instead, and
+    consolidates the envs when that is faster. ``isolated`` says why every env is in a worker,
+    with no stand-in. Raises `ConfigError` if ``adapt_layout=True`` cannot be, saying why."""
+    if stand_in_slice is not None:
+        return _place_with_stand_in(workers, stand_in_slice, autoreset_mode), None
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
-    reason = _fixed_layout_reason(workers, local, adapt_layout)
+    reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
     if reason is None:
         copies: list[gym.Env] = []
         try:
             copies = create_envs(env_fns[: local.first], 0, "the calling process (copies of the workers' envs)")
-            reason = _movable_reason(copies, "a copy of env {} in the calling process")
+            reason = movable_reason(copies, "a copy of env {} in the calling process")
             if reason is None:
                 local.detach()
                 local = EnvSlice(copies + local.envs, 0, local.slot, autoreset_mode, caller=True)
@@ -257,6 +279,30 @@ def place_envs(
     return placement, local
 
 
+def _place_with_stand_in(workers: WorkerSet, home: range, autoreset_mode: AutoresetMode) -> Placement:
+    """The placement of a pool whose calling process steps nothing: a worker stands in for it,
+    with a copy of every env, and steps ``home``; it takes every env when that is faster (the
+    pool made it only for a layout that can adapt: `stand_in_fixed_reason`)."""
+    policy = ConsolidationPolicy(workers.num_envs - len(home), len(home))
+    reason = ("every env is in a worker: its envs do not all say they are safe in the calling process "
+              "(safe_in_caller; caller_steps=True puts a slice there); they can move to one worker at episode "
+              "boundaries")
+    worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
+    buffers = workers.buffers
+    return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, autoreset_mode, policy, reason,
+                     stand_in=True)
+
+
+def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
+    """Why a layout with a stand-in worker whose envs ``description`` describes could not adapt
+    (``None``: it can)."""
+    if adapt_layout is False:
+        return "adapt_layout=False"
+    if futex_library() is None:
+        return "no native library: the pool signals through semaphores"
+    return description.movable_reason
+
+
 def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice | None, adapt_layout: bool | None) -> str | None:
     """Why the layout cannot adapt (``None``: it can), before any copy is made."""
     if adapt_layout is False:
@@ -267,18 +313,11 @@ def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice | None, adapt_layou
         return "num_workers=0: every env is in the calling process"
     if futex_library() is None:
         return "no native library: the pool signals through semaphores"
+    unsafe = workers.unsafe_in_caller()
+    if unsafe is not None:
+        return (f"env {unsafe} does not say it is safe in the calling process (safe_in_caller), so no copy of it "
+                "is made there")
     paths = {path for path in workers.step_paths if path.path != "native"}
     if paths:
         return f"an env steps on the Python path: {next(iter(paths)).reason}"
-    return _movable_reason(local.envs, "env {}", local.first)
-
-
-def _movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
-    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
-    reason = batch_path_reason(envs)
-    if reason is not None:
-        return reason
-    for offset, env in enumerate(envs):
-        if not getattr(env, "reset_is_deterministic", False):
-            return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
-    return None
+    return movable_reason(local.envs, "env {}", local.first)

@@ -14,10 +14,15 @@ __all__ = ["Layout", "default_start_method", "plan_layout", "plan_workers", "usa
 
 
 class Layout(NamedTuple):
-    """Which envs each worker steps, and which the calling process steps itself (or ``None``)."""
+    """Which envs each worker steps, and which the calling process steps itself (or ``None``).
+
+    With ``caller_if_safe`` the calling process gets ``caller_slice`` only if its envs are safe
+    there (`modelicagym.vector.env_contract.safe_in_caller`); else one more worker steps it.
+    """
 
     worker_slices: list[range]
     caller_slice: range | None
+    caller_if_safe: bool = False
 
 
 def plan_layout(
@@ -28,7 +33,8 @@ def plan_layout(
     step_timeout: float | None,
     caller_steps: bool | None,
 ) -> Layout:
-    """The pool's layout; see `PoolVectorEnv`'s ``caller_steps`` for when the caller steps a slice.
+    """The pool's layout; see `PoolVectorEnv`'s ``caller_steps`` for when the caller steps a slice
+    (by default, only a slice of envs safe in the calling process: ``caller_if_safe``).
 
     An env fn's ``max_envs_per_process`` attribute caps the envs per worker like
     ``max_envs_per_worker``; the caller's slice is the last one.
@@ -37,13 +43,14 @@ def plan_layout(
     caps = [cap for cap in caps if cap is not None]
     if num_workers == 0:
         return _caller_only_layout(len(env_fns), caps, restart_dead_workers, step_timeout, caller_steps)
-    if caller_steps is None:
+    chosen = caller_steps is not None
+    if not chosen:
         caller_steps = num_workers is None and not caps and not restart_dead_workers and step_timeout is None
     if caller_steps and restart_dead_workers:
         raise ConfigError("caller_steps=True and restart_dead_workers=True: the calling process cannot be restarted")
     parties = num_workers + 1 if caller_steps and num_workers else num_workers
     slices = plan_workers(len(env_fns), parties, min(caps) if caps else None)
-    return Layout(slices, slices.pop() if caller_steps else None)
+    return Layout(slices, slices.pop() if caller_steps else None, bool(caller_steps) and not chosen)
 
 
 def _caller_only_layout(

@@ -168,7 +168,8 @@ class PoolVectorEnv(VectorEnv):
                 only once per process), it caps the envs per worker like ``max_envs_per_worker``.
             num_workers: worker processes; default one per usable core (less the caller's, see
                 ``caller_steps``), never more than envs. ``0``: none, the calling process steps
-                every env itself (no fault handling then: nothing to isolate, restart or time out).
+                every env itself, whatever it runs (no fault handling then: nothing to isolate,
+                restart or time out).
             start_method: ``multiprocessing`` start method; default ``forkserver`` (see above).
             autoreset_mode: ``AutoresetMode`` (or its value), default ``NEXT_STEP``.
             step_timeout: seconds any call into the envs (step, reset, call, set_attr) may take
@@ -185,9 +186,13 @@ class PoolVectorEnv(VectorEnv):
             caller_steps: the calling process steps the last slice of envs itself while the
                 workers step theirs, so that no more parties wait for each other than there are
                 cores (the caller's share runs without process isolation: a crash there is the
-                caller's). ``None`` (default): when the pool plans its own layout and no fault
-                handling is asked for, i.e. ``num_workers``, ``max_envs_per_worker`` (or an env fn's
-                ``max_envs_per_process``), ``restart_dead_workers`` and ``step_timeout`` are unset.
+                caller's; one line on stderr names the env and its FMU, `modelicagym.vector.caller_watch`).
+                ``None`` (default): when the pool plans its own layout and no fault handling is
+                asked for, i.e. ``num_workers``, ``max_envs_per_worker`` (or an env fn's
+                ``max_envs_per_process``), ``restart_dead_workers`` and ``step_timeout`` are unset,
+                and only for envs that say they are safe there (``safe_in_caller``: the bundled
+                models; `modelicagym.vector.env_contract`): any other env is never created in the
+                calling process. ``True`` puts a slice of any envs there.
             observation_mode: ``AsyncVectorEnv``'s: ``"same"`` (every env has the same observation
                 space), ``"different"`` (spaces may differ but share shape and dtype: the batched
                 space is ``batch_differing_spaces`` of them), or a ``(batched, single)`` pair.
@@ -202,7 +207,8 @@ class PoolVectorEnv(VectorEnv):
                 (`modelicagym.vector.placement`; :attr:`layout` says what runs where and why).
                 ``None`` (default): when the pool plans its own layout with the caller stepping
                 (``caller_steps``), every env is an FMU env on the native step path whose reset
-                is deterministic; ``True`` insists (a `ConfigError` says why it cannot);
+                is deterministic and every worker's env is safe in the calling process; ``True``
+                insists (a `ConfigError` says why it cannot);
                 ``False``: a fixed layout. An adaptive pool keeps a copy of every worker env in
                 the calling process too.
         """
@@ -232,11 +238,9 @@ class PoolVectorEnv(VectorEnv):
         self.restart_dead_workers = restart_dead_workers
         self.startup_timeout = startup_timeout
         self.copy = copy
-        slices, local_slice = plan_layout(
+        layout = plan_layout(
             self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout, caller_steps
         )
-        self.caller_steps = local_slice is not None
-        self.num_workers = len(slices)
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
         self._timing = TimingRecorder()
@@ -252,10 +256,12 @@ class PoolVectorEnv(VectorEnv):
             num_envs=self.num_envs,
         )
         try:
-            parts = assemble(self.env_fns, slices, local_slice, self.start_method, config, adapt_layout)
+            parts = assemble(self.env_fns, layout, self.start_method, config, adapt_layout)
         except BaseException:
             self.closed = True
             raise
+        self.caller_steps = parts.caller_steps
+        self.num_workers = len(parts.workers.handles)
         self._workers, self._placement, self._dispatcher = parts.workers, parts.placement, parts.dispatcher
         first = parts.first
         self.metadata = {**first.metadata, "autoreset_mode": self.autoreset_mode}

@@ -110,6 +110,11 @@ class EnvDescription:
     step_path: StepPath
     #: the observation space of every env of the slice (they may differ in ``observation_mode="different"``)
     observation_spaces: tuple[Space, ...] = ()
+    #: every env of the slice says it is safe in the calling process (`env_contract.safe_in_caller`)
+    safe_in_caller: bool = False
+    #: why the envs cannot move between processes at an episode boundary, ``None`` if they can
+    #: (`modelicagym.vector.env_slice.movable_reason`)
+    movable_reason: str | None = "not described"
 
 
 @dataclass(frozen=True)

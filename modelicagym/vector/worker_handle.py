@@ -45,7 +45,6 @@ class WorkerHandle:
     restart the worker with fresh envs, a fresh pipe and fresh signals.
     """
 
-    in_caller = False
     process = None
 
     def __init__(
@@ -55,11 +54,15 @@ class WorkerHandle:
         env_fns: Sequence[Callable[[], gym.Env]],
         ctx: BaseContext,
         config: WorkerConfig,
+        stand_in: bool = False,
     ) -> None:
         self.index = index
         self.env_indices = env_indices
+        #: the worker stands in for the calling process: it holds a copy of every env and steps
+        #: those the shared ``in_caller`` array marks (`modelicagym.vector.placement`)
+        self.in_caller = stand_in
         self._env_fns = CloudpickleWrapper(list(env_fns))
-        self._ctx = ctx
+        self.ctx = ctx
         self._config = config
         self.process = None
         self.conn: Connection | None = None
@@ -77,13 +80,14 @@ class WorkerHandle:
 
     def start(self) -> None:
         """Start the worker process; it begins creating its envs at once."""
-        parent_conn, child_conn = self._ctx.Pipe()
+        parent_conn, child_conn = self.ctx.Pipe()
         if not self._config.shared_signals:
-            self.go, self.done = SemaphoreSignal(self._ctx), SemaphoreSignal(self._ctx)
-        self.process = self._ctx.Process(
+            self.go, self.done = SemaphoreSignal(self.ctx), SemaphoreSignal(self.ctx)
+        self.process = self.ctx.Process(
             target=run_worker,
             name=f"modelicagym-pool-worker-{self.index}",
-            args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config),
+            args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config,
+                  self.in_caller),
             daemon=True,
         )
         self.conn = parent_conn
@@ -189,9 +193,11 @@ class WorkerHandle:
         self.process.join(_TERMINATE_GRACE)
         exitcode = self.process.exitcode
         where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
+        # a worker exits by itself only when told to close: an exit status means the env's code called exit()
+        cause = "; code in the env called exit()" if exitcode is not None and exitcode >= 0 else ""
         return WorkerDiedError(
             f"worker {self.index} (pid {self.process.pid}) {describe_exitcode(exitcode)} "
-            f"during {doing} of {where}",
+            f"during {doing} of {where}{cause}",
             env_index,
             self.index,
             exitcode,

@@ -55,8 +55,10 @@ def run_worker(
     go: SemaphoreSignal | None,
     done: SemaphoreSignal | None,
     config: WorkerConfig,
+    stand_in: bool = False,
 ) -> None:
-    """Entry point of a worker process (the ``target`` of its ``multiprocessing.Process``)."""
+    """Entry point of a worker process (the ``target`` of its ``multiprocessing.Process``);
+    ``stand_in``: it steps the envs marked ``in_caller``, as the calling process would."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     exit_with_parent()
     envs: list[gym.Env] = []
@@ -74,7 +76,8 @@ def run_worker(
             conn.send(Message(Kind.ERROR, RemoteError.capture(exc, failed)))
             return
         conn.send(Message(Kind.READY, description))
-        worker = Worker(worker_index, EnvSlice(envs, first_env, worker_index, config.autoreset_mode), conn, go, done, config)
+        envs_slice = EnvSlice(envs, first_env, worker_index, config.autoreset_mode, caller=stand_in)
+        worker = Worker(worker_index, envs_slice, conn, go, done, config)
         worker.attach()
         worker.serve()
     except (EOFError, BrokenPipeError, ConnectionResetError):

@@ -60,18 +60,24 @@ class WorkerSet:
         ctx: BaseContext,
         config: WorkerConfig,
         startup_timeout: float | None,
+        stand_in: bool = False,
     ) -> None:
         self.handles = [
             WorkerHandle(k, indices, env_fns[indices.start : indices.stop], ctx, config)
             for k, indices in enumerate(slices)
         ]
+        if stand_in:  # one more worker, with a copy of every env (`WorkerHandle.in_caller`)
+            self.handles.append(WorkerHandle(len(slices), range(len(env_fns)), env_fns, ctx, config, stand_in=True))
         self.num_envs = len(env_fns)
+        self._env_fns = env_fns
         self.startup_timeout = startup_timeout
         self._config = config
         self.buffers: SharedBuffers | None = None
         self.description: EnvDescription | None = None
+        #: what each worker reported once its envs were created (:meth:`await_created`)
+        self.descriptions: list[EnvDescription] = []
         #: per env, the path its slice steps on, and its observation space
-        self.step_paths: list[StepPath] = []
+        self.step_paths: list[StepPath] = [StepPath("python", "not created yet")] * self.num_envs
         self.observation_spaces: list[Space] = [None] * self.num_envs
         self._resources = _Resources(self.handles)
         self._finalizer = weakref.finalize(self, self._resources.release)
@@ -90,20 +96,53 @@ class WorkerSet:
             self.release()
             raise
 
+    def await_created(self) -> list[EnvDescription]:
+        """Wait until every worker has created its envs; what each reported (kept in
+        :attr:`descriptions`). Releases everything if anything fails."""
+        try:
+            deadline = self._deadline()
+            waiting = self.handles[len(self.descriptions):]
+            self.descriptions += [self._await_ready(handle, deadline) for handle in waiting]
+        except BaseException:
+            self.release()
+            raise
+        return self.descriptions
+
+    def drop_last(self, replacement: range | None = None) -> None:
+        """Stop the last worker, whose envs have been created and described but not yet given
+        memory: the calling process steps its slice instead, or a plain worker started for the
+        envs ``replacement``."""
+        handle = self.handles.pop()
+        del self.descriptions[len(self.handles):]
+        handle.release()
+        if replacement is not None:
+            fns = self._env_fns[replacement.start : replacement.stop]
+            self.handles.append(WorkerHandle(handle.index, replacement, fns, handle.ctx, self._config))
+            self.handles[-1].start()
+
+    def unsafe_in_caller(self) -> int | None:
+        """The first env of the first worker whose envs are not all safe in the calling process
+        (`env_contract.safe_in_caller`), or ``None``."""
+        for handle, description in zip(self.handles, self.descriptions):
+            if not description.safe_in_caller:
+                return handle.env_indices.start
+        return None
+
     def connect(self, local: EnvSlice | None) -> EnvDescription:
         """Wait for the workers' envs, check all envs agree on the spaces, create the shared memory
         and hand it out (to ``local`` too, the slice the calling process steps itself); returns
         the description of the first env (``local``'s when there are no workers). Releases
         everything if anything fails."""
+        descriptions = list(self.await_created())
         try:
             deadline = self._deadline()
-            descriptions = [self._await_ready(handle, deadline) for handle in self.handles]
             if local is not None:
                 descriptions.append(describe_envs(local.envs, local.first, self._config.observation_mode))
             self.description = descriptions[0]
             for party, description in zip([*self.handles, local], descriptions):
                 self._check_spaces(party, description)
-                self.step_paths += [description.step_path] * len(party.env_indices)
+                self.step_paths[party.env_indices.start : party.env_indices.stop] = [description.step_path] * len(
+                    party.env_indices)
             slots = len(self.handles) + (local is not None)
             spec = BufferSpec(self.description.observation_space, self.description.action_space, self.num_envs, slots)
             self.buffers, self._resources.fd = SharedBuffers.create(spec)

@@ -81,11 +81,16 @@ def _processes_with(marker: str) -> list[int]:
 def test_the_shared_machine_benchmark_leaves_no_load_behind(tmp_path: Path) -> None:
     from modelicagym.bench.shared_machine import BUSY_MARKER
 
-    args = ["--loads", "busy", "two", "--n", "2", "--settings", "light", "--repeats", "2", "--seconds", "0.05"]
+    args = ["--loads", "busy", "two", "--n", "2", "--settings", "light", "user", "--repeats", "2", "--seconds", "0.05"]
     run_bench("shared", args, tmp_path / "result.json")
     result = json.loads((tmp_path / "result.json").read_text())
-    assert [group["load"] for group in result["results"]] == ["busy", "two"]
-    two = result["results"][1]
+    assert [(group["load"], group["setting"]) for group in result["results"]] == [
+        ("busy", "light"), ("busy", "user"), ("two", "light"), ("two", "user")]
+    user = result["results"][1]  # a user's FMU: the default pool isolates it, "caller" is the opt-in
+    assert "0/2 envs in the calling process" in user["layouts"]["pool"]
+    assert "0/2 envs in the calling process" not in user["layouts"]["caller"]
+    assert "caller" in result["results"][3]["steps_per_second"]
+    two = result["results"][2]
     assert len(two["pairs"]["pool"]) == 2 and all(len(pair) == 2 for pair in two["pairs"]["pool"])
     assert two["steps_per_second"]["pool"] == statistics.median(map(sum, two["pairs"]["pool"]))  # the pair's sum
     assert _processes_with(BUSY_MARKER) == [] and _processes_with("modelicagym.bench.shared_machine") == []

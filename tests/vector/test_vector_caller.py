@@ -9,7 +9,7 @@ from functools import partial
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from vector_envs import CountEnv, FaultyEnv, count_fns
+from vector_envs import CountEnv, FaultyEnv, SafeCountEnv, count_fns
 from vector_leaks import Snapshot
 from vector_rollouts import assert_same, rollout
 
@@ -33,8 +33,8 @@ def test_identical_to_sync_when_the_caller_steps(mode: AutoresetMode, num_worker
     assert_same(expected, actual)
 
 
-def test_the_default_layout_lets_the_caller_step_the_last_slice() -> None:
-    with PoolVectorEnv(count_fns(4)) as pool:
+def test_the_default_layout_lets_the_caller_step_the_last_slice_of_envs_safe_there() -> None:
+    with PoolVectorEnv([partial(SafeCountEnv, max_len=4 + 3 * i) for i in range(4)]) as pool:
         assert pool.caller_steps
         assert pool.num_workers == min(usable_cores(), 4) - 1
         pids = pool.call("pid")
@@ -51,9 +51,9 @@ def test_fault_handling_keeps_every_env_in_a_worker() -> None:
         PoolVectorEnv(count_fns(2), caller_steps=True, restart_dead_workers=True)
 
 
-def test_a_single_env_needs_no_worker() -> None:
+def test_a_single_env_safe_in_the_caller_needs_no_worker() -> None:
     before = Snapshot.take()
-    with PoolVectorEnv([CountEnv]) as pool:
+    with PoolVectorEnv([SafeCountEnv]) as pool:
         assert pool.num_workers == 0 and pool.worker_pids == ()
         pool.reset(seed=0)
         observations, *_ = pool.step(np.zeros(1, dtype=np.int64))

@@ -18,7 +18,7 @@ from vector_rollouts import assert_same
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv, placement
-from modelicagym.vector.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, LayoutPolicy
+from modelicagym.vector.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.sync import futex_library
 
 pytestmark = [
@@ -51,7 +51,8 @@ def _flipping(pool: PoolVectorEnv, every: int) -> Flipping:
 
 
 def _rollout_recording_layouts(envs: Any, steps: int, seed: int = 7) -> tuple[list, set[int]]:
-    """As ``vector_rollouts.rollout``, and how many envs the calling process stepped after each step."""
+    """As ``vector_rollouts.rollout``, and how many envs the calling process (or the worker standing
+    in for it) stepped after each step."""
     records: list[Any] = [envs.reset(seed=seed)]
     envs.action_space.seed(seed)
     disabled = envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
@@ -64,7 +65,7 @@ def _rollout_recording_layouts(envs: Any, steps: int, seed: int = 7) -> tuple[li
         if disabled and ended.any():
             records.append(envs.reset(options={"reset_mask": ended}))
         if isinstance(envs, PoolVectorEnv):
-            in_caller.add(envs.layout.envs_in_caller)
+            in_caller.add(envs.layout.envs_in_caller + envs.layout.envs_in_stand_in)
     return records, in_caller
 
 
@@ -209,3 +210,61 @@ def _cpu_seconds(pid: int) -> float:
     with open(f"/proc/{pid}/stat") as handle:
         fields = handle.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _users_cartpole(**options: Any) -> modelicagym.FMUEnv:
+    """The cart-pole's FMU as a user's FMU: its envs may not run in the calling process."""
+    from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
+
+    return modelicagym.FMUEnv(fmu=cartpole_fmu(), inputs=["f"], outputs=list(OUTPUTS), time_step=0.05,
+                              action_table=[[-15.0], [15.0]], termination={"x": (-2.4, 2.4)}, **options)
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode))
+def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatch: pytest.MonkeyPatch,
+                                                                      mode: AutoresetMode) -> None:
+    """Envs not safe in the calling process: a worker stands in for it (a copy of every env), and
+    the adaptive layout moves envs between it and their workers."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    native = [partial(_users_cartpole, max_episode_steps=5 + 4 * i) for i in range(6)]
+    python = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path="python") for i in range(6)]
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+        layout = pool.layout
+        assert not pool.caller_steps and layout.adaptive and layout.envs_in_caller == 0, layout
+        assert layout.envs_in_stand_in == 3 and "standing in for the calling process" in str(layout)
+        policy = _flipping(pool, every=7)
+        actual, in_stand_in = _rollout_recording_layouts(pool, 300)
+        stepping = pool.layout.workers_stepping
+    expected, _ = _rollout_recording_layouts(sync, 300)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 40
+    home = 6 // 2  # the stand-in's own slice: one worker and the stand-in on 2 cores
+    assert min(in_stand_in) == home and max(in_stand_in) == 6, in_stand_in
+    assert stepping in (0, 1)
+
+
+def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> None:
+    now = [0.0]
+    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0])
+
+    def window(batch_us: float, settled: bool = True) -> bool:
+        changed = False
+        for _ in range(WINDOW_PARTS):
+            now[0] += 0.01
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 4, 8, settled)
+        return changed
+
+    now[0] += PROBE_FIRST_SECONDS
+    assert window(50.0) and policy.target == 4  # the planned layout measured: consolidation is tried
+    assert not window(20.0, settled=False)  # envs still moving: not measured
+    assert not window(20.0) and policy.target == 4  # faster: kept
+    now[0] += PROBE_FIRST_SECONDS
+    assert window(20.0) and policy.target == 0  # the planned layout is tried again
+    assert window(40.0) and policy.target == 4, policy.last_decision  # slower: back
+    assert "40.0 us" in policy.last_decision and "20.0 us" in policy.last_decision
+    now[0] += 1.5 * PROBE_FIRST_SECONDS
+    assert not window(20.0)  # the next try waits twice as long
+    now[0] += PROBE_FIRST_SECONDS
+    assert window(20.0) and policy.target == 0

@@ -60,6 +60,9 @@ class CartPoleEnv(FMUEnv):
     #: the action is a force in [-force, force] N (`CartPoleContinuousEnv`), not a push left or right
     continuous = False
 
+    #: built from our sources (`modelicagym.models`): a pool may step it in the calling process
+    safe_in_caller = True
+
     def __init__(
         self,
         *,

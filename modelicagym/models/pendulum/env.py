@@ -65,6 +65,9 @@ class PendulumSwingUpEnv(FMUEnv):
         fmu_options: further `FMUEnvConfig` keys.
     """
 
+    #: built from our sources (`modelicagym.models`): a pool may step it in the calling process
+    safe_in_caller = True
+
     def __init__(
         self,
         *,
