@@ -97,6 +97,7 @@ class FMUEnv(gym.Env):
             integrator="python" if cfg.step_path == "python" else "auto",
             validate=cfg.validate,
             logging_on=cfg.logging_on,
+            step_size=self.time_step,
         )
         self.action_space = cfg.action_space or self.make_action_space()
         self.observation_space = cfg.observation_space or self.make_observation_space()
