@@ -9,7 +9,8 @@
  * beside the instance, outside ModelData, as an exporter's solver or noise
  * source often is: it changes every step but not the initial outputs. The plain
  * model saves it with every FMU state and re-seeds it in fmiReset, so every
- * reset rung reproduces a fresh instance.
+ * reset rung reproduces a fresh instance. The noise is co-simulation's (its
+ * doStep draws it); model exchange integrates the lag without it.
  *
  * Build-time variants (preprocessor definitions; lifecycle hooks in model.c):
  *   LEAKY_SNAPSHOT  getFMUstate/setFMUstate leave the generator out: a restored

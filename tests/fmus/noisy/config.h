@@ -9,7 +9,7 @@
  * input beyond u_max drives its "solver" into an error loop: doStep logs
  * errors_per_step error messages and still returns OK (the state is not
  * advanced), as third-party FMUs do when an unbounded input is sampled far from
- * the model's physical range.
+ * the model's physical range. Model exchange integrates the lag silently.
  */
 #ifndef NOISY_CONFIG_H
 #define NOISY_CONFIG_H
