@@ -10,8 +10,9 @@ The step contract, stated once:
   ``(observation, reward, terminated, truncated, info)``:
   ``terminated`` when `is_terminal` says so or the FMU itself ended the simulation
   (``info["fmu_terminated"]``); ``truncated`` after ``max_episode_steps``, or when the FMU
-  failed (status Error/Fatal): then ``info["fmu_error"]`` holds its message and the next reset
-  re-instantiates the FMU. Infos are empty on ordinary steps.
+  failed (status Error/Fatal, or an error loop: more error messages in one step than
+  ``modelicagym.fmu.logs.LOG_LIMITS`` allows): then ``info["fmu_error"]`` holds its message and the
+  next reset re-instantiates the FMU. Infos are empty on ordinary steps.
 * time is ``start_time + k * time_step``, read as ``env.time``.
 
 Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the

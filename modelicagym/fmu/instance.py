@@ -21,7 +21,7 @@ instance bit for bit (`modelicagym.fmu.reference`: the first episode is recorded
 gives other values is dropped with one warning naming the FMU, and the next one is checked the
 same way: exporters ship broken ``fmiReset`` and snapshots that miss part of the state.
 
-At ~500 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
+At ~570 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
 the choice of integrator all read and write the same few things (the binding, the value buffers,
 the snapshot, the clock), and keeping them in one class keeps each of those owned by one object.
 The solver loops themselves live elsewhere (`modelicagym.fmu.model_exchange`,
@@ -438,13 +438,15 @@ class FMUInstance:
 
     def _restart(self, values: dict[str, Any]) -> None:
         """Re-instantiate (unless this is the first episode) and initialize: a fresh episode,
-        recorded while no complete reference exists and a rung above re-instantiation may need one."""
+        recorded while a rung above re-instantiation waits for its check and no reference is
+        complete (once a rung is checked, its resets may happen in C: the reference stays as it is)."""
         if self.initialized or self.broken:
             self._free_snapshot()
             self.binding.free_instance()
             self._instantiate()
         self._initialize(values)
-        if self.reset_rung != "reinstantiate" and (self._reference is None or not self._reference.complete):
+        if (self.reset_rung != "reinstantiate" and not self._verified
+                and (self._reference is None or not self._reference.complete)):
             self._recording = Reference(values, _freeze(values), self.inputs, self.outputs)
             self.clock.recorder = self._recording.pointer
 

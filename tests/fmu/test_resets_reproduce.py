@@ -36,7 +36,8 @@ def trajectory(env: FMUEnv, steps: list[np.ndarray], **reset) -> bytes:
 
 
 def rung_warnings(caplog: pytest.LogCaptureFixture) -> list[str]:
-    return [r.getMessage() for r in caplog.records if r.name == "modelicagym.fmu.instance" and r.levelno == logging.WARNING]
+    return [r.getMessage() for r in caplog.records
+            if r.name == "modelicagym.fmu.instance" and r.levelno == logging.WARNING]
 
 
 @pytest.mark.parametrize("step_path", STEP_PATHS)
@@ -68,7 +69,6 @@ def test_every_episode_is_a_fresh_envs_bit_for_bit(family_fmu, fmi_version, name
                   for steps, parameters in plan]
     for k, (a, e) in enumerate(zip(actual, expected)):
         assert a == e, f"episode {k}"
-    assert expected[1] != expected[5] or plan[1] == plan[5]  # the noise is in the trajectories
     rung, drops = LEAKY[name]
     assert env.fmu.reset_rung == rung
     assert len(rung_warnings(caplog)) == drops

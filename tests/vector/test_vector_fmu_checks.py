@@ -26,7 +26,8 @@ def leaky_fns(path, reference: bool) -> list:
     """Two leaky envs (episodes of 6 and 25 steps: shorter and longer than the checked steps); the
     reference ones re-instantiate for every episode on the Python path, which is exact by definition."""
     exact = {"reset_rung": "reinstantiate", "step_path": "python"} if reference else {}
-    return [partial(FMUEnv, fmu=path, inputs=["u"], outputs=["x"], max_episode_steps=steps, **exact) for steps in (6, 25)]
+    return [partial(FMUEnv, fmu=path, inputs=["u"], outputs=["x"], max_episode_steps=steps, **exact)
+            for steps in (6, 25)]
 
 
 @pytest.mark.parametrize("layout", LAYOUTS)
