@@ -50,7 +50,7 @@ from modelicagym.fmu.fmi3 import FMI3Binding
 from modelicagym.fmu.logs import LOG_LIMITS
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
 from modelicagym.fmu.native_integrator import NativeIntegrator, python_integrator_reason
-from modelicagym.fmu.reference import Reference, describe
+from modelicagym.fmu.reference import WAIT, Reference, describe
 
 logger = logging.getLogger(__name__)
 
@@ -179,6 +179,7 @@ class FMUInstance:
         self._written_inputs = b""  # model exchange: the input values of the last step
         self._reference: Reference | None = None  # what a rung must replay at its first use
         self._recording: Reference | None = None  # the reference the steps are recorded into now
+        self._empty_episodes = 0  # recorded episodes that ended before their first step
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
         self._instantiate()
@@ -208,6 +209,10 @@ class FMUInstance:
         values = dict(values or {})
         self._check_settable(values)
         key = _freeze(values)
+        if self._recording is not None and self._recording_waits():
+            self.inputs.fill_start_values()
+            self._restart(values)  # a fresh episode again, recorded in its turn
+            return
         if self._recording is not None:
             self._finish_recording()
         if self.initialized and not self.broken:
@@ -449,6 +454,16 @@ class FMUInstance:
                 and (self._reference is None or not self._reference.complete)):
             self._recording = Reference(values, _freeze(values), self.inputs, self.outputs)
             self.clock.recorder = self._recording.pointer
+
+    def _recording_waits(self) -> bool:
+        """Whether the reference waits for an episode that takes steps: the user's inputs stir
+        more of an FMU than its start values would. Up to `reference.WAIT` episodes of no step (as
+        a checker's resets) each give way to a fresh one, with a re-instantiation."""
+        if self._recording.count or self._empty_episodes >= WAIT or self.broken or not self.initialized:
+            return False
+        self._empty_episodes += 1
+        self._recording = self.clock.recorder = None
+        return True
 
     def _finish_recording(self) -> None:
         """End the recording of a fresh episode: continue it to `reference.STEPS` steps when it

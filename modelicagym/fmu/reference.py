@@ -11,7 +11,9 @@ rung replays the recorded inputs and must give the recorded outputs (`FMUInstanc
 `STEPS` steps are recorded. An episode that ends sooner is continued, invisibly, at the next reset
 (before that reset): the same instance steps on from where the episode ended, its inputs held at
 their last values, until the reference has `STEPS` steps or the model ends or fails; the reset
-rung then restores the start anyway.
+rung then restores the start anyway. An episode of no step at all (a checker's resets) does not
+make the reference: the next episode is fresh again (re-instantiated) and recorded in its turn, up
+to `WAIT` times, because the user's inputs stir more of an FMU than its start values would.
 """
 
 from __future__ import annotations
@@ -24,10 +26,12 @@ import numpy as np
 from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.native.abi import MgRecorder
 
-__all__ = ["STEPS", "Reference"]
+__all__ = ["STEPS", "WAIT", "Reference"]
 
 #: steps of a fresh episode a rung must reproduce at its first use
 STEPS = 16
+#: episodes of no step that may give way to a fresh one before the reference holds the start values
+WAIT = 16
 
 
 class Reference:

@@ -14,7 +14,7 @@ from episodes import observations
 from gymnasium.utils.env_checker import check_env
 
 from modelicagym import FMUEnv
-from modelicagym.fmu.reference import STEPS
+from modelicagym.fmu.reference import STEPS, WAIT
 
 #: variant -> the rung it ends on, and how many rungs it drops
 LEAKY = {"leaky": ("snapshot", 0), "leaky_snapshot": ("reset", 1), "leaky_reset": ("reinstantiate", 1),
@@ -111,4 +111,20 @@ def test_after_its_check_the_snapshot_is_restored_in_c(family_fmu, monkeypatch):
     for _ in range(3):
         assert trajectory(env, actions(20, 6)) == first
     assert python_resets == []
+    env.close()
+
+
+def test_resets_without_steps_wait_for_an_episode_that_steps_but_not_forever(family_fmu, monkeypatch):
+    """A checker resets many times before its first step: each of those episodes is fresh (the
+    reference waits for the user's inputs), up to `WAIT` of them; then the reference holds the
+    start values, the snapshot rung is checked, and resets no longer re-instantiate."""
+    env = leaky_env(family_fmu("leaky", 2))
+    binding = env.fmu.binding
+    instantiations = []
+    instantiate = binding.instantiate
+    monkeypatch.setattr(binding, "instantiate", lambda *a: (instantiations.append(a), instantiate(*a))[1])
+    for _ in range(1 + WAIT + 5):
+        env.reset()
+    assert len(instantiations) == WAIT
+    assert env.fmu._reference.count == STEPS and env.fmu._verified == {"snapshot"}
     env.close()

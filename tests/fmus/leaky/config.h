@@ -4,8 +4,9 @@
  *
  *   der(x) = -x + u + noise_amplitude * n,   x(0) = x_0
  *
- * where n, uniform in [-1, 1), is drawn at the start of every doStep from a
- * xorshift64 generator seeded at instantiation. The generator's state is kept
+ * where n, uniform in [-1, 1), is drawn at the start of every doStep whose input
+ * is not zero (the lag is quiet while nothing drives it) from a xorshift64
+ * generator seeded at instantiation. The generator's state is kept
  * beside the instance, outside ModelData, as an exporter's solver or noise
  * source often is: it changes every step but not the initial outputs. The plain
  * model saves it with every FMU state and re-seeds it in fmiReset, so every

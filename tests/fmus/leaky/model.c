@@ -67,9 +67,10 @@ static void get_continuous_states(const ModelData *m, double x[]) { x[0] = m->x;
 static void set_continuous_states(ModelData *m, const double x[]) { m->x = x[0]; }
 
 static Status before_step(ModelInstance *comp, double t, double h) {
+    ModelData *m = M(comp);
     (void)t;
     (void)h;
-    M(comp)->noise = M(comp)->noise_amplitude * draw(generator(comp));
+    m->noise = m->u != 0.0 ? m->noise_amplitude * draw(generator(comp)) : 0.0;
     return StatusOK;
 }
 
