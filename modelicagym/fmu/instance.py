@@ -215,13 +215,15 @@ class FMUInstance:
             return
         if self._recording is not None:
             self._finish_recording()
-        if self.initialized and not self.broken:
+        rung = self._rung_for(key) if self.initialized and not self.broken else None
+        if rung is not None and rung not in self._verified:
             self._check_rung(key)
+            rung = self._rung_for(key) if self.initialized and not self.broken else None
         self.inputs.fill_start_values()
-        if self.initialized and not self.broken:
-            self._serve(key, values)
-        else:
+        if rung is None:
             self._restart(values)
+        else:
+            self._serve(rung, values)
 
     def _rung_for(self, key: tuple) -> str:
         """The rung that serves an episode whose values freeze to ``key``."""
@@ -229,9 +231,9 @@ class FMUInstance:
             return "snapshot"
         return "reset" if self.reset_rung in ("snapshot", "reset") else "reinstantiate"
 
-    def _serve(self, key: tuple, values: dict[str, Any]) -> str:
-        """Start an episode with ``values`` on the current rung; returns the rung that served it."""
-        rung = self._rung_for(key)
+    def _serve(self, rung: str, values: dict[str, Any]) -> str:
+        """Start an episode with ``values`` on ``rung``; returns the rung that served it (a lower
+        one when ``rung`` failed and was dropped)."""
         if rung == "snapshot":
             return self._restore_snapshot(values)
         if rung == "reset":
