@@ -39,14 +39,14 @@ from modelicagym.fmu.errors import ERROR, FATAL, WARNING, status_name
 _LEVELS = (logging.DEBUG, logging.WARNING, logging.WARNING, logging.ERROR, logging.CRITICAL, logging.INFO)
 
 
-
 @dataclass
 class LogLimits:
     """How much of an FMU's log reaches ``logging``, and how many errors a step may log.
 
-    ``per_interval`` messages of an instance are logged per ``interval`` seconds, the rest counted;
-    more than ``errors_per_step`` error-level messages within one step (or the reset before it) end
-    the episode (read when an instance is made).
+    ``per_interval`` messages of an instance are logged per ``interval`` seconds, the rest counted
+    (messages below the logger's level count for neither); more than ``errors_per_step``
+    error-level messages between the end of one step (or reset) and the end of the next end the
+    episode (read when an instance is made).
     """
 
     per_interval: int = 20
@@ -93,7 +93,7 @@ class FMULog:
             self.recent.append(f"[{status_name(status)}] {message}")
             if status in (ERROR, FATAL) and self._error_counter is not None:
                 self._error_counter.log_errors += 1
-        if self._admit(level):
+        if self.logger.isEnabledFor(level) and self._admit(level):
             self.logger.log(level, "%s [%s] %s", self.instance_name, category, message)
 
     def _admit(self, level: int) -> bool:
@@ -114,8 +114,9 @@ class FMULog:
         if not self._held_back:
             return
         seconds = (time.monotonic() if now is None else now) - self._window_start
-        self.logger.log(self._held_back_level, "... %s more messages from %s in the last %.0f s",
-                        f"{self._held_back:,}", self.instance_name, max(seconds, 1.0))
+        count = f"{self._held_back:,} more message" + ("s" if self._held_back > 1 else "")
+        self.logger.log(self._held_back_level, "... %s from %s in the last %.0f s", count, self.instance_name,
+                        max(seconds, 1.0))
         self._held_back, self._held_back_level = 0, logging.DEBUG
 
     def take_recent(self) -> list[str]:

@@ -62,6 +62,7 @@ class Reference:
 
     @property
     def complete(self) -> bool:
+        """Whether all `STEPS` steps are recorded."""
         return self.recorder.count >= STEPS
 
     def record(self, dt: float, inputs: ValueBuffer, outputs: ValueBuffer) -> None:

@@ -105,3 +105,16 @@ def test_warnings_are_not_errors(family_fmu, step_path):
         assert not truncated and info == {}
     assert env.fmu.clock.log_errors == 0
     env.close()
+
+
+def test_messages_below_the_loggers_level_take_no_place(family_fmu, monkeypatch, caplog):
+    monkeypatch.setattr(LOG_LIMITS, "per_interval", 3)
+    env = noisy_env(family_fmu("noisy", 2))
+    with caplog.at_level(logging.WARNING, logger="modelicagym"):
+        env.reset()  # its event message is DEBUG: not logged, not counted
+        env.step(np.array([1.0]))
+        env.step(np.array([1.0]))  # 4 warnings: 3 logged, 1 held back
+        env.close()
+    messages = [r.getMessage() for r in fmu_records(caplog)]
+    assert len(messages) == 4 and all("reduced the step" in m for m in messages[:3])
+    assert messages[3] == "... 1 more message from Noisy in the last 1 s"
