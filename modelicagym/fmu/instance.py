@@ -209,11 +209,11 @@ class FMUInstance:
         values = dict(values or {})
         self._check_settable(values)
         key = _freeze(values)
-        if self._recording is not None and self._recording_waits():
-            self.inputs.fill_start_values()
-            self._restart(values)  # a fresh episode again, recorded in its turn
-            return
         if self._recording is not None:
+            if self._recording_waits():
+                self.inputs.fill_start_values()
+                self._restart(values)  # a fresh episode again, recorded in its turn
+                return
             self._finish_recording()
         rung = self._rung_for(key) if self.initialized and not self.broken else None
         if rung is not None and rung not in self._verified:
@@ -458,9 +458,10 @@ class FMUInstance:
             self.clock.recorder = self._recording.pointer
 
     def _recording_waits(self) -> bool:
-        """Whether the reference waits for an episode that takes steps: the user's inputs stir
-        more of an FMU than its start values would. Up to `reference.WAIT` episodes of no step (as
-        a checker's resets) each give way to a fresh one, with a re-instantiation."""
+        """Whether the reference waits for an episode that takes steps (then the recording is
+        dropped): the user's inputs stir more of an FMU than its start values would. Up to
+        `reference.WAIT` episodes of no step (as a checker's resets) each give way to a fresh one,
+        with a re-instantiation."""
         if self._recording.count or self._empty_episodes >= WAIT or self.broken or not self.initialized:
             return False
         self._empty_episodes += 1
