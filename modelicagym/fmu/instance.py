@@ -359,6 +359,8 @@ class FMUInstance:
         parameters and discrete variables nowhere else), followed by the event iteration.
         """
         values = dict(values)
+        if self._recording is not None:
+            self._recording.stop()  # a reset rung's check replays inputs, not these
         if self._integrator is not None and self.initialized and not self.broken:
             if self._in_event_mode(self.time, lambda: self.binding.set_values(values)):
                 self.terminated = True

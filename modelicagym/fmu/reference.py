@@ -62,14 +62,18 @@ class Reference:
 
     @property
     def complete(self) -> bool:
-        """Whether all `STEPS` steps are recorded."""
-        return self.recorder.count >= STEPS
+        """Whether no more steps are to be recorded (`STEPS` of them, or `stop` was called)."""
+        return self.recorder.count >= self.recorder.capacity
+
+    def stop(self) -> None:
+        """Record no more: what comes next (values set between steps) could not be replayed."""
+        self.recorder.capacity = self.recorder.count
 
     def record(self, dt: float, inputs: ValueBuffer, outputs: ValueBuffer) -> None:
         """Append a step the Python path took (``csrc/step.c`` appends the native path's)."""
         recorder = self.recorder
         k = recorder.count
-        if k < STEPS:
+        if k < recorder.capacity:
             self.dts[k] = dt
             self.inputs[k] = np.frombuffer(inputs.snapshot(), dtype=np.uint8)
             self.outputs[k] = np.frombuffer(outputs.snapshot(), dtype=np.uint8)

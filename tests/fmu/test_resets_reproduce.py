@@ -128,3 +128,19 @@ def test_resets_without_steps_wait_for_an_episode_that_steps_but_not_forever(fam
     assert len(instantiations) == WAIT
     assert env.fmu._reference.count == STEPS and env.fmu._verified == {"snapshot"}
     env.close()
+
+
+def test_values_set_mid_episode_end_the_recording(family_fmu, caplog):
+    """A check replays inputs only: a parameter set between two steps of the first episode ends the
+    reference there, so a sound snapshot is not dropped for what the replay could not repeat."""
+    env = leaky_env(family_fmu("leaky", 2))
+    env.reset()
+    for k in range(6):
+        env.step(np.array([0.5]))
+        if k == 2:
+            env.fmu.set_values({"cs_step_size": 5e-3})
+    with caplog.at_level(logging.WARNING):
+        env.reset()
+    assert env.fmu._reference.count == 3
+    assert rung_warnings(caplog) == [] and env.fmu.reset_rung == "snapshot"
+    env.close()
