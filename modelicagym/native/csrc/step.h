@@ -9,8 +9,9 @@
  * Python path and the native path read and write the same memory: either may take any step.
  *
  * mg_env_step does exactly what FMUEnv.step does on the Python path; what it must not do (an FMU
- * that returns Error, a reset that is not a plain snapshot restore) it leaves to Python by its
- * return flags.
+ * that returns Error or logs an error loop, a reset that is not a plain snapshot restore) it leaves
+ * to Python by its return flags. While a fresh instance's first episode is recorded (the clock's
+ * recorder), it records each step as the Python path does.
  */
 #ifndef MG_STEP_H
 #define MG_STEP_H
