@@ -39,6 +39,7 @@ from modelicagym.env.native_step import NativeStep, python_path_reason
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
+from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
 
 logger = logging.getLogger(__name__)
@@ -109,6 +110,7 @@ class FMUEnv(gym.Env):
         self.positive_reward = float(cfg.positive_reward)
         self.negative_reward = float(cfg.negative_reward)
         self._elapsed_steps = 0
+        self._failure_log = RateLimitedLog(logger, f"{description.name}'s truncated episodes")
         self.episode_parameters: dict[str, Any] = {}
         self._native: NativeStep | None = None
         reason = python_path_reason(self, FMUEnv)
@@ -163,7 +165,8 @@ class FMUEnv(gym.Env):
     def fmu_failure(self, error: FMUError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The step result when the FMU failed: the episode is truncated with the FMU's message
         in ``info["fmu_error"]`` (the next reset re-instantiates the FMU)."""
-        logger.warning("%s: episode truncated at t=%g: %s", self.description.name, self.fmu.time, error)
+        self._failure_log.log(logging.WARNING, "%s: episode truncated at t=%g: %s", self.description.name,
+                              self.fmu.time, error)
         self.elapsed_steps += 1
         return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
 
@@ -196,6 +199,9 @@ class FMUEnv(gym.Env):
             self._elapsed_steps = value
 
     def close(self) -> None:
+        failure_log = getattr(self, "_failure_log", None)
+        if failure_log is not None:
+            failure_log.flush()
         fmu = getattr(self, "fmu", None)
         if fmu is not None:
             fmu.close()

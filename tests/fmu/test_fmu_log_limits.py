@@ -118,3 +118,19 @@ def test_messages_below_the_loggers_level_take_no_place(family_fmu, monkeypatch,
     messages = [r.getMessage() for r in fmu_records(caplog)]
     assert len(messages) == 4 and all("reduced the step" in m for m in messages[:3])
     assert messages[3] == "... 1 more message from Noisy in the last 1 s"
+
+
+def test_episodes_that_all_end_in_an_error_loop_do_not_flood_the_log_either(family_fmu, caplog):
+    """Random values of an unbounded input can trap every episode at its first step: the env's own
+    warnings about truncated episodes are limited as the FMU's messages are."""
+    env = noisy_env(family_fmu("noisy", 2))
+    with caplog.at_level(logging.WARNING, logger="modelicagym"):
+        for _ in range(60):
+            env.reset()
+            *_, truncated, info = env.step(np.array([400.0]))
+            assert truncated and "error loop" in info["fmu_error"]
+        env.close()
+    truncations = [r.getMessage() for r in caplog.records if r.name == "modelicagym.env.fmu_env"]
+    assert len(truncations) == LOG_LIMITS.per_interval + 1
+    assert truncations[-1].startswith(f"... {60 - LOG_LIMITS.per_interval} more messages from Noisy")
+    assert len(fmu_records(caplog)) == LOG_LIMITS.per_interval + 1
