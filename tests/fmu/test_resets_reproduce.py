@@ -144,3 +144,18 @@ def test_values_set_mid_episode_end_the_recording(family_fmu, caplog):
     assert env.fmu._reference.count == 3
     assert rung_warnings(caplog) == [] and env.fmu.reset_rung == "snapshot"
     env.close()
+
+
+@pytest.mark.parametrize("name", LEAKY)
+def test_with_parameters_drawn_every_episode_a_seeded_reset_is_a_fresh_env(family_fmu, name):
+    """``reset(seed=s)`` draws the episode's parameters as a fresh env's does; the rung that serves
+    them (a snapshot never can: its values change) must still reproduce that fresh env."""
+    path = family_fmu(name, 2)
+    config = dict(parameters={"x_0": lambda rng: float(rng.uniform(-1.0, 1.0))})
+    env = leaky_env(path, **config)
+    for seed in range(5):
+        fresh = leaky_env(path, **config)
+        steps = actions(5 + 8 * seed, seed)
+        assert trajectory(env, steps, seed=seed) == trajectory(fresh, steps, seed=seed), f"seed {seed}"
+        fresh.close()
+    env.close()
