@@ -114,6 +114,16 @@ VARIANTS: dict[str, Variant] = {
     "crashy_tau_required": Variant(CRASHY_DIR, {"TAU_REQUIRED": None}),
     # doStep calls exit(0), abort() or segfaults on request (FMI 2.0, co-simulation only)
     "quitter": Variant(FMUS_DIR / "quitter"),
+    # a lag with noise from a generator beside the FMU state (tests/fmus/leaky): every rung exact
+    "leaky": Variant(FMUS_DIR / "leaky"),
+    # ... whose snapshots leave the generator out (fmiReset re-seeds it): "snapshot" must be dropped
+    "leaky_snapshot": Variant(FMUS_DIR / "leaky", {"LEAKY_SNAPSHOT": None}),
+    # ... no snapshots, and fmiReset leaves the generator as it was: "reset" must be dropped
+    "leaky_reset": Variant(FMUS_DIR / "leaky", {"LEAKY_RESET": None}, snapshots=False),
+    # ... both leak: "snapshot" and "reset" must be dropped
+    "leaky_both": Variant(FMUS_DIR / "leaky", {"LEAKY_SNAPSHOT": None, "LEAKY_RESET": None}),
+    # a lag whose doStep logs warnings, and an error loop returning OK beyond |u| > u_max (tests/fmus/noisy)
+    "noisy": Variant(FMUS_DIR / "noisy"),
 }
 
 

@@ -79,7 +79,9 @@ def c_loop(env: gym.Env) -> Run:
     if native is None:
         raise ConfigError(f"the C loop needs the native step path: {env.unwrapped.step_path_reason}")
     env.reset(seed=0)
-    env.reset()  # the second reset verifies the snapshot rung: from then on a reset is a restore
+    env.action_space.seed(0)
+    env.step(env.action_space.sample())  # a first episode that steps: the reference of the rung's check
+    env.reset()  # the second reset checks the snapshot rung: from then on a reset is a restore
     if not native.state.native_reset:
         raise ConfigError("the C loop needs resets by snapshot restore (reset_rung 'snapshot')")
     loop, state = native.library.mg_loop, ctypes.byref(native.state)

@@ -10,8 +10,9 @@ The step contract, stated once:
   ``(observation, reward, terminated, truncated, info)``:
   ``terminated`` when `is_terminal` says so or the FMU itself ended the simulation
   (``info["fmu_terminated"]``); ``truncated`` after ``max_episode_steps``, or when the FMU
-  failed (status Error/Fatal): then ``info["fmu_error"]`` holds its message and the next reset
-  re-instantiates the FMU. Infos are empty on ordinary steps.
+  failed (status Error/Fatal, or an error loop: more error messages in one step than
+  ``modelicagym.fmu.logs.LOG_LIMITS`` allows): then ``info["fmu_error"]`` holds its message and the
+  next reset re-instantiates the FMU. Infos are empty on ordinary steps.
 * time is ``start_time + k * time_step``, read as ``env.time``.
 
 Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the
@@ -46,6 +47,7 @@ from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
+from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
 
 logger = logging.getLogger(__name__)
@@ -112,6 +114,7 @@ class FMUEnv(gym.Env):
             integrator="python" if cfg.step_path == "python" else "auto",
             validate=cfg.validate,
             logging_on=cfg.logging_on,
+            step_size=self.time_step,
         )
         self.action_space = cfg.action_space or self.make_action_space()
         self.observation_space = cfg.observation_space or self.make_observation_space()
@@ -122,6 +125,7 @@ class FMUEnv(gym.Env):
         self.positive_reward = float(cfg.positive_reward)
         self.negative_reward = float(cfg.negative_reward)
         self._elapsed_steps = 0
+        self._failure_log = RateLimitedLog(logger, f"{description.name}'s truncated episodes")
         self.episode_parameters: dict[str, Any] = {}
         self.strip_chart = self._make_strip_chart()
         self._native: NativeStep | None = None
@@ -205,7 +209,8 @@ class FMUEnv(gym.Env):
     def fmu_failure(self, error: FMUError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The step result when the FMU failed: the episode is truncated with the FMU's message
         in ``info["fmu_error"]`` (the next reset re-instantiates the FMU)."""
-        logger.warning("%s: episode truncated at t=%g: %s", self.description.name, self.fmu.time, error)
+        self._failure_log.log(logging.WARNING, "%s: episode truncated at t=%g: %s", self.description.name,
+                              self.fmu.time, error)
         self.elapsed_steps += 1
         return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
 
@@ -248,6 +253,9 @@ class FMUEnv(gym.Env):
         return None if self.strip_chart is None else self.strip_chart.draw()
 
     def close(self) -> None:
+        failure_log = getattr(self, "_failure_log", None)
+        if failure_log is not None:
+            failure_log.flush()
         fmu = getattr(self, "fmu", None)
         if fmu is not None:
             fmu.close()

@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 
 from modelicagym.fmu.binding import DISCARD
-from modelicagym.fmu.errors import FMUCallError
+from modelicagym.fmu.errors import FMUError
 from modelicagym.native.abi import FailedCall, MgEnv
 from modelicagym.native.library import NativeBuildError, load_library
 
@@ -185,9 +185,11 @@ class NativeStep:
         """The reward of the last :meth:`step`."""
         return self._reward.value
 
-    def error(self) -> FMUCallError:
+    def error(self) -> FMUError:
         """The error of a step that returned ``Flags.FMU_ERROR``, as the Python path raises it."""
         state = self.state
+        if state.failed_call == FailedCall.LOG_ERRORS:
+            return self.env.fmu.error_loop()
         call = _FAILED_CALLS[state.failed_call]
         if call == "integrate":
             return self.env.fmu.native_integrator.error()

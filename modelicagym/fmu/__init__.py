@@ -5,6 +5,7 @@
 
 from modelicagym.fmu.description import FMUDescription, open_fmu
 from modelicagym.fmu.errors import (
+    ErrorLoopError,
     FMUCallError,
     FMUError,
     FMUNotFoundError,
@@ -19,6 +20,7 @@ from modelicagym.fmu.instance import FMUInstance
 from modelicagym.fmu.variables import Variable
 
 __all__ = [
+    "ErrorLoopError",
     "FMUCallError",
     "FMUDescription",
     "FMUError",

@@ -80,6 +80,14 @@ class ValueBuffer:
         """The values as they are now, to tell later whether any changed (bit for bit)."""
         return b"".join(bytes(values) for _, _, values, _ in self._groups)
 
+    def load(self, data: bytes) -> None:
+        """Put back values `snapshot` returned (to replay recorded inputs)."""
+        offset = 0
+        for _, _, values, _ in self._groups:
+            size = ctypes.sizeof(values)
+            ctypes.memmove(values, data[offset : offset + size], size)
+            offset += size
+
     def check(self, status: int, what: str) -> None:
         if status > WARNING:
             names = ", ".join(v.name for v in self.variables)

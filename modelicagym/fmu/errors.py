@@ -105,3 +105,19 @@ class FMUCallError(FMUError):
         self.messages = list(messages or [])
         detail = f": {' | '.join(self.messages)}" if self.messages else ""
         super().__init__(f"{fmu}: {function} returned {status_name(status)}{detail}")
+
+
+class ErrorLoopError(FMUError):
+    """The FMU logged more error messages within one step than it may (`LOG_LIMITS.errors_per_step`,
+    ``modelicagym.fmu.logs``) while its calls returned OK: a solver caught in an error loop.
+
+    ``messages`` holds the last of them.
+    """
+
+    def __init__(self, fmu: str, count: int, limit: int, messages: list[str] | None = None):
+        self.fmu = fmu
+        self.count = count
+        self.messages = list(messages or [])
+        last = f"; the last: {' | '.join(self.messages[-3:])}" if self.messages else ""
+        super().__init__(f"{fmu}: logged {count:,} error messages in one step (more than {limit}) "
+                         f"while returning OK, an error loop{last}")

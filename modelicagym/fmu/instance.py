@@ -16,11 +16,12 @@ Resets climb down the ladder of docs/design.md and remember the rung that worked
     free the instance and instantiate again from the same extraction and loaded library.
 
 ``reset_rung`` forces a rung (and those below it); ``"auto"`` starts at the best one the FMU
-declares. The first time a rung serves an episode whose values were seen fresh before, the
-outputs are compared with the fresh ones and a rung that gives different values is dropped, with
-a warning: exporters ship broken ``fmiReset`` and inexact snapshots.
+declares. Before a rung serves its first episode it must replay the first steps of a fresh
+instance bit for bit (`modelicagym.fmu.reference`: the first episode is recorded); a rung that
+gives other values is dropped with one warning naming the FMU, and the next one is checked the
+same way: exporters ship broken ``fmiReset`` and snapshots that miss part of the state.
 
-At ~500 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
+At ~570 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
 the choice of integrator all read and write the same few things (the binding, the value buffers,
 the snapshot, the clock), and keeping them in one class keeps each of those owned by one object.
 The solver loops themselves live elsewhere (`modelicagym.fmu.model_exchange`,
@@ -42,12 +43,14 @@ from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
 from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.description import FMUDescription, open_fmu
-from modelicagym.fmu.errors import FMUCallError, FMUError, UnsupportedFeatureError
+from modelicagym.fmu.errors import ErrorLoopError, FMUCallError, FMUError, UnsupportedFeatureError
 from modelicagym.fmu.fmi1 import FMI1Binding
 from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.fmi3 import FMI3Binding
+from modelicagym.fmu.logs import LOG_LIMITS
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
 from modelicagym.fmu.native_integrator import NativeIntegrator, python_integrator_reason
+from modelicagym.fmu.reference import WAIT, Reference, describe
 
 logger = logging.getLogger(__name__)
 
@@ -89,7 +92,10 @@ class FMUInstance:
             (`NativeIntegrator`), ``"python"`` keeps it in Python (the reference path).
             ``integrator_path`` says which one runs, ``integrator_path_reason`` why.
         validate: validate ``modelDescription.xml`` against the schema.
-        logging_on: ask the FMU for debug logging (routed to Python ``logging``).
+        logging_on: ask the FMU for debug logging (routed to Python ``logging``, rate-limited:
+            `modelicagym.fmu.logs.LOG_LIMITS`).
+        step_size: the step the caller will take, for checking a reset rung when the first
+            episode took no step (default: the model's ``defaultExperiment stepSize``).
     """
 
     time = OnClock()
@@ -120,6 +126,7 @@ class FMUInstance:
         instance_name: str | None = None,
         validate: bool = True,
         logging_on: bool = False,
+        step_size: float | None = None,
     ):
         self.description = description = open_fmu(fmu, validate=validate)
         self.clock = StepClock()
@@ -131,9 +138,12 @@ class FMUInstance:
         self.stop_time = stop_time
         self.tolerance = tolerance
         self.logging_on = logging_on
+        self.step_size = step_size or description.default_experiment.step_size
         self.reset_rung = self._first_rung(reset_rung)
 
         self.binding = _BINDINGS[description.fmi_version](description, self.mode, instance_name)
+        self.binding.log.count_errors_in(self.clock)
+        self.clock.log_error_limit = LOG_LIMITS.errors_per_step
         self.inputs = ValueBuffer(self.binding, self.input_variables)
         self.outputs = ValueBuffer(self.binding, self.output_variables)
         self._integrator: ModelExchangeIntegrator | None = None
@@ -167,7 +177,9 @@ class FMUInstance:
         self._snapshot_key: tuple | None = None
         self._snapshot_next_event: float | None = None
         self._written_inputs = b""  # model exchange: the input values of the last step
-        self._fresh: tuple[tuple, np.ndarray, dict[str, Any]] | None = None
+        self._reference: Reference | None = None  # what a rung must replay at its first use
+        self._recording: Reference | None = None  # the reference the steps are recorded into now
+        self._empty_episodes = 0  # recorded episodes that ended before their first step
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
         self._instantiate()
@@ -197,19 +209,36 @@ class FMUInstance:
         values = dict(values or {})
         self._check_settable(values)
         key = _freeze(values)
+        if self._recording is not None:
+            if self._recording_waits():
+                self.inputs.fill_start_values()
+                self._restart(values)  # a fresh episode again, recorded in its turn
+                return
+            self._finish_recording()
+        rung = self._rung_for(key) if self.initialized and not self.broken else None
+        if rung is not None and rung not in self._verified:
+            self._check_rung(key)
+            rung = self._rung_for(key) if self.initialized and not self.broken else None
         self.inputs.fill_start_values()
-        if self.broken or not self.initialized:
-            self._restart(values, fresh=not self.initialized and not self.broken)
-            return  # a new instance served this episode: no rung to verify
-        self._verify(self._serve(key, values), key, values)
+        if rung is None:
+            self._restart(values)
+        else:
+            self._serve(rung, values)
 
-    def _serve(self, key: tuple, values: dict[str, Any]) -> str:
-        """Start an episode with ``values`` on the current rung; returns the rung that served it."""
+    def _rung_for(self, key: tuple) -> str:
+        """The rung that serves an episode whose values freeze to ``key``."""
         if self.reset_rung == "snapshot" and key == self._snapshot_key:
+            return "snapshot"
+        return "reset" if self.reset_rung in ("snapshot", "reset") else "reinstantiate"
+
+    def _serve(self, rung: str, values: dict[str, Any]) -> str:
+        """Start an episode with ``values`` on ``rung``; returns the rung that served it (a lower
+        one when ``rung`` failed and was dropped)."""
+        if rung == "snapshot":
             return self._restore_snapshot(values)
-        if self.reset_rung in ("snapshot", "reset"):
+        if rung == "reset":
             return self._reset_and_initialize(values)
-        self._restart(values, fresh=True)
+        self._restart(values)
         return "reinstantiate"
 
     def step(self, dt: float) -> bool:
@@ -247,7 +276,26 @@ class FMUInstance:
         clock.fmu_time_ns += _time.perf_counter_ns() - started
         if status > WARNING:
             self._broken_by("get outputs", status)
+        if clock.log_errors:
+            self._check_log_errors()
+        if self._recording is not None:
+            self._recording.record(dt, self.inputs, self.outputs)
         return bool(clock.terminated)
+
+    def _check_log_errors(self) -> None:
+        """An error loop (more error messages in a step than the limit) fails the step, as C does."""
+        if self.clock.log_errors > self.clock.log_error_limit:
+            raise self.error_loop()
+        self.clock.log_errors = 0
+
+    def error_loop(self) -> ErrorLoopError:
+        """The error of a step in which the FMU logged more error messages than ``log_error_limit``
+        while its calls returned OK; the instance is then ``broken`` (the next reset re-instantiates)."""
+        clock = self.clock
+        count, clock.log_errors = clock.log_errors, 0
+        clock.broken = True
+        return ErrorLoopError(f"{self.fmu_name} ({self.binding.instance_name})", count, clock.log_error_limit,
+                              self.binding.log.take_recent())
 
     def _write_inputs(self) -> bool:
         status = self.inputs.write()
@@ -311,6 +359,8 @@ class FMUInstance:
         parameters and discrete variables nowhere else), followed by the event iteration.
         """
         values = dict(values)
+        if self._recording is not None:
+            self._recording.stop()  # a reset rung's check replays inputs, not these
         if self._integrator is not None and self.initialized and not self.broken:
             if self._in_event_mode(self.time, lambda: self.binding.set_values(values)):
                 self.terminated = True
@@ -378,7 +428,7 @@ class FMUInstance:
             self.binding.set_state(self._snapshot)
         except FMUCallError as error:
             self._demote("snapshot", f"failed ({error})")
-            self._restart(values, fresh=False)
+            self._restart(values)
             return "reinstantiate"
         self._after_initialization(values, take_snapshot=False)
         if self._integrator is not None:
@@ -390,45 +440,92 @@ class FMUInstance:
             self.binding.reset()
         except FMUCallError as error:
             self._demote("reset", f"failed ({error})")
-            self._restart(values, fresh=False)
+            self._restart(values)
             return "reinstantiate"
         self._initialize(values)
         return "reset"
 
-    def _restart(self, values: dict[str, Any], fresh: bool) -> None:
-        """Re-instantiate (unless this is the first episode) and initialize."""
+    def _restart(self, values: dict[str, Any]) -> None:
+        """Re-instantiate (unless this is the first episode) and initialize: a fresh episode,
+        recorded while a rung above re-instantiation waits for its check and no reference is
+        complete (once a rung is checked, its resets may happen in C: the reference stays as it is)."""
         if self.initialized or self.broken:
             self._free_snapshot()
             self.binding.free_instance()
             self._instantiate()
         self._initialize(values)
-        if fresh:
-            self._fresh = (_freeze(values), self._output_copy(), values)
+        if (self.reset_rung != "reinstantiate" and not self._verified
+                and (self._reference is None or not self._reference.complete)):
+            self._recording = Reference(values, _freeze(values), self.inputs, self.outputs)
+            self.clock.recorder = self._recording.pointer
 
-    def _verify(self, rung: str, key: tuple, values: dict[str, Any]) -> None:
-        """Check the first episode a rung serves against a reference; demote the rung if it differs.
+    def _recording_waits(self) -> bool:
+        """Whether the reference waits for an episode that takes steps (then the recording is
+        dropped): the user's inputs stir more of an FMU than its start values would. Up to
+        `reference.WAIT` episodes of no step (as a checker's resets) each give way to a fresh one,
+        with a re-instantiation."""
+        if self._recording.count or self._empty_episodes >= WAIT or self.broken or not self.initialized:
+            return False
+        self._empty_episodes += 1
+        self._recording = self.clock.recorder = None
+        return True
 
-        A restored snapshot must give the outputs recorded when the snapshot was taken; a reset
-        must give the outputs of a fresh instance. That reference exists only for the values of
-        the first episode, so a reset with other values (domain randomisation) is checked by a
-        detour: reset to the reference's values, compare, then reset to the requested ones.
-        """
-        if rung == "reinstantiate" or rung in self._verified or self._fresh is None:
-            return
+    def _finish_recording(self) -> None:
+        """End the recording of a fresh episode: continue it to `reference.STEPS` steps when it
+        ended sooner (inputs held, on the same instance), and keep it if it is the longest yet."""
+        reference = self._recording
+        dt = float(reference.dts[reference.count - 1]) if reference.count else self.step_size
+        self._written_inputs = self.inputs.snapshot()  # held, as the last step (maybe in C) wrote them
+        try:
+            while not reference.complete and dt and self.initialized and not self.broken and not self.terminated:
+                self.step(dt)
+        except FMUError as error:  # the reference ends here; the reset re-instantiates
+            logger.debug("%s: the reference episode ended at step %d: %s", self.fmu_name, reference.count, error)
+        finally:
+            self._recording = self.clock.recorder = None
+        if self._reference is None or reference.count > self._reference.count:
+            self._reference = reference
+
+    def _check_rung(self, key: tuple) -> None:
+        """Before a rung serves its first episode, it must replay the reference; one that does not
+        is dropped with a warning, and the next is checked, down to re-instantiation (exact)."""
+        reference = self._reference
+        while reference is not None and not self.broken:
+            rung = self._rung_for(key)
+            if rung == "reinstantiate" or rung in self._verified:
+                return
+            difference = self._replay(rung, reference)
+            if RUNGS.index(self.reset_rung) > RUNGS.index(rung):
+                continue  # it failed outright, and was dropped with its error
+            if difference is None:
+                self._verified.add(rung)
+                return
+            self._demote(rung, difference)
+
+    def _replay(self, rung: str, reference: Reference) -> str | None:
+        """Start an episode with the reference's values on ``rung`` and take its steps again: how
+        it differs from the reference (for the warning), or None."""
+        self.inputs.fill_start_values()  # as when the reference started
         if rung == "snapshot":
-            expected = self._snapshot_outputs
-        elif self._fresh[0] == key:
-            expected = self._fresh[1]
+            if self._snapshot_key != reference.key and self._reset_and_initialize(reference.values) != "reset":
+                return None
+            served = self._restore_snapshot(reference.values)
         else:
-            self._verify(self._reset_and_initialize(self._fresh[2]), self._fresh[0], self._fresh[2])
-            self._serve(key, values)
-            return
-        actual = self._output_copy()
-        if np.array_equal(expected, actual, equal_nan=True) and self.time == self.start_time:
-            self._verified.add(rung)
-            return
-        self._demote(rung, f"gave different initial outputs than a fresh instance ({actual} instead of {expected})")
-        self._restart(values, fresh=False)  # the lower rung is verified when it first serves
+            served = self._reset_and_initialize(reference.values)
+        if served != rung:
+            return None
+        if self.outputs.snapshot() != reference.initial or self.time != self.start_time:
+            return f"gave different initial outputs than a fresh instance ({describe(self.outputs)}; time {self.time})"
+        for k in range(reference.count):
+            self.inputs.load(reference.step_inputs(k))
+            try:
+                self.step(float(reference.dts[k]))
+            except FMUError as error:
+                return f"failed in step {k + 1} of {reference.count} that a fresh instance took ({error})"
+            if not reference.equal_at(k, self.outputs):
+                return (f"gave different outputs than a fresh instance in step {k + 1} of {reference.count} "
+                        f"({describe(self.outputs)})")
+        return None
 
     # -- lifecycle -------------------------------------------------------------------------------
 
@@ -476,21 +573,16 @@ class FMUInstance:
                 self._snapshot = self.binding.get_state(self._snapshot)
                 self._snapshot_key = _freeze(values)
                 self._snapshot_next_event = self._integrator.next_event_time if self._integrator else None
-                self._snapshot_outputs = self._output_copy()
             except FMUCallError as error:
                 self._demote("snapshot", f"failed ({error})")
         self.read_outputs()
+        self.clock.log_errors = 0  # what initialization logged does not count against the first step
 
     def _free_snapshot(self) -> None:
         if self._snapshot is not None and self.binding is not None:
             self.binding.free_state(self._snapshot)
         self._snapshot = None
         self._snapshot_key = None
-
-    def _output_copy(self) -> np.ndarray:
-        self.read_outputs()
-        views = [np.asarray(v, dtype=float).ravel() for v in self.outputs.views.values()]
-        return np.concatenate(views) if views else np.zeros(0)
 
     # -- step outcomes ---------------------------------------------------------------------------
 

@@ -40,6 +40,7 @@ __all__ = [
     "MgEnv",
     "MgIntegrator",
     "MgQLearner",
+    "MgRecorder",
     "MgServer",
     "MgSundials",
     "MgWaiter",
@@ -84,6 +85,7 @@ class FailedCall:
     GET_OUTPUTS = 3
     SET_STATE = 4
     INTEGRATE = 5
+    LOG_ERRORS = 6
 
 
 class AutoresetCode:
@@ -174,6 +176,19 @@ def _pointers(*names: str) -> list[tuple[str, type]]:
     return [(name, ctypes.c_void_p) for name in names]
 
 
+class MgRecorder(ctypes.Structure):
+    """``mg_recorder`` (``csrc/step.h``): the first steps of a fresh instance, recorded by either
+    step path (see `modelicagym.fmu.reference`)."""
+
+    _fields_ = [
+        *_pointers("dts", "inputs", "outputs"),
+        ("input_bytes", ctypes.c_int64),
+        ("output_bytes", ctypes.c_int64),
+        ("capacity", ctypes.c_int64),
+        ("count", ctypes.c_int64),
+    ]
+
+
 class StepClock(ctypes.Structure):
     """``mg_clock`` (``csrc/step.h``): an instance's time bookkeeping, shared by the Python and the
     native step path (see `modelicagym.fmu.clock`)."""
@@ -187,6 +202,9 @@ class StepClock(ctypes.Structure):
         ("fmu_time_ns", ctypes.c_int64),
         ("terminated", ctypes.c_int32),
         ("broken", ctypes.c_int32),
+        ("log_errors", ctypes.c_int32),
+        ("log_error_limit", ctypes.c_int32),
+        ("recorder", ctypes.POINTER(MgRecorder)),
     ]
 
 
@@ -346,6 +364,7 @@ class MgQLearner(ctypes.Structure):
 
 #: every struct C and Python share: its C name -> its mirror
 STRUCTS: dict[str, type[ctypes.Structure]] = {
+    "mg_recorder": MgRecorder,
     "mg_clock": StepClock,
     "mg_sundials": MgSundials,
     "mg_integrator": MgIntegrator,

@@ -21,9 +21,14 @@ typedef struct {
 #define CONSTANT(name) {#name, (int64_t)(name)}
 
 static const mg_abi_entry entries[] = {
+    STRUCT(mg_recorder),
+    FIELD(mg_recorder, dts), FIELD(mg_recorder, inputs), FIELD(mg_recorder, outputs),
+    FIELD(mg_recorder, input_bytes), FIELD(mg_recorder, output_bytes), FIELD(mg_recorder, capacity),
+    FIELD(mg_recorder, count),
     STRUCT(mg_clock),
     FIELD(mg_clock, time), FIELD(mg_clock, origin), FIELD(mg_clock, dt), FIELD(mg_clock, start_time),
     FIELD(mg_clock, steps), FIELD(mg_clock, fmu_time_ns), FIELD(mg_clock, terminated), FIELD(mg_clock, broken),
+    FIELD(mg_clock, log_errors), FIELD(mg_clock, log_error_limit), FIELD(mg_clock, recorder),
     STRUCT(mg_sundials),
     FIELD(mg_sundials, SUNContext_Create), FIELD(mg_sundials, SUNContext_Free),
     FIELD(mg_sundials, SUNContext_ClearErrHandlers), FIELD(mg_sundials, SUNContext_PushErrHandler),
@@ -93,7 +98,7 @@ static const mg_abi_entry entries[] = {
     CONSTANT(MG_TERMINATED), CONSTANT(MG_TRUNCATED), CONSTANT(MG_MODEL_ENDED), CONSTANT(MG_FMU_ERROR),
     CONSTANT(MG_RESET_DONE), CONSTANT(MG_PYTHON_RESET), CONSTANT(MG_BAD_ACTION), CONSTANT(MG_CALL_SET_INPUTS),
     CONSTANT(MG_CALL_DO_STEP), CONSTANT(MG_CALL_GET_OUTPUTS), CONSTANT(MG_CALL_SET_STATE),
-    CONSTANT(MG_CALL_INTEGRATE), CONSTANT(MG_AUTORESET_NEXT_STEP), CONSTANT(MG_AUTORESET_SAME_STEP),
+    CONSTANT(MG_CALL_INTEGRATE), CONSTANT(MG_CALL_LOG_ERRORS), CONSTANT(MG_AUTORESET_NEXT_STEP), CONSTANT(MG_AUTORESET_SAME_STEP),
     CONSTANT(MG_AUTORESET_DISABLED), CONSTANT(MG_NO_RESET), CONSTANT(MG_RESET_THEN_REPORT),
     CONSTANT(MG_RESET_THEN_STEP), CONSTANT(MG_SERVE_TIMEOUT), CONSTANT(MG_SERVE_PYTHON_STEP),
     CONSTANT(MG_COLLECT_DONE), CONSTANT(MG_COLLECT_LOCAL_PYTHON), CONSTANT(MG_COLLECT_SLOW),

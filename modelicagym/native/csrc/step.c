@@ -130,6 +130,18 @@ static int32_t advance(mg_env *env) {
     clock->fmu_time_ns += mg_now_ns() - started;
     if (status > WARNING)
         return fail(env, MG_CALL_GET_OUTPUTS, status);
+    if (clock->log_errors) { /* as FMUInstance.step: an error loop ends the episode */
+        if (clock->log_errors > clock->log_error_limit)
+            return fail(env, MG_CALL_LOG_ERRORS, OK);
+        clock->log_errors = 0;
+    }
+    mg_recorder *recorder = clock->recorder;
+    if (recorder && recorder->count < recorder->capacity) { /* as Reference.record */
+        int64_t k = recorder->count++;
+        recorder->dts[k] = dt;
+        memcpy(recorder->inputs + k * recorder->input_bytes, env->inputs, (size_t)recorder->input_bytes);
+        memcpy(recorder->outputs + k * recorder->output_bytes, env->outputs, (size_t)recorder->output_bytes);
+    }
     return 0;
 }
 
@@ -184,6 +196,7 @@ int32_t mg_env_reset(mg_env *env) {
     clock->dt = 0.0;
     clock->steps = 0;
     clock->terminated = 0;
+    clock->log_errors = 0;
     status = get_outputs(env);
     clock->fmu_time_ns += mg_now_ns() - started;
     if (status > WARNING)

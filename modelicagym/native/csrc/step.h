@@ -9,8 +9,9 @@
  * Python path and the native path read and write the same memory: either may take any step.
  *
  * mg_env_step does exactly what FMUEnv.step does on the Python path; what it must not do (an FMU
- * that returns Error, a reset that is not a plain snapshot restore) it leaves to Python by its
- * return flags.
+ * that returns Error or logs an error loop, a reset that is not a plain snapshot restore) it leaves
+ * to Python by its return flags. While a fresh instance's first episode is recorded (the clock's
+ * recorder), it records each step as the Python path does.
  */
 #ifndef MG_STEP_H
 #define MG_STEP_H
@@ -19,6 +20,15 @@
 
 #include "integrator.h"
 
+/* The first steps of a fresh instance, recorded to check a reset rung against (fmu/reference.py):
+ * row k of each array is step k. Either step path appends while count < capacity. */
+typedef struct {
+    double *dts;                       /* the step's dt */
+    char *inputs, *outputs;            /* the input values it wrote, the outputs it read (bytes) */
+    int64_t input_bytes, output_bytes; /* bytes of a row */
+    int64_t capacity, count;
+} mg_recorder;
+
 /* FMUInstance's time bookkeeping (modelicagym/fmu/clock.py): time = origin + steps * dt. */
 typedef struct {
     double time, origin, dt, start_time;
@@ -26,6 +36,9 @@ typedef struct {
     int64_t fmu_time_ns; /* cumulative nanoseconds inside FMU calls */
     int32_t terminated;  /* the model ended the simulation */
     int32_t broken;      /* an FMU call failed: the next reset re-instantiates (Python) */
+    int32_t log_errors;      /* error-level messages the FMU logged since the last step or reset (fmu/logs.py) */
+    int32_t log_error_limit; /* more in one step is an error loop: the step fails (MG_CALL_LOG_ERRORS) */
+    mg_recorder *recorder;   /* not NULL: record this step (the first episode of a fresh instance) */
 } mg_clock;
 
 typedef struct {
@@ -70,7 +83,14 @@ enum {
     MG_PYTHON_RESET = 32,  /* batch: the env needs an autoreset that only Python can do */
     MG_BAD_ACTION = 64,    /* the action is outside the action space: nothing was stepped */
 };
-enum { MG_CALL_SET_INPUTS = 1, MG_CALL_DO_STEP = 2, MG_CALL_GET_OUTPUTS = 3, MG_CALL_SET_STATE = 4, MG_CALL_INTEGRATE = 5 };
+enum {
+    MG_CALL_SET_INPUTS = 1,
+    MG_CALL_DO_STEP = 2,
+    MG_CALL_GET_OUTPUTS = 3,
+    MG_CALL_SET_STATE = 4,
+    MG_CALL_INTEGRATE = 5,
+    MG_CALL_LOG_ERRORS = 6, /* the calls returned OK, but the FMU logged more errors than clock->log_error_limit */
+};
 
 /* One step of one env. `action` points to an int64 (discrete) or n_inputs doubles. Returns the
  * flags; the reward is written to *reward. The outputs are in env->outputs afterwards. */
