@@ -112,7 +112,7 @@ VARIANTS: dict[str, Variant] = {
     "crashy_abort": Variant(CRASHY_DIR, {"ABORT_IN_INITIALIZE": None}),
     "crashy_hang": Variant(CRASHY_DIR, {"HANG_IN_INSTANTIATE": None}),
     "crashy_tau_required": Variant(CRASHY_DIR, {"TAU_REQUIRED": None}),
-    # doStep calls exit(0), abort() or segfaults on request (FMI 2.0, co-simulation only)
+    # doStep calls exit(0), abort() or segfaults on request (co-simulation)
     "quitter": Variant(FMUS_DIR / "quitter"),
     # a lag with noise from a generator beside the FMU state (tests/fmus/leaky): every rung exact
     "leaky": Variant(FMUS_DIR / "leaky"),

@@ -7,7 +7,8 @@
  * Parameters (fixed): `quit` (Int32) and `quit_after` (Int32). The doStep
  * after `quit_after` completed ones calls exit(0) (quit = 1), abort()
  * (quit = 2) or writes through a null pointer (quit = 3, SIGSEGV); quit = 0
- * (the default) never quits. Co-simulation only.
+ * (the default) never quits. Only co-simulation's doStep quits; model exchange is
+ * declared, as by every member of the family, and never quits.
  */
 #ifndef QUITTER_CONFIG_H
 #define QUITTER_CONFIG_H
