@@ -53,7 +53,7 @@ FIRST_STEPS = 1
 
 
 class FMUTime:
-    """Wall and FMU nanoseconds of a single env's steps, accumulated over every run."""
+    """Wall and FMU nanoseconds of a single env's steps, over the runs it measures."""
 
     def __init__(self, env: FMUEnv) -> None:
         self.env, self.wall_ns, self.fmu_ns, self.steps = env, 0, 0, 0
@@ -72,18 +72,17 @@ class FMUTime:
         return {"wall_us": wall, "fmu_us": fmu, "around_us": wall - fmu}
 
 
-def single_loop(env: FMUEnv, seed: int, clock: FMUTime) -> Run:
+def single_loop(env: FMUEnv, seed: int) -> Run:
     """One env stepped with actions sampled from its space, reset when an episode ends."""
     env.reset(seed=seed)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(ACTIONS)]
 
     def run(steps: int) -> int:
-        with clock.measuring(steps):
-            for k in range(steps):
-                _, _, terminated, truncated, _ = env.step(actions[k % ACTIONS])
-                if terminated or truncated:
-                    env.reset()
+        for k in range(steps):
+            _, _, terminated, truncated, _ = env.step(actions[k % ACTIONS])
+            if terminated or truncated:
+                env.reset()
         return steps
 
     return run
@@ -134,31 +133,33 @@ def measure_group(config: Mapping[str, Any], n: int, repeats: int, seconds: floa
     the single env's time in and around the FMU; the pool's step paths, layout and step breakdown.
     Each n is its own group, so the envs of other groups do not share the machine with these."""
     closers: list[Any] = []
-    runs: dict[str, Run] = {}
+    vectors: dict[str, Run] = {}
     skips = {}
     try:
-        single = FMUEnv(dict(config))
-        closers.append(single)
-        clock = FMUTime(single)
-        single_path = {"path": single.step_path, "reason": single.step_path_reason}
-        runs["single"] = single_loop(single, 1, clock)
         pool = None
-        for candidate in VECTORS:
+        for candidate in VECTORS:  # before the single env: AsyncVectorEnv makes (and closes) an env here
             why = skipped(candidate, n, once_per_process)
             if why is not None:
                 skips[candidate] = why
                 continue
             envs = make_vector(candidate, n, config)
             closers.append(envs)
-            runs[candidate] = vector_loop(envs, n, seed=n)
+            vectors[candidate] = vector_loop(envs, n, seed=n)
             pool = envs if candidate == "pool" else pool
+        single = FMUEnv(dict(config))
+        closers.append(single)
+        single_path = {"path": single.step_path, "reason": single.step_path_reason}
+        runs = {"single": single_loop(single, 1), **vectors}
         progress(f"n={n}: envs made")
         samples, steps = interleaved_rates(runs, repeats, seconds, FIRST_STEPS,
                                            progress=lambda what: progress(f"n={n}, {what}"))
+        clock = FMUTime(single)  # where the time goes, in one more round of each (timing costs a little)
+        with clock.measuring(steps["single"]):
+            runs["single"](steps["single"])
         pool.set_timing(True)
         runs["pool"](steps["pool"])
         timing = pool.timing()
-        progress(f"n={n}, pool: timed")
+        progress(f"n={n}: timed")
         pool_part = {
             "num_workers": pool.num_workers, "caller_steps": pool.caller_steps, "layout": str(timing.layout),
             "layout_reason": pool.layout.reason, "step_paths": describe_paths(list(pool.step_paths)),
@@ -188,18 +189,20 @@ def report(head: dict[str, Any], results: list[dict[str, Any]]) -> str:
         [(r["n"], *(rate(r, c) for c in ("single", *VECTORS)), *(ratio(r, c) for c in ("single", "sync", "async")))
          for r in results],
     )
-    rows = []
-    for r in results:
-        single = r["single_time"]
-        rows.append(("single", r["n"], f"{single['wall_us']:.1f}", f"{single['fmu_us']:.1f}",
-                     f"{single['around_us']:.1f}", "-", "-"))
-    for r in results:
-        t, n = r["pool"]["timing"], r["n"]
-        rows.append(("pool", n, f"{1e6 * t['wall_s'] / n:.1f}", f"{1e6 * t['fmu_total_s'] / n:.1f}",
-                     f"{1e6 * (t['wall_s'] - t['fmu_total_s']) / n:.1f}", f"{1e6 * t['fmu_s']:.1f}",
-                     f"{1e6 * t['pool_overhead_s']:.1f}"))
-    split = format_table(("candidate", "n", "wall us/env step", "in FMU us", "around us", "batch: critical in FMU us",
-                          "batch: pool overhead us"), rows)
+    def share(part: float, whole: float) -> str:
+        return f"{100 * part / whole:.0f}%" if whole > 0 else "-"
+
+    single = format_table(
+        ("group n", "wall us", "in FMU us", "around us", "in FMU"),
+        [(r["n"], *(f"{t[k]:.1f}" for k in ("wall_us", "fmu_us", "around_us")), share(t["fmu_us"], t["wall_us"]))
+         for r in results for t in (r["single_time"],)],
+    )
+    pool = format_table(
+        ("n", "wall us", "in FMU us", "env Python us", "pool overhead us", "in FMU", "all workers in FMU us"),
+        [(r["n"], *(f"{1e6 * t[k]:.1f}" for k in ("wall_s", "fmu_s", "env_python_s", "pool_overhead_s")),
+          share(t["fmu_s"], t["wall_s"]), f"{1e6 * t['fmu_total_s']:.1f}")
+         for r in results for t in (r["pool"]["timing"],)],
+    )
     paths = [f"single env: {head['step_path']['path']} ({head['step_path']['reason']})"]
     for r in results:
         for p in r["pool"]["step_paths"]:
@@ -210,7 +213,9 @@ def report(head: dict[str, Any], results: list[dict[str, Any]]) -> str:
         f"{head['model']} (FMI {head['fmi_version']}, mode {head['mode']!r}): {head['fmu']}",
         "", "step path:", *(f"  {line}" for line in paths),
         "", f"env steps per second:\n{rates}",
-        "", f"time of an env step (the pool's 'around' includes the waits of its batch):\n{split}",
+        "", f"a single env's step: inside the FMU against around it (the env's Python, the loop):\n{single}",
+        "", "a pool's batch of n steps, its critical worker's slice (wall = in FMU + env Python + pool overhead: "
+            f"waking, waiting, copying):\n{pool}",
         "", "pool layout:", *(f"  {line}" for line in layouts),
     ]
     if skips:
@@ -248,7 +253,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="change one config key, the value read as JSON (e.g. --set time_step=0.01)")
     parser.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     add_round_arguments(parser, "fmu")
-    parser.set_defaults(seconds=0.3, json=None)
+    parser.set_defaults(json=None)
     parser.description = "the JSON goes to bench-results/fmu-<FMU name>.json unless --json says where"
 
 
@@ -260,7 +265,7 @@ def run(args: argparse.Namespace) -> int:
     head = {"fmu": str(config["fmu"]), "model": description.model_name, "fmi_version": description.fmi_version,
             "mode": config.get("mode") or description.default_mode(), "once_per_process": once,
             "config": json.loads(json.dumps(config, default=str))}
-    candidates = [1 + sum(skipped(c, n, once) is None for c in VECTORS) for n in args.n]
+    candidates = [1 + sum(skipped(c, n, once) is None for c in VECTORS) for n in args.n]  # single + vectors
     total = sum(1 + k * (1 + args.repeats) + 1 for k in candidates)
     results = []
     with progress_reporter(total) as progress:
