@@ -38,6 +38,7 @@ import modelicagym
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
 from modelicagym.bench.throughput import ASYNC_MAX_N, Run, interleaved_rates
 from modelicagym.env import FMUEnv
+from modelicagym.errors import ArgumentError
 from modelicagym.fmu import open_fmu
 from modelicagym.registry import EnvFactory
 from modelicagym.try_fmu import try_config
@@ -245,7 +246,6 @@ def progress_reporter(total: int) -> Iterator[Callable[[str], None]]:
         yield advance
 
 
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("fmu", help="path of the .fmu file")
     parser.add_argument("--config", help="a JSON file of FMUEnv keys that replace the suggested config's")
@@ -254,10 +254,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     add_round_arguments(parser, "fmu")
     parser.set_defaults(json=None)
-    parser.description = "the JSON goes to bench-results/fmu-<FMU name>.json unless --json says where"
+    parser.description = (f"{(__doc__ or '').splitlines()[0]} The JSON goes to bench-results/fmu-<FMU name>.json "
+                          "unless --json says where.")
 
 
 def run(args: argparse.Namespace) -> int:
+    for option, values in (("--n", args.n), ("--repeats", [args.repeats])):
+        if min(values) < 1:
+            raise ArgumentError(f"bench fmu {option}: at least 1, got {min(values)}")
+    if args.seconds <= 0:
+        raise ArgumentError(f"bench fmu --seconds: more than 0, got {args.seconds}")
     load_before = os.getloadavg()
     config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
     description = open_fmu(config["fmu"], validate=config.get("validate", True))
@@ -276,5 +282,6 @@ def run(args: argparse.Namespace) -> int:
     print(report(head, results))
     print(f"\n{line}")
     out = args.json or f"bench-results/fmu-{Path(args.fmu).stem}.json"
-    print(f"wrote {write_json(out, {**head, **data, 'repeats': args.repeats, 'seconds': args.seconds, 'results': results})}")
+    data = {**head, **data, "repeats": args.repeats, "seconds": args.seconds, "results": results}
+    print(f"wrote {write_json(out, data)}")
     return 0

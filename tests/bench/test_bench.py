@@ -134,3 +134,11 @@ def test_the_fmu_benchmark_logs_its_progress_without_tqdm(monkeypatch: pytest.Mo
         progress("n=2: envs made")
         progress("n=2, single: calibrated")
     assert [r.getMessage() for r in caplog.records] == ["[1/2] n=2: envs made", "[2/2] n=2, single: calibrated"]
+
+
+def test_the_fmu_benchmark_refuses_no_envs_in_one_line(tmp_path: Path) -> None:
+    command = [sys.executable, "-m", "modelicagym.cli", "bench", "fmu", "any.fmu", "--n", "2", "0",
+               "--json", str(tmp_path / "result.json")]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1 and result.stderr.strip() == "error: bench fmu --n: at least 1, got 0"
+    assert not (tmp_path / "result.json").exists()

@@ -63,8 +63,9 @@ CASES: dict[str, tuple[Callable[[], PoolVectorEnv], tuple[str, ...], str]] = {
     "bundled, caller_steps=True and num_workers": (
         lambda: PoolVectorEnv(bundled(), num_workers=1, caller_steps=True),
         ("its envs can move between the workers and the calling process",), "caller"),
-    "bundled, random parameters": (lambda: PoolVectorEnv([partial(modelicagym.make, "cartpole", m_cart=random_mass)] * 4),
-                                   ("does not reset deterministically",), "caller"),
+    "bundled, random parameters": (
+        lambda: PoolVectorEnv([partial(modelicagym.make, "cartpole", m_cart=random_mass)] * 4),
+        ("does not reset deterministically",), "caller"),
     "bundled, Python step path": (lambda: PoolVectorEnv(bundled(step_path="python")),
                                   ("an env steps on the Python path", "step_path='python'"), "caller"),
     "bundled, adapt_layout=False": (lambda: PoolVectorEnv(bundled(), adapt_layout=False), ("adapt_layout=False",),
