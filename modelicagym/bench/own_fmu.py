@@ -7,7 +7,7 @@ actions sampled from the action space (seeded):
 
 * ``single``: one `FMUEnv` in a plain loop;
 * ``sync``: ``gymnasium.vector.SyncVectorEnv`` of n envs (not for an FMU that may be instantiated
-  only once per process: the single env already holds its instance);
+  only once per process: it holds every env in this process);
 * ``async``: ``gymnasium.vector.AsyncVectorEnv`` (n <= 8: one process per env);
 * ``pool``: ``modelicagym.make_vec`` with its default layout;
 
