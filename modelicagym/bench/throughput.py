@@ -125,29 +125,38 @@ def make_vector(candidate: str, n: int, options: dict[str, Any],
     return gym.vector.AsyncVectorEnv(fns, shared_memory=True, autoreset_mode=autoreset_mode)
 
 
-def calibrate(run: Run, seconds: float) -> int:
-    """How many env steps take about ``seconds``."""
-    steps, elapsed = 64, 0.0
-    while elapsed < seconds / 4:
-        steps *= 4
+def calibrate(run: Run, seconds: float, first: int = 256) -> int:
+    """How many env steps take about ``seconds``: runs of ``first`` steps, then 4 times as many
+    each, until one takes a quarter of ``seconds`` (a small ``first`` keeps a heavy env's
+    calibration short)."""
+    steps = first
+    while True:
         started = time.perf_counter()
         steps = run(steps)
         elapsed = time.perf_counter() - started
-    return max(1, int(steps * seconds / elapsed))
+        if elapsed >= seconds / 4:
+            return max(1, int(steps * seconds / elapsed))
+        steps *= 4
 
 
 def interleaved_rates(
-    runs: dict[str, Run], repeats: int, seconds: float
+    runs: dict[str, Run], repeats: int, seconds: float, first: int = 256,
+    progress: Callable[[str], None] = lambda what: None,
 ) -> tuple[dict[str, list[float]], dict[str, int]]:
     """Steps per second of every run in each of ``repeats`` interleaved rounds of about ``seconds``,
-    and the steps a round of each takes."""
-    steps = {name: calibrate(run, seconds) for name, run in runs.items()}
+    and the steps a round of each takes (`calibrate`, from ``first`` steps). ``progress`` is told
+    what was done after each calibration and round."""
+    steps = {}
+    for name, run in runs.items():
+        steps[name] = calibrate(run, seconds, first)
+        progress(f"{name}: calibrated")
     samples: dict[str, list[float]] = {name: [] for name in runs}
-    for _ in range(repeats):
+    for k in range(repeats):
         for name, run in runs.items():
             started = time.perf_counter()
             done = run(steps[name])
             samples[name].append(done / (time.perf_counter() - started))
+            progress(f"{name}: round {k + 1}/{repeats}")
     return samples, steps
 
 

@@ -61,8 +61,8 @@ def assemble(
     ctx = multiprocessing.get_context(start_method)
     workers = WorkerSet(env_fns, slices, ctx, config, config.startup_timeout, stand_in=ask)
     workers.launch()
-    local = None
-    stand_in_slice = isolated = None
+    local = stand_in_slice = None
+    isolated = layout.reason or None  # why the plan gave the calling process no slice
     try:
         if ask:
             description = workers.await_created()[-1]
@@ -74,7 +74,8 @@ def assemble(
             else:  # its copies would only be reset and called, with resets that may differ: a plain worker
                 workers.drop_last(replacement=local_slice)
                 isolated = (f"every env is in a worker: its envs do not all say they are safe in the calling process "
-                            f"(safe_in_caller; caller_steps=True puts a slice there), and {fixed}")
+                            f"(safe_in_caller; caller_steps=True puts a slice there); no worker stands in for it, as "
+                            f"the layout does not adapt: {fixed}")
                 local_slice = None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)

@@ -244,7 +244,8 @@ def place_envs(
     every env (copies of the worker envs, then its own). With a stand-in worker (the last one, for
     envs not safe in the calling process), that worker steps ``stand_in_slice`` instead, and
     consolidates the envs when that is faster. ``isolated`` says why every env is in a worker,
-    with no stand-in. Raises `ConfigError` if ``adapt_layout=True`` cannot be, saying why."""
+    with no stand-in (given whenever ``local`` is ``None`` without one). Raises `ConfigError` if
+    ``adapt_layout=True`` cannot be, saying why."""
     if stand_in_slice is not None:
         return _place_with_stand_in(workers, stand_in_slice, autoreset_mode), None
     buffers = workers.buffers
@@ -271,7 +272,7 @@ def place_envs(
     policy = None
     if reason is None:
         policy = LayoutPolicy(len(local.envs) - len(caller_slice), len(caller_slice), usable_cores())
-        reason = "the pool planned it; its envs can move at episode boundaries"
+        reason = "its envs can move between the workers and the calling process at episode boundaries"
     worker_slices = [handle.env_indices for handle in workers.handles]
     placement = Placement(
         buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, autoreset_mode, policy, reason
@@ -303,14 +304,13 @@ def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None
     return description.movable_reason
 
 
-def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice | None, adapt_layout: bool | None) -> str | None:
-    """Why the layout cannot adapt (``None``: it can), before any copy is made."""
-    if adapt_layout is False:
-        return "adapt_layout=False"
-    if local is None:
-        return "every env is in a worker (a layout, fault handling or partial batches were asked for)"
+def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice, adapt_layout: bool | None) -> str | None:
+    """Why the layout of a pool whose calling process steps ``local`` cannot adapt (``None``: it
+    can), before any copy is made."""
     if not workers.handles:
         return "num_workers=0: every env is in the calling process"
+    if adapt_layout is False:
+        return "adapt_layout=False"
     if futex_library() is None:
         return "no native library: the pool signals through semaphores"
     unsafe = workers.unsafe_in_caller()

@@ -18,11 +18,13 @@ class Layout(NamedTuple):
 
     With ``caller_if_safe`` the calling process gets ``caller_slice`` only if its envs are safe
     there (`modelicagym.vector.env_contract.safe_in_caller`); else one more worker steps it.
+    ``reason`` says why every env is in a worker when ``caller_slice`` is ``None`` (else "").
     """
 
     worker_slices: list[range]
     caller_slice: range | None
     caller_if_safe: bool = False
+    reason: str = ""
 
 
 def plan_layout(
@@ -32,9 +34,11 @@ def plan_layout(
     restart_dead_workers: bool,
     step_timeout: float | None,
     caller_steps: bool | None,
+    batch_size: int | None = None,
 ) -> Layout:
     """The pool's layout; see `PoolVectorEnv`'s ``caller_steps`` for when the caller steps a slice
-    (by default, only a slice of envs safe in the calling process: ``caller_if_safe``).
+    (by default, only a slice of envs safe in the calling process: ``caller_if_safe``). Partial
+    batches (``batch_size``) put every env in a worker.
 
     An env fn's ``max_envs_per_process`` attribute caps the envs per worker like
     ``max_envs_per_worker``; the caller's slice is the last one.
@@ -43,14 +47,51 @@ def plan_layout(
     caps = [cap for cap in caps if cap is not None]
     if num_workers == 0:
         return _caller_only_layout(len(env_fns), caps, restart_dead_workers, step_timeout, caller_steps)
+    if batch_size is not None:
+        caller_steps = False
+    why_not = _why_no_caller_slice(env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout,
+                                   caller_steps, batch_size)
     chosen = caller_steps is not None
     if not chosen:
-        caller_steps = num_workers is None and not caps and not restart_dead_workers and step_timeout is None
+        caller_steps = not why_not
     if caller_steps and restart_dead_workers:
         raise ConfigError("caller_steps=True and restart_dead_workers=True: the calling process cannot be restarted")
     parties = num_workers + 1 if caller_steps and num_workers else num_workers
     slices = plan_workers(len(env_fns), parties, min(caps) if caps else None)
-    return Layout(slices, slices.pop() if caller_steps else None, bool(caller_steps) and not chosen)
+    if caller_steps:
+        return Layout(slices, slices.pop(), not chosen)
+    return Layout(slices, None, reason=f"every env is in a worker: {'; '.join(why_not)}")
+
+
+def _why_no_caller_slice(
+    env_fns: Sequence[Callable[[], Any]],
+    num_workers: int | None,
+    max_envs_per_worker: int | None,
+    restart_dead_workers: bool,
+    step_timeout: float | None,
+    caller_steps: bool | None,
+    batch_size: int | None,
+) -> list[str]:
+    """What the pool was given that keeps the calling process from stepping a slice by default,
+    in words (empty: nothing does)."""
+    if batch_size is not None:
+        return [f"batch_size={batch_size} (partial batches come from workers only)"]
+    if caller_steps is False:
+        return ["caller_steps=False"]
+    asked = [
+        (num_workers is not None, f"num_workers={num_workers} was given (caller_steps=True adds the calling process)"),
+        (max_envs_per_worker is not None, f"max_envs_per_worker={max_envs_per_worker} was given"),
+        (restart_dead_workers, "restart_dead_workers=True (a worker can be restarted, the calling process cannot)"),
+        (step_timeout is not None, f"step_timeout={step_timeout} (a hung worker can be killed, the calling process "
+                                   "cannot)"),
+    ]
+    reasons = [words for given, words in asked if given]
+    capped = [k for k, fn in enumerate(env_fns) if getattr(fn, "max_envs_per_process", None) is not None]
+    if capped:
+        k = min(capped, key=lambda k: env_fns[k].max_envs_per_process)
+        reasons.append(f"env {k}'s fn allows at most {env_fns[k].max_envs_per_process} env(s) per process "
+                       "(max_envs_per_process; 1 for an FMU that may be instantiated only once per process)")
+    return reasons
 
 
 def _caller_only_layout(

@@ -224,10 +224,8 @@ class PoolVectorEnv(VectorEnv):
         )
         self.num_envs = len(self.env_fns)
         self.batch_size = check_batch_size(batch_size, self.num_envs, caller_steps)
-        if batch_size is not None:
-            if num_workers == 0:
-                raise ConfigError("batch_size (partial batches) needs every env in a worker; num_workers=0 starts none")
-            caller_steps = False
+        if batch_size is not None and num_workers == 0:
+            raise ConfigError("batch_size (partial batches) needs every env in a worker; num_workers=0 starts none")
         try:
             self.autoreset_mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -239,7 +237,7 @@ class PoolVectorEnv(VectorEnv):
         self.startup_timeout = startup_timeout
         self.copy = copy
         layout = plan_layout(
-            self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout, caller_steps
+            self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout, caller_steps, batch_size
         )
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT

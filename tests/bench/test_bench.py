@@ -94,3 +94,51 @@ def test_the_shared_machine_benchmark_leaves_no_load_behind(tmp_path: Path) -> N
     assert len(two["pairs"]["pool"]) == 2 and all(len(pair) == 2 for pair in two["pairs"]["pool"])
     assert two["steps_per_second"]["pool"] == statistics.median(map(sum, two["pairs"]["pool"]))  # the pair's sum
     assert _processes_with(BUSY_MARKER) == [] and _processes_with("modelicagym.bench.shared_machine") == []
+
+
+@pytest.mark.parametrize("name", ["leaky", "probe_once"])
+def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: str, tmp_path: Path) -> None:
+    """``bench fmu`` on a test FMU, its config as ``info`` suggests it changed by ``--config``; an
+    FMU allowed once per process gets no SyncVectorEnv (it would hold two instances), and says why."""
+    from fmu_family import build
+
+    (tmp_path / "config.json").write_text(json.dumps({"max_episode_steps": 40}))
+    args = [str(build(name, 2)), "--config", str(tmp_path / "config.json"), "--n", "2", "--repeats", "1",
+            "--seconds", "0.05"]
+    out = run_bench("fmu", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert {"fmu", "model", "fmi_version", "step_path", "config", "cores", "load_average", "results"} <= set(result)
+    assert result["config"]["max_episode_steps"] == 40
+    path = result["step_path"]
+    assert f"single env: {path['path']} ({path['reason']})" in out
+    [group] = result["results"]
+    measured = {"single", "async", "pool"} | ({"sync"} if name == "leaky" else set())
+    assert set(group["steps_per_second"]) == measured and all(v > 0 for v in group["steps_per_second"].values())
+    assert ("sync" in group["skipped"]) == (name == "probe_once")
+    pool_paths = group["pool"]["step_paths"]
+    assert sum(p["envs"] for p in pool_paths) == 2
+    for p in pool_paths:
+        assert f"pool n=2: {p['envs']} env(s) {p['path']} ({p['reason']})" in out
+    assert {"wall_s", "fmu_s", "env_python_s", "pool_overhead_s"} <= set(group["pool"]["timing"])
+    assert group["pool"]["layout"] in out and group["pool"]["layout_reason"] in group["pool"]["layout"]
+    single = group["single_time"]
+    assert 0 < single["fmu_us"] < single["wall_us"]
+
+
+def test_the_fmu_benchmark_logs_its_progress_without_tqdm(monkeypatch: pytest.MonkeyPatch,
+                                                           caplog: pytest.LogCaptureFixture) -> None:
+    from modelicagym.bench.own_fmu import progress_reporter
+
+    monkeypatch.setitem(sys.modules, "tqdm", None)
+    with caplog.at_level("INFO", logger="modelicagym.bench.own_fmu"), progress_reporter(2) as progress:
+        progress("n=2: envs made")
+        progress("n=2, single: calibrated")
+    assert [r.getMessage() for r in caplog.records] == ["[1/2] n=2: envs made", "[2/2] n=2, single: calibrated"]
+
+
+def test_the_fmu_benchmark_refuses_no_envs_in_one_line(tmp_path: Path) -> None:
+    command = [sys.executable, "-m", "modelicagym.cli", "bench", "fmu", "any.fmu", "--n", "2", "0",
+               "--json", str(tmp_path / "result.json")]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 1 and result.stderr.strip() == "error: bench fmu --n: at least 1, got 0"
+    assert not (tmp_path / "result.json").exists()
