@@ -1,0 +1,106 @@
+"""A reward written in Python against the native one: the cart-pole's steps per second with its
+reward computed in C, per env in Python, or on a slice's arrays in Python.
+
+The reward is the paper's (1 a step, -100 on termination) every way, so only where it is computed
+differs:
+
+* ``native``: the config's ``positive_reward`` / ``negative_reward``, in C;
+* ``per env``: ``reward=f(env, observation, action, terminated)`` in the config: C steps the FMU,
+  Python calls ``f`` once per env and step;
+* ``arrays``: ``batch_reward=f(envs, observations, actions, terminated)``: C steps the FMU, Python
+  calls ``f`` once per slice and step (a single env: one row);
+* ``python path``: the per-env reward on the Python step path (``step_path="python"``): what such an
+  env cost before a Python reward kept the native step.
+
+For a single env and for the pool (``make_vec``'s default layout) at each n, one run creates every
+candidate and times them interleaved over several rounds, random pushes; medians of env steps
+per second, and each candidate's rate over the native one's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+from typing import Any
+
+import numpy as np
+
+import modelicagym
+from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
+from modelicagym.bench.throughput import EPISODE_STEPS, interleaved_rates, single_loop, vector_loop
+
+logger = logging.getLogger(__name__)
+
+
+def paper_reward(env: Any, observation: Any, action: Any, terminated: bool) -> float:
+    """The paper's reward, per env, in Python."""
+    return -100.0 if terminated else 1.0
+
+
+def paper_rewards(envs: Any, observations: Any, actions: Any, terminated: np.ndarray) -> np.ndarray:
+    """The paper's reward, on arrays, in Python."""
+    return np.where(terminated, -100.0, 1.0)
+
+
+#: candidate -> the cart-pole's config keys
+CANDIDATES: dict[str, dict[str, Any]] = {
+    "native": {},
+    "per env": {"reward": paper_reward},
+    "arrays": {"batch_reward": paper_rewards},
+    "python path": {"reward": paper_reward, "step_path": "python"},
+}
+
+
+def measure(n: int | None, repeats: int, seconds: float) -> dict[str, Any]:
+    """Steps per second of every candidate: one env (``n=None``) or a pool of ``n``."""
+    closers: list[Any] = []
+    runs, layouts = {}, {}
+    try:
+        for name, options in CANDIDATES.items():
+            options = {**options, "max_episode_steps": EPISODE_STEPS}
+            if n is None:
+                env = modelicagym.make("cartpole", **options)
+                closers.append(env)
+                runs[name] = single_loop(env, seed=1)
+                layouts[name] = env.unwrapped.step_path
+            else:
+                pool = modelicagym.make_vec("cartpole", n=n, **options)
+                closers.append(pool)
+                runs[name] = vector_loop(pool, n, seed=n)
+                layouts[name] = str(pool.layout)
+        samples, _ = interleaved_rates(runs, repeats, seconds)
+    finally:
+        for env in closers:
+            env.close()
+    rates = {name: median(values) for name, values in samples.items()}
+    return {"n": n, "steps_per_second": rates, "samples": samples, "layouts": layouts,
+            "over_native": {name: rate / rates["native"] for name, rate in rates.items()}}
+
+
+def report(results: list[dict[str, Any]]) -> str:
+    names = list(CANDIDATES)
+    rates = format_table(
+        ("envs", *names, *(f"{name}/native" for name in names[1:])),
+        [("single" if r["n"] is None else f"pool n={r['n']}", *(f"{r['steps_per_second'][name]:,.0f}" for name in names),
+          *(f"{r['over_native'][name]:.2f}x" for name in names[1:])) for r in results],
+    )
+    return f"cart-pole env steps per second, by where the reward is computed:\n{rates}"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_round_arguments(parser, "python-reward")
+    parser.set_defaults(n=[8, 64])
+
+
+def run(args: argparse.Namespace) -> int:
+    load_before = os.getloadavg()
+    results = []
+    for n in [None, *args.n]:
+        logger.info("measuring %s", "a single env" if n is None else f"a pool of {n}")
+        results.append(measure(n, args.repeats, args.seconds))
+    line, data = conditions(load_before, args.repeats, args.seconds)
+    print(report(results))
+    print(f"\n{line}")
+    print(f"wrote {write_json(args.json, {**data, 'results': results})}")
+    return 0
