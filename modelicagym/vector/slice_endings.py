@@ -60,14 +60,20 @@ class SliceEndings:
         #: per group: its endings, and the offsets of its envs
         self._groups = [(envs[offsets[0]].native_endings, np.array(offsets)) for offsets in groups.values()]
         self._one_group = len(self._groups) == 1 and len(self._groups[0][1]) == len(envs)
+        #: every env of the slice: its rows as a slice, not an index array (a copy costs less than a gather)
+        self._all = slice(0, len(envs))
 
     def step(self) -> int:
         """One step of the slice; returns how many envs Python must still finish (see `NativeBatch.step`)."""
         native = self.native
-        if native.step_open():
+        opened = native.step_open()
+        if opened:
             timed = bool(self._timing_enabled[0])
             started = perf_counter_ns() if timed else 0
-            self._end(np.flatnonzero(native.open))
+            if opened == len(self.envs) and self._one_group:  # the common case: every env, one call
+                self._end_group(self._groups[0][0], self._all)
+            else:
+                self._end(np.flatnonzero(native.open))
             if timed:
                 self._timing[SharedBuffers.ENV_NS] += perf_counter_ns() - started
         return native.end_steps()
@@ -82,14 +88,25 @@ class SliceEndings:
             if group.size:
                 self._end_group(endings, group)
 
-    def _end_group(self, endings: Any, offsets: np.ndarray) -> None:
-        rows = offsets + self.first
-        self.current_env = self._current[self.slot] = int(rows[0])
+    def _end_group(self, endings: Any, offsets: np.ndarray | slice) -> None:
+        """End the steps of the envs at ``offsets`` (an index array, or the slice of them all):
+        the hooks get copies of their rows, so nothing they do to them reaches shared memory."""
+        if isinstance(offsets, slice):
+            rows, envs = slice(self.first, self.first + len(self.envs)), self.envs
+            self.current_env = self.first
+        else:
+            rows, envs = offsets + self.first, [self.envs[offset] for offset in offsets.tolist()]
+            self.current_env = int(rows[0])
+        self._current[self.slot] = self.current_env
         actions = self._actions[rows]
         given = int(self._action_dtype[0])
         if given:  # as SyncVectorEnv hands each env its action: in the dtype the batch was given in
-            actions = actions.astype(np.dtype(chr(given)), copy=False)
-        envs = self.envs if len(offsets) == len(self.envs) else [self.envs[offset] for offset in offsets.tolist()]
-        rewards, terminated = endings.finish(envs, self._observations[rows], actions, self._terminations[rows])
+            actions = actions.astype(np.dtype(chr(given)))
+        elif isinstance(rows, slice):
+            actions = actions.copy()
+        observations, terminated = self._observations[rows], self._terminations[rows]
+        if isinstance(rows, slice):
+            observations, terminated = observations.copy(), terminated.copy()
+        rewards, terminated = endings.finish(envs, observations, actions, terminated)
         self._rewards[rows] = rewards
         self._terminations[rows] = terminated
