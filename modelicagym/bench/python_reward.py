@@ -14,7 +14,11 @@ differs:
 
 For a single env and for the pool (``make_vec``'s default layout) at each n, one run creates every
 candidate and times them interleaved over several rounds, random pushes; medians of env steps
-per second, and each candidate's rate over the native one's.
+per second, and each candidate's rate over the native one's. The pool's layout differs by
+candidate (an env whose reward runs per env stays where it is; the others may move between the
+calling process and the worker), so each n also times a slice of n envs stepped in this process
+as a worker steps it (`~modelicagym.vector.env_slice.EnvSlice`, no processes): what computing the
+rewards in Python costs a batch, the extra C call of the autoreset included.
 """
 
 from __future__ import annotations
@@ -22,13 +26,18 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
 from typing import Any
 
 import numpy as np
+from gymnasium.vector import AutoresetMode
 
 import modelicagym
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
-from modelicagym.bench.throughput import EPISODE_STEPS, interleaved_rates, single_loop, vector_loop
+from modelicagym.bench.throughput import EPISODE_STEPS, Run, interleaved_rates, single_loop, vector_loop
+from modelicagym.vector.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.env_slice import EnvSlice
 
 logger = logging.getLogger(__name__)
 
@@ -52,39 +61,68 @@ CANDIDATES: dict[str, dict[str, Any]] = {
 }
 
 
-def measure(n: int | None, repeats: int, seconds: float) -> dict[str, Any]:
-    """Steps per second of every candidate: one env (``n=None``) or a pool of ``n``."""
-    closers: list[Any] = []
-    runs, layouts = {}, {}
+@contextmanager
+def slice_loop(n: int, options: dict[str, Any], seed: int) -> Iterator[Run]:
+    """Random pushes for a slice of ``n`` cart-poles stepped in this process, as a worker steps its
+    slice (next-step autoreset), on freshly made shared buffers."""
+    envs = [modelicagym.make("cartpole", **options).unwrapped for _ in range(n)]
+    buffers, fd = SharedBuffers.create(BufferSpec(envs[0].observation_space, envs[0].action_space, n, 1))
+    part = EnvSlice(envs, first_env=0, slot=0, autoreset_mode=AutoresetMode.NEXT_STEP)
     try:
+        part.attach(buffers, needs_reset=True)
+        buffers.step_mask[:] = 1
+        buffers.reset_mask[:] = True
+        part.reset(list(range(seed, seed + n)), None)
+        rng = np.random.default_rng(seed)
+
+        def run(steps: int) -> int:
+            batches = max(1, steps // n)
+            for actions in rng.integers(0, 2, size=(batches, n)):
+                buffers.actions.write_batch(actions)
+                part.step()
+            return batches * n
+
+        yield run
+    finally:
+        part.detach()
+        os.close(fd)
+        for env in envs:
+            env.close()
+
+
+def measure(n: int | None, repeats: int, seconds: float) -> dict[str, Any]:
+    """Steps per second of every candidate: one env (``n=None``), or a pool of ``n`` and a slice of ``n``."""
+    runs, layouts = {}, {}
+    with ExitStack() as stack:
         for name, options in CANDIDATES.items():
             options = {**options, "max_episode_steps": EPISODE_STEPS}
             if n is None:
                 env = modelicagym.make("cartpole", **options)
-                closers.append(env)
+                stack.callback(env.close)
                 runs[name] = single_loop(env, seed=1)
                 layouts[name] = env.unwrapped.step_path
-            else:
-                pool = modelicagym.make_vec("cartpole", n=n, **options)
-                closers.append(pool)
-                runs[name] = vector_loop(pool, n, seed=n)
-                layouts[name] = str(pool.layout)
+                continue
+            pool = modelicagym.make_vec("cartpole", n=n, **options)
+            stack.callback(pool.close)
+            runs[name] = vector_loop(pool, n, seed=n)
+            layouts[name] = str(pool.layout)
+            runs[f"slice {name}"] = stack.enter_context(slice_loop(n, options, seed=n))
         samples, _ = interleaved_rates(runs, repeats, seconds)
-    finally:
-        for env in closers:
-            env.close()
     rates = {name: median(values) for name, values in samples.items()}
-    return {"n": n, "steps_per_second": rates, "samples": samples, "layouts": layouts,
-            "over_native": {name: rate / rates["native"] for name, rate in rates.items()}}
+    over_native = {name: rate / rates["slice native" if name.startswith("slice ") else "native"]
+                   for name, rate in rates.items()}
+    return {"n": n, "steps_per_second": rates, "samples": samples, "layouts": layouts, "over_native": over_native}
 
 
 def report(results: list[dict[str, Any]]) -> str:
     names = list(CANDIDATES)
-    rates = format_table(
-        ("envs", *names, *(f"{name}/native" for name in names[1:])),
-        [("single" if r["n"] is None else f"pool n={r['n']}", *(f"{r['steps_per_second'][name]:,.0f}" for name in names),
-          *(f"{r['over_native'][name]:.2f}x" for name in names[1:])) for r in results],
-    )
+    rows = []
+    for r in results:
+        for prefix, label in (("", "single" if r["n"] is None else f"pool n={r['n']}"), ("slice ", f"slice n={r['n']}")):
+            if f"{prefix}native" in r["steps_per_second"]:
+                rows.append((label, *(f"{r['steps_per_second'][prefix + name]:,.0f}" for name in names),
+                             *(f"{r['over_native'][prefix + name]:.2f}x" for name in names[1:])))
+    rates = format_table(("envs", *names, *(f"{name}/native" for name in names[1:])), rows)
     return f"cart-pole env steps per second, by where the reward is computed:\n{rates}"
 
 
