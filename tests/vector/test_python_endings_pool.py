@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from python_endings import KINDS, ArrayCartPole, PerEnvCartPole, endings_fns
+from test_vector_layout import _flipping, _rollout_recording_layouts
 from test_vector_native import assert_native_equals_python
 from vector_rollouts import assert_same, rollout
 
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
-from modelicagym.vector import EnvError, PoolVectorEnv
+from modelicagym.vector import EnvError, PoolVectorEnv, placement
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.protocol import Kind
@@ -91,6 +92,23 @@ def test_a_pool_equals_sync_over_the_python_path(kind: str, mode: AutoresetMode)
 def test_every_layout_ends_the_steps_alike(layout: dict) -> None:
     native, python = endings_fns("arrays, class", 4)
     assert_native_equals_python(native, python, autoreset_mode=AutoresetMode.SAME_STEP, steps=100, **layout)
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda m: m.value)
+def test_envs_ending_their_steps_on_arrays_move_between_processes_and_keep_sync_results(
+    monkeypatch: pytest.MonkeyPatch, mode: AutoresetMode
+) -> None:
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    native, python = endings_fns("arrays, config", 6)
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+        assert pool.layout.adaptive, pool.layout
+        policy = _flipping(pool, every=7)
+        actual, in_caller = _rollout_recording_layouts(pool, 200)
+    expected, _ = _rollout_recording_layouts(sync, 200)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 20 and min(in_caller) == 3 and max(in_caller) == 6, in_caller
 
 
 def test_the_pendulum_pool_steps_natively_as_sync() -> None:
