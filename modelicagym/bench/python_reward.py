@@ -123,7 +123,9 @@ def report(results: list[dict[str, Any]]) -> str:
                 rows.append((label, *(f"{r['steps_per_second'][prefix + name]:,.0f}" for name in names),
                              *(f"{r['over_native'][prefix + name]:.2f}x" for name in names[1:])))
     rates = format_table(("envs", *names, *(f"{name}/native" for name in names[1:])), rows)
-    return f"cart-pole env steps per second, by where the reward is computed:\n{rates}"
+    layouts = "\n".join(f"pool n={r['n']}: " + ", ".join(f"{name} {r['layouts'][name].split(' (')[0]}" for name in names)
+                        for r in results if r["n"] is not None)
+    return f"cart-pole env steps per second, by where the reward is computed:\n{rates}\n\nthe pools' layouts:\n{layouts}"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
