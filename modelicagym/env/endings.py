@@ -22,21 +22,31 @@ pool (``env.native_endings``): a key (envs with equal keys are ended in one call
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from modelicagym.errors import ConfigError
+from modelicagym.errors import ConfigError, ConfigTypeError
 
-__all__ = ["PythonEndings", "batch_reward_defined", "batch_termination_defined", "python_endings", "reward_of_one",
-           "termination_of_one"]
+__all__ = ["PythonEndings", "batch_reward_defined", "batch_termination_defined", "check_array_hooks", "python_endings",
+           "reward_of_one", "termination_of_one"]
 
 
 def _overridden(cls: type, base: type, name: str) -> bool:
     method, original = getattr(cls, name), getattr(base, name)
     return getattr(method, "__func__", method) is not getattr(original, "__func__", original)
+
+
+def check_array_hooks(cls: type, base: type) -> None:
+    """``cls``'s overrides of the array forms are classmethods (or staticmethods): they get a
+    slice's envs, not one of them; a plain method is refused when the env is made, in one line."""
+    for name in ("compute_rewards", "are_terminal"):
+        if _overridden(cls, base, name) and not isinstance(inspect.getattr_static(cls, name), (classmethod, staticmethod)):
+            raise ConfigTypeError(f"{cls.__name__}.{name} must be a classmethod: it gets the envs of a slice and "
+                                  "their arrays, not one env (decorate it with @classmethod)")
 
 
 def batch_reward_defined(env: gym.Env, base: type) -> bool:

@@ -27,8 +27,9 @@ actions and observations over time; matplotlib, the ``plots`` extra), so Gymnasi
 the Python path; without a render mode nothing is recorded and nothing on the step path changes.
 
 Subclasses override what the paper's users override: `compute_reward`, `is_terminal` (or their
-array forms, the classmethods `compute_rewards`, `are_terminal`), `action_to_inputs`, `make_action_space` / `make_observation_space` (with `observation`), and
-`render` (a class that draws its own picture, as the cart-pole's, records no strip chart).
+array forms, the classmethods `compute_rewards`, `are_terminal`), `action_to_inputs`,
+`make_action_space` / `make_observation_space` (with `observation`), and `render` (a class that
+draws its own picture, as the cart-pole's, records no strip chart).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from modelicagym.env.endings import (
     PythonEndings,
     batch_reward_defined,
     batch_termination_defined,
+    check_array_hooks,
     python_endings,
     reward_of_one,
     termination_of_one,
@@ -95,6 +97,7 @@ class FMUEnv(gym.Env):
 
     def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
         self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
+        check_array_hooks(type(self), FMUEnv)  # before the FMU is loaded: nothing to free
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
         self.render_mode = render_mode

@@ -10,6 +10,7 @@ from python_endings import KINDS, batch_reward, config_cartpole, reward
 
 import modelicagym
 from modelicagym.errors import ConfigError
+from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
 
 
@@ -57,6 +58,15 @@ def test_a_hook_given_twice_or_not_callable_is_refused_in_one_line() -> None:
         config_cartpole(reward=reward, batch_reward=batch_reward)
     with pytest.raises(TypeError, match="batch_termination must be a callable"):
         config_cartpole(batch_termination=0.5)
+
+
+def test_an_array_form_that_is_not_a_classmethod_is_refused_in_one_line() -> None:
+    class Forgot(CartPoleEnv):
+        def compute_rewards(self, envs: object, observations: object, actions: object, terminated: object) -> None:
+            return None
+
+    with pytest.raises(TypeError, match=r"Forgot.compute_rewards must be a classmethod"):
+        Forgot()
 
 
 def test_an_array_hook_of_the_wrong_shape_names_itself() -> None:
