@@ -5,12 +5,16 @@ one C call, the endings in one Python call per slice, the autoreset in C) with t
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
+from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from python_endings import KINDS, ArrayCartPole, PerEnvCartPole, endings_fns
+from step_paths import probe_env
 from test_vector_layout import _flipping, _rollout_recording_layouts
 from test_vector_native import assert_native_equals_python
 from vector_rollouts import assert_same, rollout
@@ -109,6 +113,27 @@ def test_envs_ending_their_steps_on_arrays_move_between_processes_and_keep_sync_
     sync.close()
     assert_same(expected, actual)
     assert policy.switches >= 20 and min(in_caller) == 3 and max(in_caller) == 6, in_caller
+
+
+def probe_rewards(envs: object, observations: np.ndarray, actions: np.ndarray, terminated: np.ndarray) -> np.ndarray:
+    return observations[:, 0] * actions[:, 0] - 3.0 * terminated
+
+
+def probe_termination(envs: object, observations: np.ndarray) -> np.ndarray:
+    return np.abs(observations[:, 0]) > 2.0
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode), ids=lambda m: m.value)
+@pytest.mark.parametrize("fault", [1, 2], ids=["the model ends", "doStep fails"])
+def test_fmu_errors_and_model_ends_with_python_endings_match_sync(family_fmu: Callable[[str, int], Path],
+                                                                  mode: AutoresetMode, fault: int) -> None:
+    def fns(**path: Any) -> list:
+        faulty = {"fault": fault, "fault_after": 3}
+        return [partial(probe_env, family_fmu("probe", 2), parameters=faulty if i == 1 else {}, max_episode_steps=8,
+                        termination=None, batch_reward=probe_rewards, batch_termination=probe_termination, **path)
+                for i in range(3)]
+
+    assert_native_equals_python(fns(), fns(step_path="python"), steps=40, autoreset_mode=mode, caller_steps=True)
 
 
 def test_the_pendulum_pool_steps_natively_as_sync() -> None:
