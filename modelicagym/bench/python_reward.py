@@ -118,14 +118,18 @@ def report(results: list[dict[str, Any]]) -> str:
     names = list(CANDIDATES)
     rows = []
     for r in results:
-        for prefix, label in (("", "single" if r["n"] is None else f"pool n={r['n']}"), ("slice ", f"slice n={r['n']}")):
+        pool = "single" if r["n"] is None else f"pool n={r['n']}"
+        for prefix, label in (("", pool), ("slice ", f"slice n={r['n']}")):
             if f"{prefix}native" in r["steps_per_second"]:
                 rows.append((label, *(f"{r['steps_per_second'][prefix + name]:,.0f}" for name in names),
                              *(f"{r['over_native'][prefix + name]:.2f}x" for name in names[1:])))
     rates = format_table(("envs", *names, *(f"{name}/native" for name in names[1:])), rows)
-    layouts = "\n".join(f"pool n={r['n']}: " + ", ".join(f"{name} {r['layouts'][name].split(' (')[0]}" for name in names)
-                        for r in results if r["n"] is not None)
-    return f"cart-pole env steps per second, by where the reward is computed:\n{rates}\n\nthe pools' layouts:\n{layouts}"
+    layouts = "\n".join(
+        f"pool n={r['n']}: " + ", ".join(f"{name} {r['layouts'][name].split(' (')[0]}" for name in names)
+        for r in results if r["n"] is not None
+    )
+    return (f"cart-pole env steps per second, by where the reward is computed:\n{rates}\n\n"
+            f"the pools' layouts:\n{layouts}")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -44,7 +44,8 @@ def check_array_hooks(cls: type, base: type) -> None:
     """``cls``'s overrides of the array forms are classmethods (or staticmethods): they get a
     slice's envs, not one of them; a plain method is refused when the env is made, in one line."""
     for name in ("compute_rewards", "are_terminal"):
-        if _overridden(cls, base, name) and not isinstance(inspect.getattr_static(cls, name), (classmethod, staticmethod)):
+        method = inspect.getattr_static(cls, name)
+        if _overridden(cls, base, name) and not isinstance(method, (classmethod, staticmethod)):
             raise ConfigTypeError(f"{cls.__name__}.{name} must be a classmethod: it gets the envs of a slice and "
                                   "their arrays, not one env (decorate it with @classmethod)")
 
@@ -110,7 +111,8 @@ class PythonEndings:
         self.per_env = (per_env_reward and not batch_reward) or (per_env_termination and not batch_termination)
         parts = []
         if per_env_reward or batch_reward:
-            parts.append("the reward (" + ("compute_rewards on arrays" if batch_reward else "compute_reward per env") + ")")
+            parts.append("the reward ("
+                         + ("compute_rewards on arrays" if batch_reward else "compute_reward per env") + ")")
         if self.termination:
             parts.append("the termination ("
                          + ("are_terminal on arrays" if batch_termination else "is_terminal per env") + ")")

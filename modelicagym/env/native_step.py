@@ -2,11 +2,12 @@
 
 An env takes the native path when its step is fully defined by its config (:func:`python_path_reason`
 says why not, in a sentence a user can act on): co-simulation; `FMUEnv`'s own step, observation
-and action mapping; Float64 scalar inputs and outputs; a Box action copied to the inputs, or a Discrete action looked up in the
-config's ``action_table``; no strip chart to record (``render_mode="rgb_array"``). Everything else
-stays on the Python path, with the same results. A reward or termination written in Python does
-not keep an env off the native path: C steps the FMU and Python ends the step
-(`modelicagym.env.endings`); C then checks no termination bounds when the termination is Python's.
+and action mapping; Float64 scalar inputs and outputs; a Box action copied to the inputs, or a
+Discrete action looked up in the config's ``action_table``; no strip chart to record
+(``render_mode="rgb_array"``). Everything else stays on the Python path, with the same results. A
+reward or termination written in Python does not keep an env off the native path: C steps the FMU
+and Python ends the step (`modelicagym.env.endings`); C then checks no termination bounds when the
+termination is Python's.
 
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step.

@@ -52,8 +52,8 @@ def movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None
             return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
         endings = getattr(env, "native_endings", None)
         if endings is not None and endings.per_env:
-            return (f"{name.format(first + offset)} ends its steps in Python per env (compute_reward / is_terminal), "
-                    "which may keep state in the env itself")
+            return (f"{name.format(first + offset)} ends its steps in Python per env (compute_reward / "
+                    "is_terminal), which may keep state in the env itself")
     return None
 
 
@@ -165,8 +165,8 @@ class EnvSlice:
         self.needs_reset[:] = needs_reset
         if self.step_path == "native":
             python_endings = has_python_endings(self.envs)
-            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot), self.caller,
-                                      python_endings)
+            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot),
+                                      self.caller, python_endings)
             if python_endings:
                 self.endings = SliceEndings(self.envs, self.native, buffers, self.first, self.slot)
 

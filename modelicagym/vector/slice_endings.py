@@ -52,7 +52,8 @@ class SliceEndings:
         self._observations, self._actions = arrays["observations"], arrays["actions"]
         self._rewards, self._terminations = arrays["rewards"], arrays["terminations"]
         self._action_dtype = buffers.action_dtype
-        self._timing, self._timing_enabled, self._current = buffers.timing[slot], buffers.timing_enabled, buffers.current_env
+        self._timing, self._timing_enabled = buffers.timing[slot], buffers.timing_enabled
+        self._current = buffers.current_env
         groups: dict[Any, list[int]] = {}
         for offset, env in enumerate(envs):
             if env.native_endings is not None:

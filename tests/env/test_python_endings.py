@@ -39,7 +39,8 @@ def test_every_way_of_writing_them_steps_natively_as_the_python_path(kind: str) 
 
 
 def test_the_pendulum_steps_natively_with_its_reward_on_arrays() -> None:
-    native, python = PendulumSwingUpEnv(max_episode_steps=20), PendulumSwingUpEnv(max_episode_steps=20, step_path="python")
+    native = PendulumSwingUpEnv(max_episode_steps=20)
+    python = PendulumSwingUpEnv(max_episode_steps=20, step_path="python")
     assert native.step_path == "native", native.step_path_reason
     actions = list(np.random.default_rng(4).uniform(-6, 6, size=(45, 1)))
     assert assert_same_steps(native, python, actions) == 2
