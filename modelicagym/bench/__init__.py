@@ -94,7 +94,7 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 def add_arguments(parser: Any) -> None:
     """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
-    runner,solver-accuracy,ray,load-trial,fmu}``: their arguments."""
+    runner,solver-accuracy,ray,load-trial,fmu,python-reward}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
         fmi_calls,
@@ -102,6 +102,7 @@ def add_arguments(parser: Any) -> None:
         model_exchange,
         own_fmu,
         partial_batches,
+        python_reward,
         ray,
         runner,
         shared_machine,
@@ -115,7 +116,7 @@ def add_arguments(parser: Any) -> None:
                   ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
                   ("partial-batches", partial_batches),
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial),
-                  ("fmu", own_fmu))
+                  ("fmu", own_fmu), ("python-reward", python_reward))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
         module.add_arguments(sub)

@@ -59,7 +59,7 @@ def _options(setting: str) -> dict[str, Any]:
     return dict(SETTINGS[setting], max_episode_steps=EPISODE_STEPS)
 
 
-def _single_loop(env: gym.Env, seed: int) -> Run:
+def single_loop(env: gym.Env, seed: int) -> Run:
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)
 
@@ -173,7 +173,7 @@ def measure_group(setting: str, n: int, repeats: int, seconds: float) -> dict[st
         python = modelicagym.make("cartpole", step_path="python", **options)
         limit = modelicagym.make("cartpole", **options)
         closers += [single, python, limit]
-        runs["single"], runs["single_python"], runs["c_loop"] = _single_loop(single, 1), _single_loop(python, 2), c_loop(limit)
+        runs["single"], runs["single_python"], runs["c_loop"] = single_loop(single, 1), single_loop(python, 2), c_loop(limit)
         for candidate in VECTORS:
             if candidate == "async" and n > ASYNC_MAX_N:
                 continue

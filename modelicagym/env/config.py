@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from modelicagym.env.config_checks import check_action_bounds, check_numbers, check_termination
+from modelicagym.env.config_checks import check_action_bounds, check_batch_hooks, check_numbers, check_termination
 from modelicagym.errors import ConfigError, ConfigTypeError
 
 Bounds = Mapping[str, Sequence[float]]
@@ -42,6 +42,11 @@ class FMUEnvConfig:
             its interval; or a callable ``f(env, observation) -> bool``.
         reward: a callable ``f(env, observation, action, terminated) -> float`` replacing the
             default reward.
+        batch_reward / batch_termination: the reward / termination written on arrays, the fast way
+            in a pool: ``f(envs, observations, actions, terminated) -> rewards`` and
+            ``f(envs, observations) -> terminated``, row ``k`` of each array being ``envs[k]``'s
+            (see `modelicagym.env.endings`). Give ``reward`` or ``batch_reward``, not both (and
+            ``termination`` or ``batch_termination``).
         action_bounds: ``{input: (low, high)}``: finite bounds of the action space for these
             inputs, replacing the model description's (e.g. for an input that declares none, so that
             random exploration stays near its physical range; ``modelicagym info`` infers them).
@@ -68,6 +73,8 @@ class FMUEnvConfig:
     negative_reward: float = -100.0
     termination: Bounds | Callable[..., bool] | None = None
     reward: Callable[..., float] | None = None
+    batch_reward: Callable[..., Any] | None = None
+    batch_termination: Callable[..., Any] | None = None
     action_bounds: Bounds | None = None
     action_space: spaces.Space | None = None
     observation_space: spaces.Space | None = None
@@ -98,6 +105,7 @@ class FMUEnvConfig:
         config.parameters = dict(config.parameters)
         check_numbers(config)
         check_termination(config.termination)
+        check_batch_hooks(config)
         check_action_bounds(config.action_bounds)
         if config.action_bounds is not None:
             config.action_bounds = {name: (float(low), float(high))

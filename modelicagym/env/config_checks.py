@@ -19,7 +19,8 @@ import numpy as np
 
 from modelicagym.errors import ConfigError, ConfigTypeError
 
-__all__ = ["check_action_bound_names", "check_action_bounds", "check_numbers", "check_parameter", "check_termination"]
+__all__ = ["check_action_bound_names", "check_action_bounds", "check_batch_hooks", "check_numbers", "check_parameter",
+           "check_termination"]
 
 
 def _real(key: str, value: Any) -> float:
@@ -55,6 +56,21 @@ def check_termination(termination: Any) -> None:
     if not isinstance(termination, Mapping):
         raise ConfigTypeError(f"termination must be {{output: (low, high)}} or a callable, got {termination!r}")
     _check_intervals(termination, "termination bound", finite=False)
+
+
+def check_batch_hooks(config: Any) -> None:
+    """``batch_reward`` / ``batch_termination`` are callables, each given instead of its per-env
+    key (``reward`` / ``termination``), not beside it."""
+    for key, per_env in (("batch_reward", "reward"), ("batch_termination", "termination")):
+        hook = getattr(config, key)
+        if hook is None:
+            continue
+        if not callable(hook):
+            raise ConfigTypeError(f"{key} must be a callable on arrays, got {hook!r} ({type(hook).__name__})")
+        if getattr(config, per_env) is not None:
+            raise ConfigError(f"both {per_env!r} and {key!r} are given: give one ({key} is {per_env} on arrays)")
+    if config.reward is not None and not callable(config.reward):
+        raise ConfigTypeError(f"reward must be a callable, got {config.reward!r} ({type(config.reward).__name__})")
 
 
 def check_action_bounds(action_bounds: Any) -> None:

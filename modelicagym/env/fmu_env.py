@@ -17,22 +17,25 @@ The step contract, stated once:
 
 Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the
 config defines them completely, else the Python path; both give the same results.
-``env.step_path`` says which, ``env.step_path_reason`` why.
+``env.step_path`` says which, ``env.step_path_reason`` why. A reward or termination written in
+Python keeps the native path: C steps the FMU, Python decides how the step ends
+(`modelicagym.env.endings`; a pool calls ``compute_rewards`` / ``are_terminal`` on a slice's arrays).
 
 ``render_mode="rgb_array"`` draws the episode's strip chart (`modelicagym.env.strip_chart`: the
 actions and observations over time; matplotlib, the ``plots`` extra), so Gymnasium's
 ``RecordVideo`` works for any FMU. Only then is each step recorded, in Python: such an env steps on
 the Python path; without a render mode nothing is recorded and nothing on the step path changes.
 
-Subclasses override what the paper's users override: `compute_reward`, `is_terminal`,
-`action_to_inputs`, `make_action_space` / `make_observation_space` (with `observation`), and
-`render` (a class that draws its own picture, as the cart-pole's, records no strip chart).
+Subclasses override what the paper's users override: `compute_reward`, `is_terminal` (or their
+array forms, the classmethods `compute_rewards`, `are_terminal`), `action_to_inputs`,
+`make_action_space` / `make_observation_space` (with `observation`), and `render` (a class that
+draws its own picture, as the cart-pole's, records no strip chart).
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -42,6 +45,15 @@ import numpy as np
 from modelicagym.action_checks import action_checker
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.config_checks import check_action_bound_names, check_parameter
+from modelicagym.env.endings import (
+    PythonEndings,
+    batch_reward_defined,
+    batch_termination_defined,
+    check_array_hooks,
+    python_endings,
+    reward_of_one,
+    termination_of_one,
+)
 from modelicagym.env.native_step import NativeStep, python_path_reason
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
@@ -85,6 +97,7 @@ class FMUEnv(gym.Env):
 
     def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
         self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
+        check_array_hooks(type(self), FMUEnv)  # before the FMU is loaded: nothing to free
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode {render_mode!r} is not one of {self.metadata['render_modes']}")
         self.render_mode = render_mode
@@ -129,10 +142,16 @@ class FMUEnv(gym.Env):
         self.episode_parameters: dict[str, Any] = {}
         self.strip_chart = self._make_strip_chart()
         self._native: NativeStep | None = None
+        #: on the native path, how its steps end in Python (its reward or termination is Python's); else None
+        self.native_endings: PythonEndings | None = None
+        self._batch_reward = batch_reward_defined(self, FMUEnv)
+        self._batch_termination = batch_termination_defined(self, FMUEnv)
         reason = python_path_reason(self, FMUEnv)
         if reason is None:
-            self._native = NativeStep(self)
-            self.step_path, self.step_path_reason = "native", "the config defines the whole step"
+            self.native_endings = endings = python_endings(self, FMUEnv)
+            self._native = NativeStep(self, python_termination=endings is not None and endings.termination)
+            self.step_path = "native"
+            self.step_path_reason = "the config defines the whole step" if endings is None else endings.reason
         else:
             self.step_path, self.step_path_reason = "python", reason
 
@@ -190,19 +209,28 @@ class FMUEnv(gym.Env):
             flags = native.step(action)
             if flags & Flags.FMU_ERROR:
                 return self.fmu_failure(native.error())
-            return (self.observation(), native.reward, *Flags.ending(flags))
+            terminated, truncated, info = Flags.ending(flags)
+            endings = self.native_endings
+            if endings is None:
+                return self.observation(), native.reward, terminated, truncated, info
+            observation = self.observation()  # C stepped the FMU; the ending is Python's, as below
+            if endings.termination:
+                terminated = self.is_terminal(observation)
+                if flags & Flags.MODEL_ENDED:
+                    terminated = True
+            return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
         write_values(self.fmu.inputs, self.action_to_inputs(action))
         info: dict[str, Any] = {}
         try:
             model_terminated = self.fmu.step(self.time_step)
         except (FMUCallError, FMUError) as error:
             return self.fmu_failure(error)
+        self.elapsed_steps += 1  # before the ending is decided, as on the native path
         observation = self.observation()
         terminated = self.is_terminal(observation)
         if model_terminated:
             terminated = True
             info["fmu_terminated"] = True
-        self.elapsed_steps += 1
         truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
         return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
 
@@ -293,10 +321,13 @@ class FMUEnv(gym.Env):
         return action
 
     def is_terminal(self, observation: Any) -> bool:
-        """Whether the episode is over; default: the config's ``termination`` bounds or callable."""
+        """Whether the episode is over; default: the config's ``termination`` bounds or callable,
+        or the array form (`are_terminal`) on one row when there is one."""
         termination = self.config.termination
         if callable(termination):
             return bool(termination(self, observation))
+        if self._batch_termination:
+            return termination_of_one(self, observation)
         if self._bounds:
             values = self._bounds_source()
             for index, low, high in self._bounds:
@@ -305,10 +336,41 @@ class FMUEnv(gym.Env):
         return False
 
     def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
-        """The reward of a step; default: the config's ``reward`` callable, else the paper's rule."""
+        """The reward of a step; default: the config's ``reward`` callable, or the array form
+        (`compute_rewards`) on one row when there is one, else the paper's rule."""
         if self.config.reward is not None:
             return float(self.config.reward(self, observation, action, terminated))
+        if self._batch_reward:
+            return reward_of_one(self, observation, action, terminated)
         return self.negative_reward if terminated else self.positive_reward
+
+    @classmethod
+    def compute_rewards(cls, envs: Sequence[FMUEnv], observations: Any, actions: Any,
+                        terminated: np.ndarray) -> np.ndarray:
+        """The rewards of several envs' steps at once, on arrays: row ``k`` of ``observations``,
+        ``actions`` and ``terminated`` (bool) is ``envs[k]``'s step; one reward per row.
+
+        Override it (a classmethod: it sees the envs, not one of them) to write the reward on
+        arrays; a pool's slice calls it once a step for all its envs of this class (a single env
+        with one row), on the native step path. Default: the config's ``batch_reward``, else
+        `compute_reward` per env.
+        """
+        batch_reward = envs[0].config.batch_reward
+        if batch_reward is not None:
+            return batch_reward(envs, observations, actions, terminated)
+        return np.array([env.compute_reward(observation, action, ended)
+                         for env, observation, action, ended in zip(envs, observations, actions, terminated.tolist())],
+                        dtype=np.float64)
+
+    @classmethod
+    def are_terminal(cls, envs: Sequence[FMUEnv], observations: Any) -> np.ndarray:
+        """Whether several envs' episodes are over, on arrays: row ``k`` of ``observations`` is
+        ``envs[k]``'s; one bool per row. As `compute_rewards`: override it to write the
+        termination on arrays. Default: the config's ``batch_termination``, else `is_terminal` per env."""
+        batch_termination = envs[0].config.batch_termination
+        if batch_termination is not None:
+            return batch_termination(envs, observations)
+        return np.array([env.is_terminal(observation) for env, observation in zip(envs, observations)], dtype=np.bool_)
 
     # -- timing, for the pool --------------------------------------------------------------------
 

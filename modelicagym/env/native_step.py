@@ -1,11 +1,13 @@
 """The native step path of an `FMUEnv`: one C call per step instead of ~10 µs of Python.
 
 An env takes the native path when its step is fully defined by its config (:func:`python_path_reason`
-says why not, in a sentence a user can act on): co-simulation; `FMUEnv`'s own step, reward,
-termination, observation and action mapping; no reward or termination callables; Float64 scalar
-inputs and outputs; a Box action copied to the inputs, or a Discrete action looked up in the
-config's ``action_table``; no strip chart to record (``render_mode="rgb_array"``). Everything else
-stays on the Python path, with the same results.
+says why not, in a sentence a user can act on): co-simulation; `FMUEnv`'s own step, observation
+and action mapping; Float64 scalar inputs and outputs; a Box action copied to the inputs, or a
+Discrete action looked up in the config's ``action_table``; no strip chart to record
+(``render_mode="rgb_array"``). Everything else stays on the Python path, with the same results. A
+reward or termination written in Python does not keep an env off the native path: C steps the FMU
+and Python ends the step (`modelicagym.env.endings`); C then checks no termination bounds when the
+termination is Python's.
 
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step.
@@ -31,7 +33,7 @@ __all__ = ["NativeStep", "python_path_reason"]
 logger = logging.getLogger(__name__)
 
 _FLOAT64 = ("Real", "Float64")
-_OVERRIDABLE = ("step", "compute_reward", "is_terminal", "action_to_inputs", "observation")
+_OVERRIDABLE = ("step", "action_to_inputs", "observation")
 #: ``failed_call`` codes -> how the Python path names the failing call
 _FAILED_CALLS = {FailedCall.SET_INPUTS: "set inputs", FailedCall.DO_STEP: "fmiDoStep",
                  FailedCall.GET_OUTPUTS: "get outputs", FailedCall.SET_STATE: "set FMU state",
@@ -59,10 +61,6 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     for name in _OVERRIDABLE:
         if getattr(cls, name) is not getattr(base, name):
             return f"{name} is overridden by {cls.__name__}"
-    if callable(config.reward):
-        return "'reward' is a callable in the config"
-    if callable(config.termination):
-        return "'termination' is a callable in the config"
     for role, variables in (("input", fmu.input_variables), ("output", fmu.output_variables)):
         for v in variables:
             if v.fmi_type not in _FLOAT64 or v.shape:
@@ -95,10 +93,11 @@ class NativeStep:
     """The ``mg_env`` of one env on the native path, and its single-env step.
 
     Call :meth:`bind` after every reset the Python path did (the instance, its functions or its
-    snapshot may have changed).
+    snapshot may have changed). ``python_termination``: the env's termination is Python's, so C
+    checks no bounds (it still reports the model ending the simulation).
     """
 
-    def __init__(self, env: gym.Env) -> None:
+    def __init__(self, env: gym.Env, python_termination: bool = False) -> None:
         self.env = env
         self.library = load_library()
         fmu, config = env.fmu, env.config
@@ -108,7 +107,8 @@ class NativeStep:
         self._names = ("SetReal", "GetReal") if state.fmi_version == 2 else ("SetFloat64", "GetFloat64")
         starts = [0.0 if v.start is None else float(v.start) for v in fmu.input_variables]
         names = [v.name for v in fmu.output_variables]
-        bounds = [(name, float(low), float(high)) for name, (low, high) in dict(config.termination or {}).items()]
+        termination = {} if python_termination else dict(config.termination or {})
+        bounds = [(name, float(low), float(high)) for name, (low, high) in termination.items()]
         # arrays the struct points to: kept alive by this object
         self._keep = {
             "input_starts": np.array(starts, dtype=np.float64),

@@ -68,6 +68,8 @@ SIGNATURES = {
     "mg_env_step": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
     "mg_env_reset": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_step_batch": (ctypes.c_int64, (ctypes.c_void_p,)),
+    "mg_step_open": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_void_p)),
+    "mg_end_steps": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int32, ctypes.c_void_p)),
     "mg_watch_register": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),
     "mg_watch_unregister": (None, (ctypes.c_void_p,)),
     "mg_serve": (ctypes.c_int32, (ctypes.c_void_p,)),

@@ -71,6 +71,9 @@ class Dispatcher:
         self._replies = memoryview(buffers.reply)
         #: the adaptive state of the native collection's waits (see ``FutexSignal``)
         self.waiter = MgWaiter()
+        #: the calling process's native slice ends its steps in Python (`~modelicagym.vector.slice_endings`):
+        #: it steps before the native collection, which then only waits for the workers
+        self._local_in_python = local is not None and local.endings is not None
         self._collector = self._native_collector()
 
     def _native_collector(self) -> NativeCollector | None:
@@ -80,11 +83,11 @@ class Dispatcher:
             return None
         if self.local is not None and self.local.native is None:
             return None
-        if not self.handles and self.local is None:
+        if not self.handles and (self.local is None or self._local_in_python):
             return None
         timeout = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         return NativeCollector(
-            None if self.local is None else self.local.native,
+            None if self.local is None or self._local_in_python else self.local.native,
             [handle.done.address for handle in self.handles],
             self.buffers.reply[: len(self.handles)],
             self.stepping,
@@ -212,8 +215,15 @@ class Dispatcher:
 
     def _collect(self) -> bool:
         """:meth:`all_done` for a plain step, in one native call (see ``mg_collect``): it steps the
-        calling process's native slice itself, so that party's posted step is dropped."""
-        if self.caller is not None:
+        calling process's native slice itself, so that party's posted step is dropped (unless that
+        slice ends its steps in Python: it steps here first, and a reply of its own takes the slow path)."""
+        if self.caller is not None and self._local_in_python:
+            started = time.perf_counter_ns()
+            self.caller.run()
+            if self._replies[self.caller.index]:
+                return False
+            self._collector.add_local_time(time.perf_counter_ns() - started)
+        elif self.caller is not None:
             self.caller.forget()
         status = self._collector.collect()
         if status == COLLECT_DONE:

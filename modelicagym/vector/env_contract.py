@@ -8,7 +8,10 @@ env that offers more gets more, and the pool asks for it by these names only:
 * a `NativeEnv` (an unwrapped `~modelicagym.FMUEnv` whose ``step_path`` is ``"native"``) is stepped by
   the C library through its ``native_step`` struct, a whole slice in one call
   (`~modelicagym.vector.native_slice.NativeBatch`); what C leaves to Python it finishes with
-  ``observation()`` and ``native_step_failure()``;
+  ``observation()`` and ``native_step_failure()``; where its reward or termination is written in
+  Python, its ``native_endings`` (``None`` otherwise) computes them after C stepped the FMUs, for
+  every env of the slice sharing its ``key`` in one ``finish(envs, observations, actions,
+  terminated)`` call (`~modelicagym.vector.slice_endings`);
 * ``env.reset_is_deterministic`` (a reset without seed or options starts the same episode in any
   env the same env fn makes): with it, and the native step path, a pool whose layout it plans may
   move the env between the calling process and its worker at an episode boundary
@@ -86,6 +89,10 @@ class NativeEnv(PoolEnv, Protocol):
 
     def native_step_failure(self) -> StepResult:
         """The step result of an FMU call that failed in C, raised or handled as the Python path would."""
+
+    @property
+    def native_endings(self) -> Any:
+        """How the env's steps end in Python (`modelicagym.env.endings.PythonEndings`), or ``None``."""
 
 
 def safe_in_caller(env: Any) -> bool:

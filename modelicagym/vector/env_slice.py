@@ -8,7 +8,9 @@ there is nothing to say).
 
 A slice of bare `FMUEnv` instances on the native step path steps in one C call
 (:class:`~modelicagym.vector.native_slice.NativeBatch`); whatever C leaves to Python (an FMU error, a
-reset the reset ladder must do, an info to report) is finished here, on the Python path. The
+reset the reset ladder must do, an info to report) is finished here, on the Python path. Envs
+whose reward or termination is written in Python step natively too, their endings computed here
+between two C calls (:class:`~modelicagym.vector.slice_endings.SliceEndings`). The
 results are the same either way. ``step_path`` and ``step_path_reason`` say which path a slice takes.
 """
 
@@ -32,6 +34,7 @@ from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
+from modelicagym.vector.slice_endings import SliceEndings, has_python_endings
 from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 
 __all__ = ["EnvSlice", "describe_envs"]
@@ -47,7 +50,17 @@ def movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None
     for offset, env in enumerate(envs):
         if not getattr(env, "reset_is_deterministic", False):
             return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
+        endings = getattr(env, "native_endings", None)
+        if endings is not None and endings.per_env:
+            return (f"{name.format(first + offset)} ends its steps in Python per env (compute_reward / "
+                    "is_terminal), which may keep state in the env itself")
     return None
+
+
+def native_reason(envs: list[PoolEnv]) -> str:
+    """Why a native slice of ``envs`` steps natively: what its envs say when they agree."""
+    reasons = {getattr(env, "step_path_reason", "") for env in envs}
+    return reasons.pop() if len(reasons) == 1 else "the FMUs step in C; some envs' rewards or terminations in Python"
 
 
 def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
@@ -59,7 +72,7 @@ def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "
     check_observation_spaces(observation_mode, observation_spaces, indices)
     check_action_spaces([env.action_space for env in envs], indices)
     reason = batch_path_reason(envs)
-    step_path = StepPath("python", reason) if reason else StepPath("native", "the config defines the whole step")
+    step_path = StepPath("python", reason) if reason else StepPath("native", native_reason(envs))
     description = EnvDescription(
         first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec, step_path,
         tuple(observation_spaces), all(safe_in_caller(env) for env in envs),
@@ -104,8 +117,10 @@ class EnvSlice:
         self.needs_reset = np.zeros(len(envs), dtype=np.uint8)
         reason = batch_path_reason(envs)
         self.step_path = "python" if reason else "native"
-        self.step_path_reason = reason or "the config defines the whole step"
+        self.step_path_reason = reason or native_reason(envs)
         self.native: NativeBatch | None = None
+        #: the native slice's Python endings, when its envs' rewards or terminations are Python's
+        self.endings: SliceEndings | None = None
         self._fmu_envs = [env.unwrapped if isinstance(env.unwrapped, TimedEnv) else None for env in envs]
         self.handlers = {
             Kind.STEP: self.step_with,
@@ -149,20 +164,29 @@ class EnvSlice:
         self.needs_reset = buffers.needs_reset[self.first : self.first + len(self.envs)]
         self.needs_reset[:] = needs_reset
         if self.step_path == "native":
-            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot), self.caller)
+            python_endings = has_python_endings(self.envs)
+            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot),
+                                      self.caller, python_endings)
+            if python_endings:
+                self.endings = SliceEndings(self.envs, self.native, buffers, self.first, self.slot)
 
     def detach(self) -> None:
         """Stop using the shared buffers (the pool released them)."""
-        self.buffers = self.native = None
+        self.buffers = self.native = self.endings = None
 
     def step(self) -> Message | None:
         """Step every env with its action from shared memory, with the pool's autoreset."""
         native = self.native
         if native is None:
             return self._with_observations(self._step_python(0, []))
-        if not native.step():
-            return None
-        return self.finish_native_step()
+        if self.endings is None:
+            to_finish = native.step()
+        else:
+            try:
+                to_finish = self.endings.step()
+            except Exception as exc:  # the envs' reward or termination
+                return Message(Kind.ERROR, RemoteError.capture(exc, self.endings.current_env))
+        return self.finish_native_step() if to_finish else None
 
     def step_with(self, actions: list[Any]) -> Message | None:
         """:meth:`step` with the actions of these envs sent on the pipe (no shared-memory layout)."""

@@ -5,7 +5,9 @@
 every env of the slice with the pool's autoreset and writes observations, rewards, terminations,
 truncations and timing where the parent reads them. What C leaves to Python (an FMU error, a reset
 the reset ladder must do, an info to report, an action outside the space) is in the per-env
-``flags``; the caller finishes those envs on the Python path.
+``flags``; the caller finishes those envs on the Python path. A slice whose envs end their steps in
+Python (``python_endings``: a reward or termination written in Python) steps in two C calls with
+Python's endings between them (`modelicagym.vector.slice_endings`, ``csrc/endings.h``).
 
 `NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
 steps without returning to Python at all. `NativeCollector` is ``mg_collect``, the parent's side:
@@ -62,6 +64,8 @@ class NativeBatch:
             ``current_env`` and ``timing`` (this slice's slot), ``timing_enabled``.
         caller: the slice is the calling process's: it steps the envs marked ``in_caller`` (a
             worker's those not marked).
+        python_endings: Python decides how the envs' steps end: :meth:`step_open`, then
+            :meth:`end_steps` (in ``SAME_STEP`` the C step then resets nothing itself).
     """
 
     def __init__(
@@ -71,8 +75,10 @@ class NativeBatch:
         autoreset_mode: AutoresetMode,
         arrays: dict[str, np.ndarray],
         caller: bool,
+        python_endings: bool = False,
     ) -> None:
         self.library = load_library()
+        self.python_endings = python_endings
         n = len(envs)
         self.natives = [env.native_step for env in envs]
         observations = arrays["observations"]
@@ -83,7 +89,9 @@ class NativeBatch:
         self.state = batch = MgBatch()
         batch.envs = ctypes.addressof(self._env_pointers)
         batch.n = n
-        batch.autoreset_mode = _AUTORESET_CODES[autoreset_mode]
+        self._autoreset_code = _AUTORESET_CODES[autoreset_mode]
+        same_step = autoreset_mode is AutoresetMode.SAME_STEP
+        batch.autoreset_mode = AutoresetCode.DISABLED if python_endings and same_step else self._autoreset_code
         actions = arrays["actions"]
         batch.actions, batch.action_stride = _row_address(actions, first_env), actions.strides[0]
         batch.observations, batch.obs_stride = _row_address(observations, first_env), observations.strides[0]
@@ -105,10 +113,25 @@ class NativeBatch:
         batch.timing = arrays["timing"].ctypes.data
         self._step = self.library.mg_step_batch
         self.ref = ctypes.byref(batch)
+        #: per env, after :meth:`step_open`: 1 where Python must end the env's step
+        self.open = np.zeros(n, dtype=np.uint8)
+        self._open_ptr = ctypes.c_void_p(self.open.ctypes.data)
+        self._step_open, self._end_steps = self.library.mg_step_open, self.library.mg_end_steps
 
     def step(self) -> int:
         """Step every env; returns how many need Python to finish (see ``flags``)."""
         return self._step(self.ref)
+
+    def step_open(self) -> int:
+        """Step every env, deciding no ending (``python_endings``); returns how many envs
+        :attr:`open` marks: their observations are written, their rewards and terminations are
+        Python's to write before :meth:`end_steps`."""
+        return self._step_open(self.ref, self._open_ptr)
+
+    def end_steps(self) -> int:
+        """The pool's autoreset for the envs :attr:`open` marks, from the terminations and
+        truncations in shared memory now; returns how many envs need Python (as :meth:`step`)."""
+        return self._end_steps(self.ref, self._autoreset_code, self._open_ptr)
 
     def to_finish(self) -> np.ndarray:
         """Offsets of the envs Python must finish after the last :meth:`step`."""
@@ -119,7 +142,8 @@ class NativeServer:
     """``mg_serve``: a worker's wait for its next command, and its plain native steps, in C.
 
     Args:
-        batch: the worker's native slice.
+        batch: the worker's native slice (one with ``python_endings`` steps in Python: every
+            command returns to Python).
         go, done: addresses of the worker's signals in shared memory.
         command, reply: the worker's command and reply slots (one-element views).
         step_code: the command code of a step.
@@ -143,7 +167,7 @@ class NativeServer:
         self.batch = batch
         self._waiter = waiter
         self.state = server = MgServer()
-        server.batch = ctypes.addressof(batch.state)
+        server.batch = None if batch.python_endings else ctypes.addressof(batch.state)
         server.go, server.done = go, done
         server.command, server.reply = command.ctypes.data, reply.ctypes.data
         server.step_code = step_code
@@ -198,6 +222,11 @@ class NativeCollector:
     def collect(self) -> int:
         """`COLLECT_DONE`, `COLLECT_LOCAL_PYTHON` or `COLLECT_SLOW` (see ``mg_collect``)."""
         return self._collect(self._ref)
+
+    def add_local_time(self, ns: int) -> None:
+        """Count ``ns`` nanoseconds the calling process spent stepping its slice before :meth:`collect`
+        (a slice whose steps end in Python is stepped outside it)."""
+        self.state.local_ns += ns
 
     def take_times(self) -> tuple[int, int, int]:
         """Calls of :meth:`collect` since the last take, and the nanoseconds they spent stepping
