@@ -15,9 +15,7 @@ import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from python_endings import KINDS, ArrayCartPole, PerEnvCartPole, endings_fns
 from step_paths import probe_env
-from test_vector_layout import _flipping, _rollout_recording_layouts
-from test_vector_native import assert_native_equals_python
-from vector_rollouts import assert_same, rollout
+from vector_rollouts import assert_native_equals_python, assert_same, flipping, rollout, rollout_recording_layouts
 
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
 from modelicagym.vector import EnvError, PoolVectorEnv, placement
@@ -107,9 +105,9 @@ def test_envs_ending_their_steps_on_arrays_move_between_processes_and_keep_sync_
     sync = SyncVectorEnv(python, autoreset_mode=mode)
     with PoolVectorEnv(native, autoreset_mode=mode) as pool:
         assert pool.layout.adaptive, pool.layout
-        policy = _flipping(pool, every=7)
-        actual, in_caller = _rollout_recording_layouts(pool, 200)
-    expected, _ = _rollout_recording_layouts(sync, 200)
+        policy = flipping(pool, every=7)
+        actual, in_caller = rollout_recording_layouts(pool, 200)
+    expected, _ = rollout_recording_layouts(sync, 200)
     sync.close()
     assert_same(expected, actual)
     assert policy.switches >= 20 and min(in_caller) == 3 and max(in_caller) == 6, in_caller

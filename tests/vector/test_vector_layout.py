@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from step_paths import cartpole_fns
-from vector_rollouts import assert_same
+from vector_rollouts import assert_same, flipping, rollout_recording_layouts
 
 import modelicagym
 from modelicagym.errors import ConfigError
@@ -27,48 +27,6 @@ pytestmark = [
 ]
 
 
-class Flipping:
-    """A policy that moves every movable env to the other side every ``every`` parts it observes."""
-
-    def __init__(self, movable: int, every: int) -> None:
-        self.movable, self.target, self.switches, self.last_decision = movable, 0, 0, ""
-        self._every, self._seen = every, 0
-
-    def observe(self, *measured: Any) -> bool:
-        self._seen += 1
-        if self._seen % self._every:
-            return False
-        self.target = self.movable - self.target
-        self.switches += 1
-        self.last_decision = f"{self.target} movable envs to the calling process: scripted"
-        return True
-
-
-def _flipping(pool: PoolVectorEnv, every: int) -> Flipping:
-    policy = Flipping(pool._placement.policy.movable, every)
-    pool._placement.policy = policy
-    return policy
-
-
-def _rollout_recording_layouts(envs: Any, steps: int, seed: int = 7) -> tuple[list, set[int]]:
-    """As ``vector_rollouts.rollout``, and how many envs the calling process (or the worker standing
-    in for it) stepped after each step."""
-    records: list[Any] = [envs.reset(seed=seed)]
-    envs.action_space.seed(seed)
-    disabled = envs.metadata["autoreset_mode"] is AutoresetMode.DISABLED
-    in_caller = set()
-    for _ in range(steps):
-        result = envs.step(envs.action_space.sample())
-        records.append(result)
-        records.append(envs.get_attr("elapsed_steps"))
-        ended = result[2] | result[3]
-        if disabled and ended.any():
-            records.append(envs.reset(options={"reset_mask": ended}))
-        if isinstance(envs, PoolVectorEnv):
-            in_caller.add(envs.layout.envs_in_caller + envs.layout.envs_in_stand_in)
-    return records, in_caller
-
-
 @pytest.mark.parametrize("mode", list(AutoresetMode))
 def test_envs_moving_between_processes_keep_sync_results(monkeypatch: pytest.MonkeyPatch, mode: AutoresetMode) -> None:
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
@@ -76,10 +34,10 @@ def test_envs_moving_between_processes_keep_sync_results(monkeypatch: pytest.Mon
     sync = SyncVectorEnv(python, autoreset_mode=mode)
     with PoolVectorEnv(native, num_workers=None, autoreset_mode=mode) as pool:
         assert pool.layout.adaptive, pool.layout
-        policy = _flipping(pool, every=7)
-        actual, in_caller = _rollout_recording_layouts(pool, 300)
+        policy = flipping(pool, every=7)
+        actual, in_caller = rollout_recording_layouts(pool, 300)
         layout = pool.layout
-    expected, _ = _rollout_recording_layouts(sync, 300)
+    expected, _ = rollout_recording_layouts(sync, 300)
     sync.close()
     assert_same(expected, actual)
     assert policy.switches >= 40
@@ -96,7 +54,7 @@ def test_moves_keep_sync_results_with_per_episode_parameters(monkeypatch: pytest
     native, python = cartpole_fns(4)
     sync = SyncVectorEnv(python, autoreset_mode=mode)
     with PoolVectorEnv(native, autoreset_mode=mode) as pool:
-        _flipping(pool, every=1)
+        flipping(pool, every=1)
         for k in range(6):
             options = {"parameters": {"m_cart": 1.0 + k}}
             assert_same(sync.reset(seed=k, options=options), pool.reset(seed=k, options=options))
@@ -157,7 +115,7 @@ def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
     native, _ = cartpole_fns(4)
     with PoolVectorEnv(native) as pool:
-        policy = _flipping(pool, every=1)
+        policy = flipping(pool, every=1)
         pool.reset(seed=0)
         pool.step(np.ones(4, dtype=np.int64))
         assert policy.target == policy.movable
@@ -233,10 +191,10 @@ def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatc
         layout = pool.layout
         assert not pool.caller_steps and layout.adaptive and layout.envs_in_caller == 0, layout
         assert layout.envs_in_stand_in == 3 and "standing in for the calling process" in str(layout)
-        policy = _flipping(pool, every=7)
-        actual, in_stand_in = _rollout_recording_layouts(pool, 300)
+        policy = flipping(pool, every=7)
+        actual, in_stand_in = rollout_recording_layouts(pool, 300)
         stepping = pool.layout.workers_stepping
-    expected, _ = _rollout_recording_layouts(sync, 300)
+    expected, _ = rollout_recording_layouts(sync, 300)
     sync.close()
     assert_same(expected, actual)
     assert policy.switches >= 40

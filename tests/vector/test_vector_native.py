@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from step_paths import cartpole_fns, probe_env
-from vector_rollouts import assert_same, rollout
+from vector_rollouts import assert_native_equals_python, assert_same, rollout
 
 import modelicagym
 from modelicagym.vector import EnvError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
@@ -23,16 +23,6 @@ pytestmark = pytest.mark.timeout(180)
 
 LAYOUTS = {"caller steps": {"caller_steps": True}, "workers only": {"num_workers": 2},
            "caller only": {"num_workers": 0}}
-
-
-def assert_native_equals_python(native_fns: list, python_fns: list, steps: int = 150, **pool_options: Any) -> None:
-    mode = pool_options.get("autoreset_mode", AutoresetMode.NEXT_STEP)
-    sync = SyncVectorEnv(python_fns, autoreset_mode=mode)
-    with PoolVectorEnv(native_fns, **pool_options) as pool:
-        assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
-        expected, actual = rollout(sync, steps), rollout(pool, steps)
-    sync.close()
-    assert_same(expected, actual)
 
 
 @pytest.mark.parametrize("layout", LAYOUTS)
