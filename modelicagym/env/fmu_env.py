@@ -14,6 +14,9 @@ The step contract, stated once:
   ``modelicagym.fmu.logs.LOG_LIMITS`` allows): then ``info["fmu_error"]`` holds its message and the
   next reset re-instantiates the FMU. Infos are empty on ordinary steps.
 * time is ``start_time + k * time_step``, read as ``env.time``.
+* ``get_state()`` / ``set_state(state)``: the env's whole state as a picklable value, loadable in
+  any process with the same FMU (`modelicagym.env.saved_state`); ``reset(options={"state": s})``
+  starts an episode there, and the config's ``start_states`` makes every other reset draw one.
 
 Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the
 config defines them completely, else the Python path; both give the same results.
@@ -45,7 +48,8 @@ from modelicagym.env.config_checks import check_action_bound_names, check_parame
 from modelicagym.env.native_step import NativeStep, python_path_reason
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
-from modelicagym.errors import ConfigError
+from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
+from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
 from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
@@ -170,6 +174,17 @@ class FMUEnv(gym.Env):
         super().reset(seed=seed)
         options = options or {}
         overrides = options.get("parameters") or {}
+        state = options.get("state")
+        if state is not None and overrides:
+            raise ArgumentError(f"{self.description.name}: reset options 'state' and 'parameters' exclude each other "
+                                "(a state carries its episode's parameters)")
+        drawn = state is None and self.config.start_states is not None
+        if drawn:
+            state = self.config.start_states.sample(self.np_random)
+        if state is not None:  # a seed, or the generator that drew the state, goes on: not the state's
+            self.set_state(state, restore_generator=seed is None and not drawn)
+            self.elapsed_steps = 0
+            return self.observation(), {}
         if not overrides and self._native is not None and self._native.reset():
             self.episode_parameters = dict(self.config.parameters)  # a native reset: no random ones
             return self.observation(), {}
@@ -206,6 +221,29 @@ class FMUEnv(gym.Env):
         truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
         return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
 
+    def get_state(self) -> EnvState:
+        """The env's whole state now, as a picklable value (`EnvState`): `set_state` puts it back
+        here or in another process with the same FMU, mid-episode, and the env goes on bit for bit
+        as this one would. Raises `UnsupportedFeatureError` (one line) when the FMU cannot
+        serialize its state (``canSerializeFMUstate`` false, FMI 1.0)."""
+        return EnvState(self.fmu.save_state(), self.elapsed_steps, dict(self.episode_parameters),
+                        generator_state(self._np_random))
+
+    def set_state(self, state: EnvState, restore_generator: bool = True) -> None:
+        """Put back a state `get_state` gave (this env's or another's over the same FMU): the
+        FMU, the episode's steps and parameters, and (unless ``restore_generator`` is false) the
+        random generator. A state of another FMU is refused (`StateMismatchError`), nothing changed."""
+        if not isinstance(state, EnvState):
+            raise ArgumentTypeError(f"{self.description.name}: set_state takes an EnvState (env.unwrapped.get_state()), "
+                                    f"got {type(state).__name__}")
+        self.fmu.load_state(state.fmu, state.episode_parameters)
+        self.episode_parameters = dict(state.episode_parameters)
+        if restore_generator and state.rng is not None:
+            self._np_random = restored_generator(state.rng)
+        if self._native is not None:
+            self._native.bind()
+        self.elapsed_steps = state.elapsed_steps
+
     def fmu_failure(self, error: FMUError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The step result when the FMU failed: the episode is truncated with the FMU's message
         in ``info["fmu_error"]`` (the next reset re-instantiates the FMU)."""
@@ -224,7 +262,8 @@ class FMUEnv(gym.Env):
         """Whether a reset without seed or options starts the same episode in every env made from
         the same config: no parameter drawn at random, no overridden ``reset``. The pool may then
         move the env between processes at an episode boundary (``modelicagym.vector.placement``)."""
-        return type(self).reset is FMUEnv.reset and not any(callable(v) for v in self.config.parameters.values())
+        return (type(self).reset is FMUEnv.reset and self.config.start_states is None
+                and not any(callable(v) for v in self.config.parameters.values()))
 
     @property
     def native_step(self) -> NativeStep | None:

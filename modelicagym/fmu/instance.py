@@ -51,6 +51,7 @@ from modelicagym.fmu.logs import LOG_LIMITS
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
 from modelicagym.fmu.native_integrator import NativeIntegrator, python_integrator_reason
 from modelicagym.fmu.reference import WAIT, Reference, describe
+from modelicagym.fmu.saved_state import FMUState
 
 logger = logging.getLogger(__name__)
 
@@ -182,6 +183,7 @@ class FMUInstance:
         self._empty_episodes = 0  # recorded episodes that ended before their first step
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
+        self._hash: str | None = None  # the FMU's content hash, for saved states
         self._instantiate()
 
     def _choose_integrator(self, requested: str, solver: str) -> type[ModelExchangeIntegrator]:
@@ -366,6 +368,72 @@ class FMUInstance:
                 self.terminated = True
         else:
             self.binding.set_values(values)
+
+    def save_state(self) -> FMUState:
+        """The instance's state now, as a picklable value that `load_state` puts back, in this
+        process or another (`modelicagym.fmu.saved_state`). In model exchange the solver restarts
+        here at the next step, as after new input values, so this instance and one that loads the
+        state go on alike. Raises `UnsupportedFeatureError` (one line) for an FMU that cannot
+        serialize its state."""
+        self._check_serializable()
+        if not self.initialized or self.broken:
+            raise FMUError(f"{self.fmu_name}: no state to save: the instance is "
+                           f"{'broken' if self.broken else 'not initialized'}; reset it first")
+        handle = self.binding.get_state()
+        try:
+            data = self.binding.serialize_state(handle)
+        finally:
+            self.binding.free_state(handle)
+        clock, integrator = self.clock, self._integrator
+        if integrator is not None:
+            integrator.continuous = False
+        return FMUState(
+            self.fmu_name, self._content_hash(), self.mode, data, clock.time, clock.origin, clock.dt, clock.steps,
+            bool(clock.terminated), integrator.next_event_time if integrator is not None else None,
+            integrator is not None and integrator.stiff,
+        )
+
+    def load_state(self, state: FMUState, values: Mapping[str, Any] | None = None) -> None:
+        """Put back a state `save_state` gave, here or in another process: the instance goes on
+        from there exactly as the one it was saved from. A state of another FMU, or of this one
+        changed, is refused (`StateMismatchError`) before anything changes. An instance that is not
+        initialized (or broken) is first reset with ``values`` (the state then overwrites it).
+
+        The reset ladder is untouched (its snapshot is a separate FMU state); a reference being
+        recorded for its check stops here, since what follows is not a fresh episode."""
+        self._check_serializable()
+        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
+        if not self.initialized or self.broken:
+            self.reset(values)
+        if self._recording is not None:
+            self._recording.stop()
+        handle = self.binding.deserialize_state(state.data)
+        try:
+            self.binding.set_state(handle)
+        except FMUError:
+            self.broken = True
+            raise
+        finally:
+            self.binding.free_state(handle)
+        clock = self.clock
+        clock.time, clock.origin, clock.dt, clock.steps = state.time, state.origin, state.dt, state.steps
+        clock.terminated = state.terminated
+        if self._integrator is not None:
+            self._integrator.stiff = state.stiff
+            self._integrator.restart(state.time, state.next_event_time)
+            self._integrator.continuous = False  # as the instance saved from, which restarts there
+        self.read_outputs()
+        self.clock.log_errors = 0
+
+    def _check_serializable(self) -> None:
+        refusal = self.description.serialize_refusal(self.mode)
+        if refusal is not None:
+            raise UnsupportedFeatureError(refusal)
+
+    def _content_hash(self) -> str:
+        if self._hash is None:
+            self._hash = self.description.content_hash(self.mode)
+        return self._hash
 
     def get_values(self, names: Sequence[str]) -> dict[str, Any]:
         """Read variables by name (slow path, for inspection)."""
