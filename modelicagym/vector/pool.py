@@ -52,6 +52,7 @@ from modelicagym.vector.placement import LayoutState
 from modelicagym.vector.plan import default_start_method, plan_layout
 from modelicagym.vector.protocol import StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Recovery
+from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 
@@ -298,7 +299,9 @@ class PoolVectorEnv(VectorEnv):
         Args:
             seed: ``None`` (random seeds), an int (env ``i`` gets ``seed + i``) or one seed per env.
             options: passed to every env's ``reset``; a boolean array ``"reset_mask"`` of shape
-                ``(num_envs,)`` selects the envs to reset (the others keep their observation).
+                ``(num_envs,)`` selects the envs to reset (the others keep their observation);
+                ``"options_per_env"``, a list of one dict per env, updates env ``i``'s options with
+                its entry (e.g. ``{"state": s}`` to start it from a saved state).
 
         Returns:
             The batch of observations and the merged infos of the reset envs.
@@ -313,6 +316,7 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         seeds = seeds_per_env(seed, self.num_envs)
         check_reset_options(options)
+        check_options_per_env(options, self.num_envs)
         self._assert_idle("reset_async")
         mask = np.ones(self.num_envs, dtype=np.bool_)
         if options is not None and "reset_mask" in options:
@@ -563,6 +567,28 @@ class PoolVectorEnv(VectorEnv):
         return results
 
     call_wait = one_thread_at_a_time(_call_wait)
+
+    def get_states(self) -> VectorState:
+        """Every env's state (``env.get_state()``), mid-episode, and which envs the pool resets at
+        their next step: a checkpoint that :meth:`set_states` resumes exactly, in this pool or a new
+        one of the same envs (`modelicagym.vector.saved_states`). Wrappers' own state is not in it."""
+        states = self.call("get_state")
+        return VectorState(tuple(states), tuple(int(flag) for flag in self._buffers.needs_reset))
+
+    def _set_states(self, states: VectorState | Sequence[Any]) -> None:
+        """Put back :meth:`get_states`'s checkpoint (or one state per env, e.g. start states): each
+        env's ``set_state``, then the pool's per-env reset flags. The next step goes on from there."""
+        self._assert_is_running()
+        env_states, needs_reset = split_states(states, self.num_envs)
+        self._assert_idle("set_states")
+        with self._stopped_on_interrupt():
+            self._dispatcher.call_each("set_state", env_states)
+            self._state = AsyncState.WAITING_CALL
+        self._collect_calls(None, "set_states")
+        if needs_reset is not None:
+            self._buffers.needs_reset[:] = needs_reset
+
+    set_states = one_thread_at_a_time(_set_states)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Attribute ``name`` of every env (through wrappers, like ``env.get_wrapper_attr``)."""

@@ -58,6 +58,8 @@ class Kind(str, enum.Enum):
     CALL = "call"
     #: ``(name, values of the worker's envs)``
     SET_ATTR = "set_attr"
+    #: ``(name, one argument per env of the worker)``: call each env's method with its argument
+    CALL_EACH = "call_each"
     #: actions of the worker's envs, when the action space has no shared-memory layout: step
     STEP = "step"
     #: no data: close the envs and exit

@@ -1,0 +1,73 @@
+"""A pool's envs' states: a checkpoint (`pool.get_states`) that a new pool resumes bit for bit, and
+resets that start each env from its own state (``options["options_per_env"]``)."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import modelicagym
+from modelicagym.env.saved_state import StartStates
+from modelicagym.errors import ArgumentError
+from modelicagym.vector.saved_states import VectorState
+
+N = 4
+STEPS, CHECKPOINT = 40, 17
+
+
+def pool(**options: object) -> modelicagym.vector.PoolVectorEnv:
+    """Cart-poles whose episodes end at different steps, over two workers and the calling process."""
+    return modelicagym.make_vec("cartpole", n=N, num_workers=2, caller_steps=True,
+                                options_per_env=[{"max_episode_steps": 5 + 3 * i} for i in range(N)], **options)
+
+
+def steps(envs: object, actions: np.ndarray) -> list[tuple]:
+    """Each batch's observations, rewards, terminations and truncations, as bytes."""
+    out = []
+    for batch in actions:
+        observations, rewards, terminations, truncations, _ = envs.step(batch)
+        out.append((observations.tobytes(), rewards.tobytes(), terminations.tobytes(), truncations.tobytes()))
+    return out
+
+
+@pytest.mark.parametrize("mode, autoreset", [("cs", AutoresetMode.NEXT_STEP), ("me", AutoresetMode.NEXT_STEP),
+                                             ("cs", AutoresetMode.SAME_STEP)])
+def test_a_resumed_pool_goes_on_bit_for_bit_as_the_uninterrupted_one(
+    mode: str, autoreset: AutoresetMode, no_leaks: None
+) -> None:
+    actions = np.random.default_rng(2).integers(2, size=(STEPS, N))
+    with pool(mode=mode, autoreset_mode=autoreset) as envs:
+        envs.reset(seed=9)
+        steps(envs, actions[:CHECKPOINT])
+        checkpoint = pickle.loads(pickle.dumps(envs.get_states()))  # saved beside a model, then loaded
+        uninterrupted = steps(envs, actions[CHECKPOINT:])
+    assert isinstance(checkpoint, VectorState) and len(checkpoint) == N
+    assert any(checkpoint.needs_reset) or autoreset is AutoresetMode.SAME_STEP
+    with pool(mode=mode, autoreset_mode=autoreset) as envs:
+        envs.reset(seed=123)  # another start: the checkpoint overrides it
+        envs.set_states(checkpoint)
+        assert steps(envs, actions[CHECKPOINT:]) == uninterrupted
+
+
+def test_a_reset_starts_each_env_from_its_own_state(no_leaks: None) -> None:
+    env = modelicagym.make("cartpole")
+    env.reset(seed=0)
+    states = []
+    for k in range(N):
+        observation, *_ = env.step(k % 2)
+        states.append((env.unwrapped.get_state(), observation))
+    with pool() as envs:
+        observations, _ = envs.reset(options={"options_per_env": [{"state": s} for s, _ in states]})
+        assert all(np.array_equal(observations[i], states[i][1]) for i in range(N))
+        assert envs.get_attr("time") == tuple(s.time for s, _ in states)
+        options = StartStates([s for s, _ in states]).options_per_env(N, np.random.default_rng(0))
+        envs.reset(options={"options_per_env": options})
+        assert envs.get_attr("time") == tuple(o["state"].time for o in options)
+        with pytest.raises(ArgumentError, match="one per env"):
+            envs.reset(options={"options_per_env": [{}] * (N - 1)})
+        with pytest.raises(ArgumentError, match="2 states for 4 envs"):
+            envs.set_states([states[0][0]] * 2)
+        envs.reset()  # still usable
