@@ -94,7 +94,7 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 def add_arguments(parser: Any) -> None:
     """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
-    runner,solver-accuracy,ray,load-trial}``: their arguments."""
+    runner,solver-accuracy,ray,load-trial,saved-states}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
         fmi_calls,
@@ -103,6 +103,7 @@ def add_arguments(parser: Any) -> None:
         partial_batches,
         ray,
         runner,
+        saved_states,
         shared_machine,
         solver_accuracy,
         throughput,
@@ -113,7 +114,8 @@ def add_arguments(parser: Any) -> None:
     benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput),
                   ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
                   ("partial-batches", partial_batches),
-                  ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial))
+                  ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial),
+                  ("saved-states", saved_states))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
         module.add_arguments(sub)
