@@ -131,6 +131,7 @@ class FMUEnv(gym.Env):
         self._elapsed_steps = 0
         self._failure_log = RateLimitedLog(logger, f"{description.name}'s truncated episodes")
         self.episode_parameters: dict[str, Any] = {}
+        self._start_states = cfg.start_states  # read on every reset: one attribute, not two
         self.strip_chart = self._make_strip_chart()
         self._native: NativeStep | None = None
         reason = python_path_reason(self, FMUEnv)
@@ -172,23 +173,13 @@ class FMUEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
-        options = options or {}
-        overrides = options.get("parameters") or {}
-        state = options.get("state")
-        if state is not None and overrides:
-            raise ArgumentError(f"{self.description.name}: reset options 'state' and 'parameters' exclude each other "
-                                "(a state carries its episode's parameters)")
-        drawn = state is None and self.config.start_states is not None
-        if drawn:
-            state = self.config.start_states.sample(self.np_random)
-        if state is not None:  # a seed, or the generator that drew the state, goes on: not the state's
-            self.set_state(state, restore_generator=seed is None and not drawn)
-            self.elapsed_steps = 0
+        if (options or self._start_states is not None) and self._started_from_state(seed, options or {}):
             return self.observation(), {}
+        overrides = options.get("parameters") if options else None
         if not overrides and self._native is not None and self._native.reset():
             self.episode_parameters = dict(self.config.parameters)  # a native reset: no random ones
             return self.observation(), {}
-        parameters = {**self.config.parameters, **overrides}
+        parameters = {**self.config.parameters, **(overrides or {})}
         self.episode_parameters = {
             name: value(self.np_random) if callable(value) else value for name, value in parameters.items()
         }
@@ -220,6 +211,23 @@ class FMUEnv(gym.Env):
         self.elapsed_steps += 1
         truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
         return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
+
+    def _started_from_state(self, seed: int | None, options: dict[str, Any]) -> bool:
+        """Start the episode from ``options["state"]``, or one drawn from the config's
+        ``start_states``; False when there is none (an ordinary reset then follows)."""
+        state = options.get("state")
+        if state is not None and options.get("parameters"):
+            raise ArgumentError(f"{self.description.name}: reset options 'state' and 'parameters' exclude each other "
+                                "(a state carries its episode's parameters)")
+        drawn = state is None and self._start_states is not None
+        if drawn:
+            state = self._start_states.sample(self.np_random)
+        if state is None:
+            return False
+        # a seed given, or the generator that drew the state, goes on; not the state's generator
+        self.set_state(state, restore_generator=seed is None and not drawn)
+        self.elapsed_steps = 0
+        return True
 
     def get_state(self) -> EnvState:
         """The env's whole state now, as a picklable value (`EnvState`): `set_state` puts it back
