@@ -215,6 +215,9 @@ class FMUEnv(gym.Env):
     def _started_from_state(self, seed: int | None, options: dict[str, Any]) -> bool:
         """Start the episode from ``options["state"]``, or one drawn from the config's
         ``start_states``; False when there is none (an ordinary reset then follows)."""
+        initial = options.get("initial_state")
+        if initial is not None and self._starts_from_initial(initial, options):
+            return True
         state = options.get("state")
         if state is not None and options.get("parameters"):
             raise ArgumentError(f"{self.description.name}: reset options 'state' and 'parameters' exclude each other "
@@ -227,6 +230,25 @@ class FMUEnv(gym.Env):
         # a seed given, or the generator that drew the state, goes on; not the state's generator
         self.set_state(state, restore_generator=seed is None and not drawn)
         self.elapsed_steps = 0
+        return True
+
+    def _starts_from_initial(self, initial: EnvState, options: dict[str, Any]) -> bool:
+        """The pool's ``init="once"``: start a never-initialized FMU from ``initial`` (saved right
+        after another env's first reset) when this env's episode would have the same parameters;
+        False otherwise (parameters of its own, drawn ones, or an FMU already running): it then
+        resets as usual, with the same outcome."""
+        if not isinstance(initial, EnvState):
+            raise ArgumentTypeError(f"{self.description.name}: reset option 'initial_state' takes an EnvState, "
+                                    f"got {type(initial).__name__}")
+        parameters = {**self.config.parameters, **(options.get("parameters") or {})}
+        if (self.fmu.initialized or any(callable(v) for v in parameters.values())
+                or not _same_values(parameters, initial.episode_parameters)):
+            return False
+        self.fmu.start_from(initial.fmu, parameters)
+        self.episode_parameters = parameters
+        self.elapsed_steps = 0
+        if self._native is not None:
+            self._native.bind()
         return True
 
     def get_state(self) -> EnvState:
@@ -259,6 +281,12 @@ class FMUEnv(gym.Env):
                               self.fmu.time, error)
         self.elapsed_steps += 1
         return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
+
+    @property
+    def initializations(self) -> int:
+        """How many times the FMU's own initialization ran in this env (a pool's ``init="once"``
+        starts every env but one from a saved state instead)."""
+        return self.fmu.initializations
 
     @property
     def fault_label(self) -> str:
@@ -399,3 +427,8 @@ class FMUEnv(gym.Env):
                 raise ConfigError(f"{self.description.name}: termination bound on {name!r}, an array; use a callable")
             bounds.append((positions[name] if flat else name, float(low), float(high)))
         return (outputs.flat.tolist if flat else scalar_outputs), bounds
+
+
+def _same_values(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
+    """Whether two sets of parameter values are equal, arrays element by element."""
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)

@@ -43,7 +43,7 @@ from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
 from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.description import FMUDescription, open_fmu
-from modelicagym.fmu.errors import ErrorLoopError, FMUCallError, FMUError, UnsupportedFeatureError
+from modelicagym.fmu.errors import ErrorLoopError, FMUCallError, FMUError, StateMismatchError, UnsupportedFeatureError
 from modelicagym.fmu.fmi1 import FMI1Binding
 from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.fmi3 import FMI3Binding
@@ -184,6 +184,9 @@ class FMUInstance:
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
         self._hash: str | None = None  # the FMU's content hash, for saved states
+        self._initial: tuple[FMUState, tuple] | None = None  # `start_from`'s state and its values' key
+        #: how many times the FMU's own initialization ran in this instance (`start_from` skips it)
+        self.initializations = 0
         self._instantiate()
 
     def _choose_integrator(self, requested: str, solver: str) -> type[ModelExchangeIntegrator]:
@@ -425,6 +428,41 @@ class FMUInstance:
         self.read_outputs()
         self.clock.log_errors = 0
 
+    def start_from(self, state: FMUState, values: Mapping[str, Any] | None = None) -> None:
+        """Initialize from ``state``, saved right after another instance of the same FMU was
+        initialized with ``values`` (its first `reset`), instead of running the FMU's initialization:
+        the pool's ``init="once"``. The instance keeps it: any later re-instantiation with the same
+        values starts from it too, and the reset ladder works as after an initialization (the
+        episode is recorded for the rungs' check, the snapshot is taken from it)."""
+        values = dict(values or {})
+        self._check_serializable()
+        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
+        if state.steps or state.time != self.start_time:
+            raise StateMismatchError(f"{self.fmu_name}: a state to start from must be saved right after a reset "
+                                     f"(at t={self.start_time}, step 0), not at t={state.time}, step {state.steps}")
+        self._check_settable(values)
+        self._initial = (state, _freeze(values))
+        if self._recording is not None:
+            self._recording = self.clock.recorder = None  # the fresh episode starts below
+        self._restart(values)
+
+    def _initialize_from(self, state: FMUState, values: dict[str, Any]) -> None:
+        """`_initialize`'s counterpart: the FMU's state loaded from ``state`` (see `start_from`)."""
+        handle = self.binding.deserialize_state(state.data)
+        try:
+            self.binding.set_state(handle)
+            if self._integrator is not None:
+                self._integrator.stiff = state.stiff
+                self._integrator.restart(state.time, state.next_event_time)
+        except FMUError:
+            self.broken = True
+            raise
+        finally:
+            self.binding.free_state(handle)
+        self.initialized = True
+        self._after_initialization(values, take_snapshot=self.reset_rung == "snapshot")
+        self.terminated = state.terminated
+
     def _check_serializable(self) -> None:
         refusal = self.description.serialize_refusal(self.mode)
         if refusal is not None:
@@ -521,7 +559,10 @@ class FMUInstance:
             self._free_snapshot()
             self.binding.free_instance()
             self._instantiate()
-        self._initialize(values)
+        if self._initial is not None and self._initial[1] == _freeze(values):
+            self._initialize_from(self._initial[0], values)
+        else:
+            self._initialize(values)
         if (self.reset_rung != "reinstantiate" and not self._verified
                 and (self._reference is None or not self._reference.complete)):
             self._recording = Reference(values, _freeze(values), self.inputs, self.outputs)
@@ -621,6 +662,7 @@ class FMUInstance:
                 self.binding.configure(structural)
             self.binding.set_values(before)
             self.inputs.check(self.inputs.write(), "set inputs")
+            self.initializations += 1
             self.binding.enter_initialization(self.start_time, self.stop_time, self.tolerance)
             self.binding.set_values(during)
             self.binding.exit_initialization()

@@ -150,8 +150,8 @@ class Dispatcher:
                 commands.append(PendingCommand(party, Command.MESSAGE, message))
         self.dispatch(commands)
 
-    def call_each(self, name: str, args: list[Any]) -> None:
-        """Call method ``name`` of every env with its own argument ``args[i]``."""
+    def call_each(self, name: str, args: list[tuple[Any, ...] | None]) -> None:
+        """Call method ``name`` of env ``i`` with its own arguments ``args[i]`` (``None``: not called)."""
         self._message_all(
             lambda party: Message(Kind.CALL_EACH, (name, args[party.env_indices.start : party.env_indices.stop]))
         )

@@ -324,14 +324,18 @@ class EnvSlice:
                 return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self.first + offset))
         return Message(Kind.RESULTS, results)
 
-    def call_each(self, data: tuple[str, list[Any]]) -> Message:
-        """Call method ``name`` of each env with its own argument (``pool.set_states``)."""
+    def call_each(self, data: tuple[str, list[tuple[Any, ...] | None]]) -> Message:
+        """Call method ``name`` of each env with its own arguments; an env whose arguments are
+        ``None`` is not called (its result is ``None``)."""
         name, args = data
         results = []
         for offset, (env, arg) in enumerate(zip(self.envs, args, strict=True)):
+            if arg is None:
+                results.append(None)
+                continue
             self.buffers.current_env[self.slot] = self.first + offset
             try:
-                results.append(env.get_wrapper_attr(name)(arg))
+                results.append(env.get_wrapper_attr(name)(*arg))
             except Exception as exc:
                 return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self.first + offset))
         return Message(Kind.RESULTS, results)

@@ -63,6 +63,9 @@ logger = logging.getLogger(__name__)
 #: seconds a waiting party spins before it blocks (see ``modelicagym.vector.sync``)
 DEFAULT_SPIN_TIME = 100e-6
 
+#: values of the ``init`` option: each env initializes itself, or one does and the others start from its state
+INIT_MODES = ("each", "once")
+
 #: seconds ``close()`` waits for the workers to close their envs when no timeout is given
 DEFAULT_CLOSE_TIMEOUT = 30.0
 
@@ -73,7 +76,7 @@ _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 POOL_OPTIONS = (
     "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
-    "observation_mode", "worker", "batch_size", "adapt_layout",
+    "observation_mode", "worker", "batch_size", "adapt_layout", "init",
 )
 
 
@@ -160,6 +163,7 @@ class PoolVectorEnv(VectorEnv):
         worker: Callable[..., None] | None = None,
         batch_size: int | None = None,
         adapt_layout: bool | None = None,
+        init: str = "each",
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -212,6 +216,12 @@ class PoolVectorEnv(VectorEnv):
                 insists (a `ConfigError` says why it cannot);
                 ``False``: a fixed layout. An adaptive pool keeps a copy of every worker env in
                 the calling process too.
+            init: ``"each"`` (default): every env initializes itself at its first reset.
+                ``"once"``: the first reset resets one env, takes its state (``get_state()``) and
+                starts the others from it (``reset(options={"initial_state": state})``), so an
+                FMU whose initialization is slow pays it once (`modelicagym.vector.saved_states`);
+                an env whose state would differ (parameters of its own) initializes itself, and
+                if the first env cannot give its state every env does.
         """
         #: ``{"thread": ident}`` while a thread is inside a public call (`one_thread_at_a_time`)
         self._user: dict[str, int] = {}
@@ -223,6 +233,11 @@ class PoolVectorEnv(VectorEnv):
             {"restart_dead_workers": restart_dead_workers, "measure_timing": measure_timing, "copy": copy,
              "caller_steps": caller_steps, "shared_memory": shared_memory, "adapt_layout": adapt_layout},
         )
+        if init not in INIT_MODES:
+            raise ConfigError(f"init must be one of {INIT_MODES}, got {init!r}")
+        #: ``init="once"`` until the first reset has done it
+        self._init_once = init == "once"
+        self._init_entries: Entries = []
         self.num_envs = len(self.env_fns)
         self.batch_size = check_batch_size(batch_size, self.num_envs, caller_steps)
         if batch_size is not None:
@@ -323,15 +338,42 @@ class PoolVectorEnv(VectorEnv):
             options = dict(options)
             mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
         with self._stopped_on_interrupt():
+            if self._init_once and mask.any():
+                self._init_once = False
+                options = self._initialized_once(seeds, options, mask)
             self._dispatcher.reset(seeds, options, mask)
             self._state = AsyncState.WAITING_RESET
 
     reset_async = one_thread_at_a_time(_reset_async)
 
+    def _initialized_once(self, seeds: list[int | None], options: dict[str, Any] | None,
+                          mask: np.ndarray) -> dict[str, Any] | None:
+        """``init="once"``: reset the first env of ``mask`` alone, take its state, and return the
+        options that start the others from it (``mask`` then leaves the first env out; the options
+        as given if it cannot give its state)."""
+        first = int(np.flatnonzero(mask)[0])
+        alone = np.zeros_like(mask)
+        alone[first] = True
+        self._dispatcher.reset(seeds, options, alone)
+        self._state = AsyncState.WAITING_RESET
+        self._init_entries = self._reset_entries(None)
+        mask[first] = False  # it is reset
+        self._dispatcher.call_each("get_state", [() if i == first else None for i in range(self.num_envs)])
+        self._state = AsyncState.WAITING_CALL
+        try:
+            state = self._collect_calls(None, "init='once'")[first]
+        except PoolError:
+            raise
+        except Exception as error:  # it cannot serialize its state: each env initializes itself
+            logger.info("init='once': env %d cannot give its state (%s); every env initializes itself", first, error)
+            return options
+        per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
+        return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
+
     def _reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
         deadline = self._callers_deadline(timeout)
-        entries = self._reset_entries(timeout)
+        entries, self._init_entries = self._init_entries + self._reset_entries(timeout), []
         self._raise_if_past(deadline, timeout, "reset_wait")
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
 
@@ -582,7 +624,7 @@ class PoolVectorEnv(VectorEnv):
         env_states, needs_reset = split_states(states, self.num_envs)
         self._assert_idle("set_states")
         with self._stopped_on_interrupt():
-            self._dispatcher.call_each("set_state", env_states)
+            self._dispatcher.call_each("set_state", [(state,) for state in env_states])
             self._state = AsyncState.WAITING_CALL
         self._collect_calls(None, "set_states")
         if needs_reset is not None:

@@ -58,7 +58,8 @@ class Kind(str, enum.Enum):
     CALL = "call"
     #: ``(name, values of the worker's envs)``
     SET_ATTR = "set_attr"
-    #: ``(name, one argument per env of the worker)``: call each env's method with its argument
+    #: ``(name, per env of the worker its arguments or None)``: call each env's method with its own
+    #: arguments (``None``: that env is not called)
     CALL_EACH = "call_each"
     #: actions of the worker's envs, when the action space has no shared-memory layout: step
     STEP = "step"

@@ -4,6 +4,7 @@ resets that start each env from its own state (``options["options_per_env"]``)."
 from __future__ import annotations
 
 import pickle
+from functools import partial
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from gymnasium.vector import AutoresetMode
 import modelicagym
 from modelicagym.env.saved_state import StartStates
 from modelicagym.errors import ArgumentError
+from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.saved_states import VectorState
 
 N = 4
@@ -71,3 +73,41 @@ def test_a_reset_starts_each_env_from_its_own_state(no_leaks: None) -> None:
         with pytest.raises(ArgumentError, match="2 states for 4 envs"):
             envs.set_states([states[0][0]] * 2)
         envs.reset()  # still usable
+
+
+def slow_env(path: object, **config: object) -> modelicagym.FMUEnv:
+    return modelicagym.FMUEnv(fmu=path, inputs=["u"], outputs=["y"], time_step=0.1, max_episode_steps=6,
+                              parameters={"init_seconds": 0.02, **config.pop("parameters", {})}, **config)
+
+
+@pytest.mark.parametrize("fmi_version, mode", [(2, "cs"), (3, "me")])
+def test_init_once_initializes_one_env_and_gives_every_env_its_own_trajectory(
+    fmi_version: int, mode: str, family_fmu: object, no_leaks: None
+) -> None:
+    path = family_fmu("slowinit", fmi_version)
+    fns = [partial(slow_env, path, mode=mode) for _ in range(N)]
+    actions = np.random.default_rng(3).uniform(-1, 1, size=(20, N, 1))
+    runs = {}
+    for init in ("each", "once"):
+        with PoolVectorEnv(fns, num_workers=2, init=init) as envs:
+            first, _ = envs.reset(seed=4)
+            runs[init] = [first.tobytes()] + steps(envs, actions)
+            runs[init + " initializations"] = envs.get_attr("initializations")
+    assert runs["once"] == runs["each"]
+    assert runs["each initializations"] == (1,) * N and sum(runs["once initializations"]) == 1
+
+
+def test_init_once_falls_back_where_an_env_has_parameters_of_its_own_or_no_state(
+    family_fmu: object, no_leaks: None
+) -> None:
+    path = family_fmu("slowinit", 2)
+    fns = [partial(slow_env, path, parameters={"x_0": 0.5 if i == 2 else 0.0}) for i in range(N)]
+    with PoolVectorEnv(fns, num_workers=2, init="once") as envs:
+        observations, _ = envs.reset(seed=0)
+        assert envs.get_attr("initializations") == (1, 0, 1, 0) and observations[2, 0] == 0.5
+    late = family_fmu("probe_late", 2)
+    fns = [partial(modelicagym.FMUEnv, fmu=late, inputs=["force"], outputs=["position"], time_step=0.1)
+           for _ in range(N)]
+    with PoolVectorEnv(fns, num_workers=2, init="once") as envs:  # probe_late cannot serialize its state
+        envs.reset(seed=0)
+        assert envs.get_attr("initializations") == (1,) * N
