@@ -1,6 +1,7 @@
 /*
  * model.c -- the SlowInit test FMU (see config.h).
  */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime under -std=c99 */
 #include <time.h>
 
 #include "model.h"
