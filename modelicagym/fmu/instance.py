@@ -21,9 +21,11 @@ instance bit for bit (`modelicagym.fmu.reference`: the first episode is recorded
 gives other values is dropped with one warning naming the FMU, and the next one is checked the
 same way: exporters ship broken ``fmiReset`` and snapshots that miss part of the state.
 
-At ~570 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
+At ~700 lines this module is longer than most of ours, for a reason: stepping, the reset ladder,
+saved states (``save_state`` / ``load_state`` / ``start_from``, `modelicagym.fmu.saved_state`) and
 the choice of integrator all read and write the same few things (the binding, the value buffers,
-the snapshot, the clock), and keeping them in one class keeps each of those owned by one object.
+the snapshot, the clock, the recording), and keeping them in one class keeps each of those owned
+by one object.
 The solver loops themselves live elsewhere (`modelicagym.fmu.model_exchange`,
 `modelicagym.fmu.native_integrator`).
 """

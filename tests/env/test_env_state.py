@@ -194,3 +194,29 @@ def test_steps_after_a_loaded_state_are_not_taken_for_a_fresh_episode(caplog: py
         loaded.reset()
         loaded.step(1)
     assert loaded.unwrapped.fmu.reset_rung == "snapshot" and "reset rung" not in caplog.text
+
+
+def test_a_state_is_refused_by_the_same_fmu_with_a_changed_binary(tmp_path: Path,
+                                                                  cartpole_fmu: Callable[..., Path]) -> None:
+    """Same GUID, same model description, one byte more in the binary: a rebuilt FMU may lay its
+    state out differently, so its content hash differs and the state is refused."""
+    import zipfile
+
+    source = cartpole_fmu(2)
+    changed = tmp_path / "CartPole-rebuilt.fmu"
+    with zipfile.ZipFile(source) as old, zipfile.ZipFile(changed, "w") as new:
+        for item in old.infolist():
+            data = old.read(item)
+            new.writestr(item.filename, data + b"\0" if item.filename.endswith(".so") else data)
+    copy = tmp_path / "CartPole-copy.fmu"
+    copy.write_bytes(source.read_bytes())
+    env = modelicagym.make("cartpole")
+    env.reset(seed=0)
+    env.step(1)
+    state = env.unwrapped.get_state()
+    same = FMUEnv(fmu=copy, inputs=["f"], outputs=["x"], time_step=0.05)
+    same.set_state(state)  # the same bytes elsewhere: accepted
+    assert same.time == state.time
+    rebuilt = FMUEnv(fmu=changed, inputs=["f"], outputs=["x"], time_step=0.05)
+    with pytest.raises(StateMismatchError, match="a state loads only into the FMU it was saved from, unchanged"):
+        rebuilt.set_state(state)
