@@ -2,8 +2,8 @@
 
 ``fmu_env`` holds `FMUEnv` and its step contract; ``config`` the few lines of config that make one
 (`FMUEnvConfig`) and ``config_checks`` their checks; ``spaces`` the spaces derived from model
-variables and the observation; ``native_step`` the env's bridge to our C step (one call a step); ``saved_state`` an env's state as
-a value (`EnvState`) and start states drawn from a list (`StartStates`).
+variables and the observation; ``native_step`` the env's bridge to our C step (one call a step);
+``saved_state`` an env's state as a value (`EnvState`) and start states drawn from a list (`StartStates`).
 """
 
 from modelicagym.env.config import FMUEnvConfig

@@ -264,8 +264,8 @@ class FMUEnv(gym.Env):
         FMU, the episode's steps and parameters, and (unless ``restore_generator`` is false) the
         random generator. A state of another FMU is refused (`StateMismatchError`), nothing changed."""
         if not isinstance(state, EnvState):
-            raise ArgumentTypeError(f"{self.description.name}: set_state takes an EnvState (env.unwrapped.get_state()), "
-                                    f"got {type(state).__name__}")
+            raise ArgumentTypeError(f"{self.description.name}: set_state takes an EnvState "
+                                    f"(env.unwrapped.get_state()), got {type(state).__name__}")
         self.fmu.load_state(state.fmu, state.episode_parameters)
         self.episode_parameters = dict(state.episode_parameters)
         if restore_generator and state.rng is not None:

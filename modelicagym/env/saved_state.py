@@ -41,7 +41,8 @@ class EnvState:
         return self.fmu.time
 
     def __repr__(self) -> str:
-        return f"EnvState(t={self.fmu.time}, elapsed_steps={self.elapsed_steps}, {len(self.fmu.data):,} bytes of FMU state)"
+        return (f"EnvState(t={self.fmu.time}, elapsed_steps={self.elapsed_steps}, "
+                f"{len(self.fmu.data):,} bytes of FMU state)")
 
 
 class StartStates:
@@ -58,7 +59,8 @@ class StartStates:
             raise ConfigError("start_states is empty: give at least one state (env.unwrapped.get_state())")
         bad = next((s for s in self.states if not isinstance(s, EnvState)), None)
         if bad is not None:
-            raise ConfigError(f"start_states holds {type(bad).__name__} {bad!r}, not an EnvState from env.unwrapped.get_state()")
+            raise ConfigError(f"start_states holds {type(bad).__name__} {bad!r}, "
+                              "not an EnvState from env.unwrapped.get_state()")
         self.weights = None
         if weights is not None:
             w = np.asarray(weights, dtype=np.float64)

@@ -61,7 +61,7 @@ class UnsupportedFeatureError(FMUError):
 
 
 class StateMismatchError(FMUError, ValueError):
-    """A saved state given to another FMU (or a changed one, or another interface type) than the one it was saved from."""
+    """A saved state given to another FMU (a changed one, another interface type) than the one it came from."""
 
 
 class LoadTrialError(FMUError):
