@@ -111,3 +111,21 @@ def test_init_once_falls_back_where_an_env_has_parameters_of_its_own_or_no_state
     with PoolVectorEnv(fns, num_workers=2, init="once") as envs:  # probe_late cannot serialize its state
         envs.reset(seed=0)
         assert envs.get_attr("initializations") == (1,) * N
+
+
+@pytest.mark.parametrize("autoreset", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_a_pools_autoresets_start_from_the_configs_start_states(autoreset: AutoresetMode, no_leaks: None) -> None:
+    env = modelicagym.make("cartpole")
+    env.reset(seed=0)
+    for _ in range(6):
+        env.step(1)
+    state = env.unwrapped.get_state()
+    with modelicagym.make_vec("cartpole", n=N, num_workers=2, caller_steps=True, start_states=[state],
+                              max_episode_steps=3, autoreset_mode=autoreset) as envs:
+        assert envs.step_paths[0].path == "native"  # its resets go to Python; its steps stay in C
+        envs.reset(seed=1)
+        assert envs.get_attr("time") == (state.time,) * N
+        for _ in range(3):  # episodes of 3 steps: the later resets would be C's snapshot restores
+            for _ in range(3 if autoreset is AutoresetMode.SAME_STEP else 4):
+                envs.step(np.zeros(N, dtype=np.int64))
+            assert envs.get_attr("time") == (state.time,) * N and envs.get_attr("elapsed_steps") == (0,) * N
