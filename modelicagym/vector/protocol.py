@@ -52,7 +52,8 @@ class Kind(str, enum.Enum):
     """What a :class:`Message` is; its ``data`` is given for each kind."""
 
     # parent -> worker
-    #: ``(seeds of the worker's envs, options)``
+    #: ``(seeds of the worker's envs, options)``; ``options["options_per_env"]``, if any, holds
+    #: only the worker's envs' entries
     RESET = "reset"
     #: ``(name, args, kwargs)``
     CALL = "call"
