@@ -49,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"initialization: {args.init_seconds} s of CPU per env; {os.cpu_count()} cores")
     print(format_table(("n", "s to start, each", "s to start, once", "each / once"), rows))
     print(line.replace(" interleaved rounds of 0.0 s", " alternating rounds"))
-    write_json(args.json, {"results": results, **machine, "init_seconds": args.init_seconds, "fmu": str(fmu)})
+    path = write_json(args.json, {"results": results, **machine, "init_seconds": args.init_seconds, "fmu": str(fmu)})
+    print(f"wrote {path}")
     return 0
 
 

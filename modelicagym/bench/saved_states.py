@@ -64,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
     rows = [(label, r["bytes"], f"{r['save_us']:.1f}", f"{r['load_us']:.1f}") for label, r in results.items()]
     print(format_table(("FMU", "bytes", "µs per save", "µs per load"), rows))
     print(line.replace("of 0.0 s", f"of {args.calls} calls"))
-    write_json(args.json, {"results": results, **machine, "calls": args.calls, "repeats": args.repeats})
+    path = write_json(args.json, {"results": results, **machine, "calls": args.calls, "repeats": args.repeats})
+    print(f"wrote {path}")
     return 0
 
 

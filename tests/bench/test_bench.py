@@ -24,6 +24,8 @@ BENCHMARKS = {
     "solver-accuracy": (["--repeats", "1"], {"rows"}),
     "autoreset": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "load-trial": (["--repeats", "1"], {"seconds", "samples"}),
+    "saved-states": (["--calls", "20", "--repeats", "1"], {"cores", "results"}),
+    "init-once": (["--n", "2", "--init-seconds", "0.01", "--repeats", "1"], {"cores", "results"}),
 }
 
 
