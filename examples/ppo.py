@@ -11,11 +11,18 @@ the continuous cart-pole is solved in seconds; the swing-up improves from a mean
 -1,500 to -500 in 300,000 steps (2 minutes), short of the -200 that SB3's PPO with
 state-dependent exploration reaches (``examples/sb3_ppo.py --env pendulum``).
 
+``--checkpoint run.pt`` saves everything after every update — the network, the optimizer, the
+observation statistics, the random generator and every env's state mid-episode
+(``envs.get_states()``) — and a run started with the same file goes on from there exactly, as if
+it had never stopped (``--stop-after N`` ends a run after N updates, to try it).
+
 Run: ``python examples/ppo.py [--env cartpole] [--num-envs 8] [--total-steps 200000]``
 (needs ``pip install torch==2.13.0`` for a CPU-only torch; ``modelicagym[plots]`` for the plot).
 """
 
 import argparse
+import hashlib
+import os
 import time
 from collections import deque
 
@@ -64,6 +71,8 @@ def parse_args():
     parser.add_argument("--threads", type=int, default=1, help="torch threads (the envs use the other cores)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--plot", default="ppo.png", help="where to save the learning curve")
+    parser.add_argument("--checkpoint", help="save the run here after every update, and resume from it if it exists")
+    parser.add_argument("--stop-after", type=int, help="end the run after this many updates (to resume it later)")
     parser.set_defaults(**PRESETS.get(parser.parse_known_args()[0].env, {}))
     return parser.parse_args()
 
@@ -131,6 +140,13 @@ class Agent(nn.Module):
         return action, log_prob, entropy, self.value(x)
 
 
+def save_checkpoint(path, run):
+    """Write ``run`` (a dict of tensors, arrays and the pool's states) to ``path`` atomically."""
+    temporary = f"{path}.tmp"
+    torch.save(run, temporary)
+    os.replace(temporary, path)
+
+
 def main():
     args = parse_args()
     torch.manual_seed(args.seed)
@@ -157,8 +173,21 @@ def main():
     curve, started, global_step = [], time.perf_counter(), 0
     next_observation = normalize(envs.reset(seed=args.seed)[0])
     next_done = torch.zeros(n)
+    first_iteration = 1
+    if args.checkpoint and os.path.exists(args.checkpoint):  # resume: every env mid-episode, as saved
+        run = torch.load(args.checkpoint, weights_only=False)
+        agent.load_state_dict(run["agent"])
+        optimizer.load_state_dict(run["optimizer"])
+        torch.set_rng_state(run["torch_rng"])
+        envs.set_states(run["envs"])
+        normalize.mean, normalize.var, normalize.count = run["normalizer"]
+        next_observation, next_done = run["next_observation"], run["next_done"]
+        episode_return, episode_length, global_step = run["episode_return"], run["episode_length"], run["global_step"]
+        recent.extend(run["recent"])
+        curve, first_iteration = run["curve"], run["iteration"] + 1
+        print(f"resumed from {args.checkpoint} after update {run['iteration']} ({global_step} steps)")
 
-    for iteration in range(1, args.total_steps // (n * steps_per_rollout) + 1):
+    for iteration in range(first_iteration, args.total_steps // (n * steps_per_rollout) + 1):
         # collect a rollout
         for t in range(steps_per_rollout):
             observations[t], dones[t] = next_observation, next_done
@@ -214,6 +243,14 @@ def main():
                 nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
                 optimizer.step()
 
+        if args.checkpoint:
+            save_checkpoint(args.checkpoint, dict(
+                agent=agent.state_dict(), optimizer=optimizer.state_dict(), torch_rng=torch.get_rng_state(),
+                envs=envs.get_states(), normalizer=(normalize.mean, normalize.var, normalize.count),
+                next_observation=next_observation, next_done=next_done, episode_return=episode_return,
+                episode_length=episode_length, global_step=global_step, recent=list(recent), curve=curve,
+                iteration=iteration))
+
         # progress, and stop once solved
         if recent:
             mean_return, mean_length = np.mean([r for r, _ in recent]), np.mean([length for _, length in recent])
@@ -229,8 +266,13 @@ def main():
                       f"{args.target_length if long_enough else args.target_return:g} after {global_step} steps, "
                       f"{elapsed:.1f} s")
                 break
+        if args.stop_after and iteration - first_iteration + 1 >= args.stop_after:
+            print(f"stopped after update {iteration} ({global_step} steps)")
+            break
     else:
         print(f"trained for {global_step} steps, {time.perf_counter() - started:.1f} s")
+    weights = b"".join(p.detach().numpy().tobytes() for p in agent.parameters())
+    print(f"network fingerprint: {hashlib.sha256(weights).hexdigest()[:16]}")
 
     envs.close()
     if curve:

@@ -124,6 +124,8 @@ VARIANTS: dict[str, Variant] = {
     "leaky_both": Variant(FMUS_DIR / "leaky", {"LEAKY_SNAPSHOT": None, "LEAKY_RESET": None}),
     # a lag whose doStep logs warnings, and an error loop returning OK beyond |u| > u_max (tests/fmus/noisy)
     "noisy": Variant(FMUS_DIR / "noisy"),
+    # a lag whose initialization spends init_seconds of CPU (tests/fmus/slowinit): the pool's init="once"
+    "slowinit": Variant(FMUS_DIR / "slowinit"),
 }
 
 

@@ -318,3 +318,13 @@ def test_printed_config_is_valid_python_with_its_comments(capsys, family_fmu):
     compile(code, "<info>", "exec")
     assert "# inferred from" in code
 
+
+
+@pytest.mark.parametrize("name, fmi_version, line", [
+    ("probe", 2, "saved states (env.unwrapped.get_state() / set_state): yes"),
+    ("probe", 3, "saved states (env.unwrapped.get_state() / set_state): yes"),
+    ("probe_late", 2, "saved states: no (canGetAndSetFMUstate is false)"),
+])
+def test_info_says_in_one_line_whether_states_can_be_saved(capsys, family_fmu, name, fmi_version, line):
+    status, out, _ = run_info(capsys, family_fmu(name, fmi_version))
+    assert status == 0 and out.count("saved states") == 1 and f"  {line}\n" in out

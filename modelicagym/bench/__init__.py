@@ -94,10 +94,11 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 def add_arguments(parser: Any) -> None:
     """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
-    runner,solver-accuracy,ray,load-trial,fmu,python-reward}``: their arguments."""
+    runner,solver-accuracy,ray,load-trial,fmu,python-reward,saved-states,init-once}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
         fmi_calls,
+        init_once,
         load_trial,
         model_exchange,
         own_fmu,
@@ -105,6 +106,7 @@ def add_arguments(parser: Any) -> None:
         python_reward,
         ray,
         runner,
+        saved_states,
         shared_machine,
         solver_accuracy,
         throughput,
@@ -116,7 +118,8 @@ def add_arguments(parser: Any) -> None:
                   ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
                   ("partial-batches", partial_batches),
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial),
-                  ("fmu", own_fmu), ("python-reward", python_reward))
+                  ("fmu", own_fmu), ("python-reward", python_reward),
+                  ("saved-states", saved_states), ("init-once", init_once))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
         module.add_arguments(sub)

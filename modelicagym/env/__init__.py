@@ -2,10 +2,12 @@
 
 ``fmu_env`` holds `FMUEnv` and its step contract; ``config`` the few lines of config that make one
 (`FMUEnvConfig`) and ``config_checks`` their checks; ``spaces`` the spaces derived from model
-variables and the observation; ``native_step`` the env's bridge to our C step (one call a step).
+variables and the observation; ``native_step`` the env's bridge to our C step (one call a step);
+``saved_state`` an env's state as a value (`EnvState`) and start states drawn from a list (`StartStates`).
 """
 
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.fmu_env import FMUEnv
+from modelicagym.env.saved_state import EnvState, StartStates
 
-__all__ = ["FMUEnv", "FMUEnvConfig"]
+__all__ = ["EnvState", "FMUEnv", "FMUEnvConfig", "StartStates"]

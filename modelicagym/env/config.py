@@ -16,6 +16,7 @@ import numpy as np
 from gymnasium import spaces
 
 from modelicagym.env.config_checks import check_action_bounds, check_batch_hooks, check_numbers, check_termination
+from modelicagym.env.saved_state import EnvState, StartStates
 from modelicagym.errors import ConfigError, ConfigTypeError
 
 Bounds = Mapping[str, Sequence[float]]
@@ -60,6 +61,9 @@ class FMUEnvConfig:
             solver loop (the reference both native paths are tested against).
         mode: ``"cs"`` or ``"me"``; default: co-simulation when the FMU offers it.
         reset_rung, solver, tolerance, solver_step, validate, logging_on: passed to `FMUInstance`.
+        start_states: states (``env.unwrapped.get_state()``, `modelicagym.env.saved_state`) or a
+            `StartStates`: every reset that brings no state of its own starts from one, drawn with
+            the env's generator (e.g. a plant's recorded operating points).
     """
 
     fmu: str | os.PathLike[str]
@@ -87,6 +91,7 @@ class FMUEnvConfig:
     solver_step: float | None = None
     validate: bool = True
     logging_on: bool = False
+    start_states: Sequence[EnvState] | StartStates | None = None
 
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any]) -> FMUEnvConfig:
@@ -110,6 +115,8 @@ class FMUEnvConfig:
         if config.action_bounds is not None:
             config.action_bounds = {name: (float(low), float(high))
                                     for name, (low, high) in config.action_bounds.items()}
+        if config.start_states is not None and not isinstance(config.start_states, StartStates):
+            config.start_states = StartStates(config.start_states)
         if config.step_path not in STEP_PATHS:
             raise ConfigError(f"step_path must be one of {STEP_PATHS}, got {config.step_path!r}")
         if config.action_table is not None:

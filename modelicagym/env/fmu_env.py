@@ -14,6 +14,9 @@ The step contract, stated once:
   ``modelicagym.fmu.logs.LOG_LIMITS`` allows): then ``info["fmu_error"]`` holds its message and the
   next reset re-instantiates the FMU. Infos are empty on ordinary steps.
 * time is ``start_time + k * time_step``, read as ``env.time``.
+* ``get_state()`` / ``set_state(state)``: the env's whole state as a picklable value, loadable in
+  any process with the same FMU (`modelicagym.env.saved_state`); ``reset(options={"state": s})``
+  starts an episode there, and the config's ``start_states`` makes every other reset draw one.
 
 Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the
 config defines them completely, else the Python path; both give the same results.
@@ -57,7 +60,8 @@ from modelicagym.env.endings import (
 from modelicagym.env.native_step import NativeStep, python_path_reason
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
-from modelicagym.errors import ConfigError
+from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
+from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
 from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
@@ -140,6 +144,7 @@ class FMUEnv(gym.Env):
         self._elapsed_steps = 0
         self._failure_log = RateLimitedLog(logger, f"{description.name}'s truncated episodes")
         self.episode_parameters: dict[str, Any] = {}
+        self._start_states = cfg.start_states  # read on every reset: one attribute, not two
         self.strip_chart = self._make_strip_chart()
         self._native: NativeStep | None = None
         #: on the native path, how its steps end in Python (its reward or termination is Python's); else None
@@ -187,12 +192,13 @@ class FMUEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
-        options = options or {}
-        overrides = options.get("parameters") or {}
+        if (options or self._start_states is not None) and self._started_from_state(seed, options or {}):
+            return self.observation(), {}
+        overrides = options.get("parameters") if options else None
         if not overrides and self._native is not None and self._native.reset():
             self.episode_parameters = dict(self.config.parameters)  # a native reset: no random ones
             return self.observation(), {}
-        parameters = {**self.config.parameters, **overrides}
+        parameters = {**self.config.parameters, **(overrides or {})}
         self.episode_parameters = {
             name: value(self.np_random) if callable(value) else value for name, value in parameters.items()
         }
@@ -234,6 +240,68 @@ class FMUEnv(gym.Env):
         truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
         return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
 
+    def _started_from_state(self, seed: int | None, options: dict[str, Any]) -> bool:
+        """Start the episode from ``options["state"]``, or one drawn from the config's
+        ``start_states``; False when there is none (an ordinary reset then follows)."""
+        initial = options.get("initial_state")
+        if initial is not None and self._starts_from_initial(initial, options):
+            return True
+        state = options.get("state")
+        if state is not None and options.get("parameters"):
+            raise ArgumentError(f"{self.description.name}: reset options 'state' and 'parameters' exclude each other "
+                                "(a state carries its episode's parameters)")
+        drawn = state is None and self._start_states is not None
+        if drawn:
+            state = self._start_states.sample(self.np_random)
+        if state is None:
+            return False
+        # a seed given, or the generator that drew the state, goes on; not the state's generator
+        self.set_state(state, restore_generator=seed is None and not drawn)
+        self.elapsed_steps = 0
+        return True
+
+    def _starts_from_initial(self, initial: EnvState, options: dict[str, Any]) -> bool:
+        """The pool's ``init="once"``: start a never-initialized FMU from ``initial`` (saved right
+        after another env's first reset) when this env's episode would have the same parameters;
+        False otherwise (parameters of its own, drawn ones, or an FMU already running): it then
+        resets as usual, with the same outcome."""
+        if not isinstance(initial, EnvState):
+            raise ArgumentTypeError(f"{self.description.name}: reset option 'initial_state' takes an EnvState, "
+                                    f"got {type(initial).__name__}")
+        parameters = {**self.config.parameters, **(options.get("parameters") or {})}
+        if (self.fmu.initialized or any(callable(v) for v in parameters.values())
+                or not _same_values(parameters, initial.episode_parameters)):
+            return False
+        self.fmu.start_from(initial.fmu, parameters)
+        self.episode_parameters = parameters
+        self.elapsed_steps = 0
+        if self._native is not None:
+            self._native.bind()
+        return True
+
+    def get_state(self) -> EnvState:
+        """The env's whole state now, as a picklable value (`EnvState`): `set_state` puts it back
+        here or in another process with the same FMU, mid-episode, and the env goes on bit for bit
+        as this one would. Raises `UnsupportedFeatureError` (one line) when the FMU cannot
+        serialize its state (``canSerializeFMUstate`` false, FMI 1.0)."""
+        return EnvState(self.fmu.save_state(), self.elapsed_steps, dict(self.episode_parameters),
+                        generator_state(self._np_random))
+
+    def set_state(self, state: EnvState, restore_generator: bool = True) -> None:
+        """Put back a state `get_state` gave (this env's or another's over the same FMU): the
+        FMU, the episode's steps and parameters, and (unless ``restore_generator`` is false) the
+        random generator. A state of another FMU is refused (`StateMismatchError`), nothing changed."""
+        if not isinstance(state, EnvState):
+            raise ArgumentTypeError(f"{self.description.name}: set_state takes an EnvState "
+                                    f"(env.unwrapped.get_state()), got {type(state).__name__}")
+        self.fmu.load_state(state.fmu, state.episode_parameters)
+        self.episode_parameters = dict(state.episode_parameters)
+        if restore_generator and state.rng is not None:
+            self._np_random = restored_generator(state.rng)
+        if self._native is not None:
+            self._native.bind()
+        self.elapsed_steps = state.elapsed_steps
+
     def fmu_failure(self, error: FMUError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The step result when the FMU failed: the episode is truncated with the FMU's message
         in ``info["fmu_error"]`` (the next reset re-instantiates the FMU)."""
@@ -241,6 +309,12 @@ class FMUEnv(gym.Env):
                               self.fmu.time, error)
         self.elapsed_steps += 1
         return self.observation(), 0.0, False, True, {"fmu_error": str(error)}
+
+    @property
+    def initializations(self) -> int:
+        """How many times the FMU's own initialization ran in this env (a pool's ``init="once"``
+        starts every env but one from a saved state instead)."""
+        return self.fmu.initializations
 
     @property
     def fault_label(self) -> str:
@@ -252,7 +326,8 @@ class FMUEnv(gym.Env):
         """Whether a reset without seed or options starts the same episode in every env made from
         the same config: no parameter drawn at random, no overridden ``reset``. The pool may then
         move the env between processes at an episode boundary (``modelicagym.vector.placement``)."""
-        return type(self).reset is FMUEnv.reset and not any(callable(v) for v in self.config.parameters.values())
+        return (type(self).reset is FMUEnv.reset and self.config.start_states is None
+                and not any(callable(v) for v in self.config.parameters.values()))
 
     @property
     def native_step(self) -> NativeStep | None:
@@ -414,3 +489,8 @@ class FMUEnv(gym.Env):
                 raise ConfigError(f"{self.description.name}: termination bound on {name!r}, an array; use a callable")
             bounds.append((positions[name] if flat else name, float(low), float(high)))
         return (outputs.flat.tolist if flat else scalar_outputs), bounds
+
+
+def _same_values(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
+    """Whether two sets of parameter values are equal, arrays element by element."""
+    return a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)

@@ -133,7 +133,9 @@ class NativeStep:
         self._action_index = ctypes.c_int64(0)
         self._action_values = np.zeros(len(starts), dtype=np.float64)
         self._reward = ctypes.c_double(0.0)
-        self._random_parameters = any(callable(value) for value in config.parameters.values())
+        # resets only Python can do: parameters drawn per episode, or a start state drawn from a list
+        self._random_parameters = (any(callable(value) for value in config.parameters.values())
+                                   or config.start_states is not None)
         self._step = self.library.mg_env_step
         self._reset = self.library.mg_env_reset
         self._state_ref = ctypes.byref(state)

@@ -13,6 +13,7 @@ from modelicagym.fmu.errors import (
     InvalidFMUError,
     LoadTrialError,
     PlatformNotSupportedError,
+    StateMismatchError,
     UnsupportedFeatureError,
     VariableError,
 )
@@ -30,6 +31,7 @@ __all__ = [
     "InvalidFMUError",
     "LoadTrialError",
     "PlatformNotSupportedError",
+    "StateMismatchError",
     "UnsupportedFeatureError",
     "Variable",
     "VariableError",

@@ -272,6 +272,33 @@ class FMIBinding:
     def _state_name(self, verb: str) -> str:
         raise NotImplementedError
 
+    SERIALIZE_FUNCTIONS: tuple[str, str, str] = ("", "", "")
+    """Suffixes of (size of a serialized state, serialize, deserialize)."""
+    BYTE: Any = ctypes.c_char
+    """The ctypes type of a serialized state's bytes."""
+
+    def serialize_state(self, state: Any) -> bytes:
+        """The bytes of snapshot ``state`` (from `get_state`), which `deserialize_state` turns back
+        into a snapshot in any process that loaded the same FMU."""
+        size_name, serialize_name, _ = self.SERIALIZE_FUNCTIONS  # fmpy declared their signatures
+        size = ctypes.c_size_t(0)
+        self.call(size_name, state, ctypes.byref(size))
+        buffer = ctypes.create_string_buffer(size.value)
+        self.call(serialize_name, state, self._byte_pointer(buffer), size)
+        return buffer.raw
+
+    def deserialize_state(self, data: bytes, state: Any = None) -> Any:
+        """A snapshot (as `get_state` gives) made from ``data``; pass an earlier one to overwrite it."""
+        state = ctypes.c_void_p() if state is None else state
+        name = self.SERIALIZE_FUNCTIONS[2]
+        buffer = ctypes.create_string_buffer(data, len(data))
+        self.call(name, self._byte_pointer(buffer), len(data), ctypes.byref(state))
+        return state
+
+    def _byte_pointer(self, buffer: ctypes.Array) -> Any:
+        """``buffer`` as a pointer to the version's byte type (fmi2Byte is char, fmi3Byte uint8)."""
+        return ctypes.cast(buffer, ctypes.POINTER(self.BYTE))
+
     # -- model exchange (per version) --------------------------------------------------------------
 
     def enter_event_mode(self) -> None:

@@ -9,6 +9,7 @@ process reuses the same extraction (docs/design.md: never re-extract).
 from __future__ import annotations
 
 import functools
+import hashlib
 import logging
 import os
 import re
@@ -113,6 +114,29 @@ class FMUDescription:
     def can_snapshot(self, mode: str) -> bool:
         """Whether the FMU can save and restore its state (``canGetAndSetFMUstate``; never in FMI 1.0)."""
         return self.fmi_version > 1 and bool(self.interface(mode).canGetAndSetFMUstate)
+
+    def can_serialize(self, mode: str) -> bool:
+        """Whether the FMU can turn its state into bytes and back (``canSerializeFMUstate``, which
+        needs ``canGetAndSetFMUstate`` too; never in FMI 1.0): what `FMUInstance.save_state` needs."""
+        return self.can_snapshot(mode) and bool(self.interface(mode).canSerializeFMUstate)  # fmpy's name in 3.0 too
+
+    def serialize_refusal(self, mode: str) -> str | None:
+        """Why this FMU's state cannot be saved as a value in ``mode`` (one line), or ``None``."""
+        if self.fmi_version == 1:
+            return f"{self.name} cannot save its state as a value: FMI 1.0 has no FMU state"
+        if not self.can_snapshot(mode):
+            return f"{self.name} cannot save its state as a value: canGetAndSetFMUstate is false"
+        if not self.can_serialize(mode):
+            return f"{self.name} cannot save its state as a value: canSerializeFMUstate is false"
+        return None
+
+    def content_hash(self, mode: str) -> str:
+        """What a saved state is tied to: the model's GUID (instantiation token) and the SHA-256
+        of the binary for ``mode``, hashed together; the same FMU anywhere gives the same hash, a
+        rebuilt or another one a different hash."""
+        library = self.library_path(mode)
+        stat = library.stat()
+        return _content_hash(self.guid, str(library.resolve()), stat.st_size, stat.st_mtime_ns)
 
     def can_reset(self, mode: str) -> bool:
         """Whether the FMU has a reset function for ``mode``: FMI 1.0 model exchange has none
@@ -381,6 +405,12 @@ def _check_expansion(path: Path, archive: zipfile.ZipFile) -> None:
 def _content_key(resolved: str, size: int, mtime_ns: int) -> str:
     """The FMU's content hash, computed once per process per (file, size, mtime)."""
     return file_digest(Path(resolved))[:20]
+
+
+@functools.cache
+def _content_hash(guid: str, library: str, size: int, mtime_ns: int) -> str:
+    """`FMUDescription.content_hash`, computed once per process per (binary, size, mtime)."""
+    return hashlib.sha256(f"{guid}\n{file_digest(Path(library))}".encode()).hexdigest()[:24]
 
 
 def _extract(path: Path) -> Path:

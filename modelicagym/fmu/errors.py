@@ -60,6 +60,10 @@ class UnsupportedFeatureError(FMUError):
     """The FMU lacks a capability that was asked for (an interface type, state snapshots, ...)."""
 
 
+class StateMismatchError(FMUError, ValueError):
+    """A saved state given to another FMU (a changed one, another interface type) than the one it came from."""
+
+
 class LoadTrialError(FMUError):
     """The FMU's binary crashed, ended its process or hung while tried in a child process before
     its first load (`modelicagym.fmu.trial`); it is not loaded, so that it cannot take the caller's

@@ -36,6 +36,7 @@ class FMI2Binding(FMIBinding):
         "Boolean": ("Boolean", ctypes.c_int),
         "String": ("String", ctypes.c_char_p),
     }
+    SERIALIZE_FUNCTIONS = ("SerializedFMUstateSize", "SerializeFMUstate", "DeSerializeFMUstate")
     CONTINUOUS_STATE_FUNCTIONS = {
         "set_time": "SetTime", "get_x": "GetContinuousStates", "set_x": "SetContinuousStates",
         "get_dx": "GetDerivatives", "get_z": "GetEventIndicators", "get_nominals": "GetNominalsOfContinuousStates",

@@ -28,6 +28,8 @@ class FMI3Binding(FMIBinding):
         )},
         "Enumeration": ("Int64", ctypes.c_int64),
     }
+    BYTE = ctypes.c_uint8
+    SERIALIZE_FUNCTIONS = ("SerializedFMUStateSize", "SerializeFMUState", "DeserializeFMUState")
     CONTINUOUS_STATE_FUNCTIONS = {
         "set_time": "SetTime", "get_x": "GetContinuousStates", "set_x": "SetContinuousStates",
         "get_dx": "GetContinuousStateDerivatives", "get_z": "GetEventIndicators",

@@ -21,9 +21,11 @@ instance bit for bit (`modelicagym.fmu.reference`: the first episode is recorded
 gives other values is dropped with one warning naming the FMU, and the next one is checked the
 same way: exporters ship broken ``fmiReset`` and snapshots that miss part of the state.
 
-At ~570 lines this module is longer than most of ours, for a reason: stepping, the reset ladder and
+At ~700 lines this module is longer than most of ours, for a reason: stepping, the reset ladder,
+saved states (``save_state`` / ``load_state`` / ``start_from``, `modelicagym.fmu.saved_state`) and
 the choice of integrator all read and write the same few things (the binding, the value buffers,
-the snapshot, the clock), and keeping them in one class keeps each of those owned by one object.
+the snapshot, the clock, the recording), and keeping them in one class keeps each of those owned
+by one object.
 The solver loops themselves live elsewhere (`modelicagym.fmu.model_exchange`,
 `modelicagym.fmu.native_integrator`).
 """
@@ -43,7 +45,7 @@ from modelicagym.fmu.binding import DISCARD, TERMINATED, WARNING, FMIBinding
 from modelicagym.fmu.buffers import ValueBuffer
 from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.description import FMUDescription, open_fmu
-from modelicagym.fmu.errors import ErrorLoopError, FMUCallError, FMUError, UnsupportedFeatureError
+from modelicagym.fmu.errors import ErrorLoopError, FMUCallError, FMUError, StateMismatchError, UnsupportedFeatureError
 from modelicagym.fmu.fmi1 import FMI1Binding
 from modelicagym.fmu.fmi2 import FMI2Binding
 from modelicagym.fmu.fmi3 import FMI3Binding
@@ -51,6 +53,7 @@ from modelicagym.fmu.logs import LOG_LIMITS
 from modelicagym.fmu.model_exchange import ModelExchangeIntegrator
 from modelicagym.fmu.native_integrator import NativeIntegrator, python_integrator_reason
 from modelicagym.fmu.reference import WAIT, Reference, describe
+from modelicagym.fmu.saved_state import FMUState
 
 logger = logging.getLogger(__name__)
 
@@ -182,6 +185,10 @@ class FMUInstance:
         self._empty_episodes = 0  # recorded episodes that ended before their first step
         self._verified: set[str] = set()
         self._settable_names: set[str] = set()
+        self._hash: str | None = None  # the FMU's content hash, for saved states
+        self._initial: tuple[FMUState, tuple] | None = None  # `start_from`'s state and its values' key
+        #: how many times the FMU's own initialization ran in this instance (`start_from` skips it)
+        self.initializations = 0
         self._instantiate()
 
     def _choose_integrator(self, requested: str, solver: str) -> type[ModelExchangeIntegrator]:
@@ -367,6 +374,107 @@ class FMUInstance:
         else:
             self.binding.set_values(values)
 
+    def save_state(self) -> FMUState:
+        """The instance's state now, as a picklable value that `load_state` puts back, in this
+        process or another (`modelicagym.fmu.saved_state`). In model exchange the solver restarts
+        here at the next step, as after new input values, so this instance and one that loads the
+        state go on alike. Raises `UnsupportedFeatureError` (one line) for an FMU that cannot
+        serialize its state."""
+        self._check_serializable()
+        if not self.initialized or self.broken:
+            raise FMUError(f"{self.fmu_name}: no state to save: the instance is "
+                           f"{'broken' if self.broken else 'not initialized'}; reset it first")
+        handle = self.binding.get_state()
+        try:
+            data = self.binding.serialize_state(handle)
+        finally:
+            self.binding.free_state(handle)
+        clock, integrator = self.clock, self._integrator
+        if integrator is not None:
+            integrator.continuous = False
+        return FMUState(
+            self.fmu_name, self._content_hash(), self.mode, data, clock.time, clock.origin, clock.dt, clock.steps,
+            bool(clock.terminated), integrator.next_event_time if integrator is not None else None,
+            integrator is not None and integrator.stiff,
+        )
+
+    def load_state(self, state: FMUState, values: Mapping[str, Any] | None = None) -> None:
+        """Put back a state `save_state` gave, here or in another process: the instance goes on
+        from there exactly as the one it was saved from. A state of another FMU, or of this one
+        changed, is refused (`StateMismatchError`) before anything changes. An instance that is not
+        initialized (or broken) is first reset with ``values`` (the state then overwrites it).
+
+        The reset ladder is untouched (its snapshot is a separate FMU state); a reference being
+        recorded for its check stops here, since what follows is not a fresh episode."""
+        self._check_serializable()
+        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
+        if not self.initialized or self.broken:
+            self.reset(values)
+        if self._recording is not None:
+            self._recording.stop()
+        handle = self.binding.deserialize_state(state.data)
+        try:
+            self.binding.set_state(handle)
+        except FMUError:
+            self.broken = True
+            raise
+        finally:
+            self.binding.free_state(handle)
+        clock = self.clock
+        clock.time, clock.origin, clock.dt, clock.steps = state.time, state.origin, state.dt, state.steps
+        clock.terminated = state.terminated
+        if self._integrator is not None:
+            self._integrator.stiff = state.stiff
+            self._integrator.restart(state.time, state.next_event_time)
+            self._integrator.continuous = False  # as the instance saved from, which restarts there
+        self.read_outputs()
+        self.clock.log_errors = 0
+
+    def start_from(self, state: FMUState, values: Mapping[str, Any] | None = None) -> None:
+        """Initialize from ``state``, saved right after another instance of the same FMU was
+        initialized with ``values`` (its first `reset`), instead of running the FMU's initialization:
+        the pool's ``init="once"``. The instance keeps it: any later re-instantiation with the same
+        values starts from it too, and the reset ladder works as after an initialization (the
+        episode is recorded for the rungs' check, the snapshot is taken from it)."""
+        values = dict(values or {})
+        self._check_serializable()
+        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
+        if state.steps or state.time != self.start_time:
+            raise StateMismatchError(f"{self.fmu_name}: a state to start from must be saved right after a reset "
+                                     f"(at t={self.start_time}, step 0), not at t={state.time}, step {state.steps}")
+        self._check_settable(values)
+        self._initial = (state, _freeze(values))
+        if self._recording is not None:
+            self._recording = self.clock.recorder = None  # the fresh episode starts below
+        self._restart(values)
+
+    def _initialize_from(self, state: FMUState, values: dict[str, Any]) -> None:
+        """`_initialize`'s counterpart: the FMU's state loaded from ``state`` (see `start_from`)."""
+        handle = self.binding.deserialize_state(state.data)
+        try:
+            self.binding.set_state(handle)
+            if self._integrator is not None:
+                self._integrator.stiff = state.stiff
+                self._integrator.restart(state.time, state.next_event_time)
+        except FMUError:
+            self.broken = True
+            raise
+        finally:
+            self.binding.free_state(handle)
+        self.initialized = True
+        self._after_initialization(values, take_snapshot=self.reset_rung == "snapshot")
+        self.terminated = state.terminated
+
+    def _check_serializable(self) -> None:
+        refusal = self.description.serialize_refusal(self.mode)
+        if refusal is not None:
+            raise UnsupportedFeatureError(refusal)
+
+    def _content_hash(self) -> str:
+        if self._hash is None:
+            self._hash = self.description.content_hash(self.mode)
+        return self._hash
+
     def get_values(self, names: Sequence[str]) -> dict[str, Any]:
         """Read variables by name (slow path, for inspection)."""
         return self.binding.get_values(list(names))
@@ -453,7 +561,10 @@ class FMUInstance:
             self._free_snapshot()
             self.binding.free_instance()
             self._instantiate()
-        self._initialize(values)
+        if self._initial is not None and self._initial[1] == _freeze(values):
+            self._initialize_from(self._initial[0], values)
+        else:
+            self._initialize(values)
         if (self.reset_rung != "reinstantiate" and not self._verified
                 and (self._reference is None or not self._reference.complete)):
             self._recording = Reference(values, _freeze(values), self.inputs, self.outputs)
@@ -553,6 +664,7 @@ class FMUInstance:
                 self.binding.configure(structural)
             self.binding.set_values(before)
             self.inputs.check(self.inputs.write(), "set inputs")
+            self.initializations += 1
             self.binding.enter_initialization(self.start_time, self.stop_time, self.tolerance)
             self.binding.set_values(during)
             self.binding.exit_initialization()

@@ -149,9 +149,15 @@ class Dispatcher:
             if plain:
                 commands.append(PendingCommand(party, code))
             else:
-                message = Message(Kind.RESET, (seeds[indices.start : indices.stop], options))
+                message = Message(Kind.RESET, (seeds[indices.start : indices.stop], options_for(options, indices)))
                 commands.append(PendingCommand(party, Command.MESSAGE, message))
         self.dispatch(commands)
+
+    def call_each(self, name: str, args: list[tuple[Any, ...] | None]) -> None:
+        """Call method ``name`` of env ``i`` with its own arguments ``args[i]`` (``None``: not called)."""
+        self._message_all(
+            lambda party: Message(Kind.CALL_EACH, (name, args[party.env_indices.start : party.env_indices.stop]))
+        )
 
     def call(self, name: str, args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
         """Call method ``name`` (or read attribute ``name``) of every env."""
@@ -288,3 +294,11 @@ class Dispatcher:
         first, observations, infos = message.data
         self.buffers.observations.store(first, observations)
         return Message(Kind.INFOS, infos) if infos else None
+
+
+def options_for(options: dict[str, Any] | None, indices: range) -> dict[str, Any] | None:
+    """A party's part of reset ``options``: its envs' entries of ``"options_per_env"`` (one dict per
+    env of the pool), so no party is sent the others' (they may hold large states)."""
+    if options is None or "options_per_env" not in options:
+        return options
+    return {**options, "options_per_env": options["options_per_env"][indices.start : indices.stop]}

@@ -127,6 +127,7 @@ class EnvSlice:
             Kind.RESET: lambda data: self.reset(*data),
             Kind.CALL: self.call,
             Kind.SET_ATTR: self.set_attr,
+            Kind.CALL_EACH: self.call_each,
         }
 
     @classmethod
@@ -325,7 +326,8 @@ class EnvSlice:
                 continue
             buffers.current_env[self.slot] = index
             try:
-                observation, info = env.reset(seed=None if seeds is None else seeds[offset], options=options)
+                observation, info = env.reset(seed=None if seeds is None else seeds[offset],
+                                              options=options_of_env(options, offset))
                 observations.write(index, observation)
             except Exception as exc:
                 return Message(Kind.ERROR, RemoteError.capture(exc, index))
@@ -346,6 +348,22 @@ class EnvSlice:
                 return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self.first + offset))
         return Message(Kind.RESULTS, results)
 
+    def call_each(self, data: tuple[str, list[tuple[Any, ...] | None]]) -> Message:
+        """Call method ``name`` of each env with its own arguments; an env whose arguments are
+        ``None`` is not called (its result is ``None``)."""
+        name, args = data
+        results = []
+        for offset, (env, arg) in enumerate(zip(self.envs, args, strict=True)):
+            if arg is None:
+                results.append(None)
+                continue
+            self.buffers.current_env[self.slot] = self.first + offset
+            try:
+                results.append(env.get_wrapper_attr(name)(*arg))
+            except Exception as exc:
+                return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self.first + offset))
+        return Message(Kind.RESULTS, results)
+
     def set_attr(self, data: tuple[str, list[Any]]) -> Message | None:
         name, values = data
         for offset, (env, value) in enumerate(zip(self.envs, values, strict=True)):
@@ -355,3 +373,12 @@ class EnvSlice:
             except Exception as exc:
                 return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self.first + offset))
         return None
+
+
+def options_of_env(options: dict[str, Any] | None, offset: int) -> dict[str, Any] | None:
+    """The reset options of the slice's env ``offset``: the shared ones, updated by its own entry
+    of ``"options_per_env"`` (the slice's part of it) when there is one."""
+    if options is None or "options_per_env" not in options:
+        return options
+    shared = {key: value for key, value in options.items() if key != "options_per_env"}
+    return {**shared, **(options["options_per_env"][offset] or {})}

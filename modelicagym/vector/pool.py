@@ -52,6 +52,7 @@ from modelicagym.vector.placement import LayoutState
 from modelicagym.vector.plan import default_start_method, plan_layout
 from modelicagym.vector.protocol import StepPath, WorkerConfig
 from modelicagym.vector.recovery import RESTART_INFO_KEY, Recovery
+from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
 from modelicagym.vector.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 
@@ -61,6 +62,9 @@ logger = logging.getLogger(__name__)
 
 #: seconds a waiting party spins before it blocks (see ``modelicagym.vector.sync``)
 DEFAULT_SPIN_TIME = 100e-6
+
+#: values of the ``init`` option: each env initializes itself, or one does and the others start from its state
+INIT_MODES = ("each", "once")
 
 #: seconds ``close()`` waits for the workers to close their envs when no timeout is given
 DEFAULT_CLOSE_TIMEOUT = 30.0
@@ -72,7 +76,7 @@ _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 POOL_OPTIONS = (
     "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
-    "observation_mode", "worker", "batch_size", "adapt_layout",
+    "observation_mode", "worker", "batch_size", "adapt_layout", "init",
 )
 
 
@@ -159,6 +163,7 @@ class PoolVectorEnv(VectorEnv):
         worker: Callable[..., None] | None = None,
         batch_size: int | None = None,
         adapt_layout: bool | None = None,
+        init: str = "each",
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -211,6 +216,12 @@ class PoolVectorEnv(VectorEnv):
                 insists (a `ConfigError` says why it cannot);
                 ``False``: a fixed layout. An adaptive pool keeps a copy of every worker env in
                 the calling process too.
+            init: ``"each"`` (default): every env initializes itself at its first reset.
+                ``"once"``: the first reset resets one env, takes its state (``get_state()``) and
+                starts the others from it (``reset(options={"initial_state": state})``), so an
+                FMU whose initialization is slow pays it once (`modelicagym.vector.saved_states`);
+                an env whose state would differ (parameters of its own) initializes itself, and
+                if the first env cannot give its state every env does.
         """
         #: ``{"thread": ident}`` while a thread is inside a public call (`one_thread_at_a_time`)
         self._user: dict[str, int] = {}
@@ -222,6 +233,11 @@ class PoolVectorEnv(VectorEnv):
             {"restart_dead_workers": restart_dead_workers, "measure_timing": measure_timing, "copy": copy,
              "caller_steps": caller_steps, "shared_memory": shared_memory, "adapt_layout": adapt_layout},
         )
+        if init not in INIT_MODES:
+            raise ConfigError(f"init must be one of {INIT_MODES}, got {init!r}")
+        #: ``init="once"`` until the first reset has done it
+        self._init_once = init == "once"
+        self._init_entries: Entries = []
         self.num_envs = len(self.env_fns)
         self.batch_size = check_batch_size(batch_size, self.num_envs, caller_steps)
         if batch_size is not None and num_workers == 0:
@@ -296,7 +312,9 @@ class PoolVectorEnv(VectorEnv):
         Args:
             seed: ``None`` (random seeds), an int (env ``i`` gets ``seed + i``) or one seed per env.
             options: passed to every env's ``reset``; a boolean array ``"reset_mask"`` of shape
-                ``(num_envs,)`` selects the envs to reset (the others keep their observation).
+                ``(num_envs,)`` selects the envs to reset (the others keep their observation);
+                ``"options_per_env"``, a list of one dict per env, updates env ``i``'s options with
+                its entry (e.g. ``{"state": s}`` to start it from a saved state).
 
         Returns:
             The batch of observations and the merged infos of the reset envs.
@@ -311,21 +329,49 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         seeds = seeds_per_env(seed, self.num_envs)
         check_reset_options(options)
+        check_options_per_env(options, self.num_envs)
         self._assert_idle("reset_async")
         mask = np.ones(self.num_envs, dtype=np.bool_)
         if options is not None and "reset_mask" in options:
             options = dict(options)
             mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
         with self._stopped_on_interrupt():
+            if self._init_once and mask.any():
+                self._init_once = False
+                options = self._initialized_once(seeds, options, mask)
             self._dispatcher.reset(seeds, options, mask)
             self._state = AsyncState.WAITING_RESET
 
     reset_async = one_thread_at_a_time(_reset_async)
 
+    def _initialized_once(self, seeds: list[int | None], options: dict[str, Any] | None,
+                          mask: np.ndarray) -> dict[str, Any] | None:
+        """``init="once"``: reset the first env of ``mask`` alone, take its state, and return the
+        options that start the others from it (``mask`` then leaves the first env out; the options
+        as given if it cannot give its state)."""
+        first = int(np.flatnonzero(mask)[0])
+        alone = np.zeros_like(mask)
+        alone[first] = True
+        self._dispatcher.reset(seeds, options, alone)
+        self._state = AsyncState.WAITING_RESET
+        self._init_entries = self._reset_entries(None)
+        mask[first] = False  # it is reset
+        self._dispatcher.call_each("get_state", [() if i == first else None for i in range(self.num_envs)])
+        self._state = AsyncState.WAITING_CALL
+        try:
+            state = self._collect_calls(None, "init='once'")[first]
+        except PoolError:
+            raise
+        except Exception as error:  # it cannot serialize its state: each env initializes itself
+            logger.info("init='once': env %d cannot give its state (%s); every env initializes itself", first, error)
+            return options
+        per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
+        return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
+
     def _reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
         """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
         deadline = self._callers_deadline(timeout)
-        entries = self._reset_entries(timeout)
+        entries, self._init_entries = self._init_entries + self._reset_entries(timeout), []
         self._raise_if_past(deadline, timeout, "reset_wait")
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
 
@@ -561,6 +607,28 @@ class PoolVectorEnv(VectorEnv):
         return results
 
     call_wait = one_thread_at_a_time(_call_wait)
+
+    def get_states(self) -> VectorState:
+        """Every env's state (``env.get_state()``), mid-episode, and which envs the pool resets at
+        their next step: a checkpoint that :meth:`set_states` resumes exactly, in this pool or a new
+        one of the same envs (`modelicagym.vector.saved_states`). Wrappers' own state is not in it."""
+        states = self.call("get_state")
+        return VectorState(tuple(states), tuple(int(flag) for flag in self._buffers.needs_reset))
+
+    def _set_states(self, states: VectorState | Sequence[Any]) -> None:
+        """Put back :meth:`get_states`'s checkpoint (or one state per env, e.g. start states): each
+        env's ``set_state``, then the pool's per-env reset flags. The next step goes on from there."""
+        self._assert_is_running()
+        env_states, needs_reset = split_states(states, self.num_envs)
+        self._assert_idle("set_states")
+        with self._stopped_on_interrupt():
+            self._dispatcher.call_each("set_state", [(state,) for state in env_states])
+            self._state = AsyncState.WAITING_CALL
+        self._collect_calls(None, "set_states")
+        if needs_reset is not None:
+            self._buffers.needs_reset[:] = needs_reset
+
+    set_states = one_thread_at_a_time(_set_states)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Attribute ``name`` of every env (through wrappers, like ``env.get_wrapper_attr``)."""

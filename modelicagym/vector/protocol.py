@@ -52,12 +52,16 @@ class Kind(str, enum.Enum):
     """What a :class:`Message` is; its ``data`` is given for each kind."""
 
     # parent -> worker
-    #: ``(seeds of the worker's envs, options)``
+    #: ``(seeds of the worker's envs, options)``; ``options["options_per_env"]``, if any, holds
+    #: only the worker's envs' entries
     RESET = "reset"
     #: ``(name, args, kwargs)``
     CALL = "call"
     #: ``(name, values of the worker's envs)``
     SET_ATTR = "set_attr"
+    #: ``(name, per env of the worker its arguments or None)``: call each env's method with its own
+    #: arguments (``None``: that env is not called)
+    CALL_EACH = "call_each"
     #: actions of the worker's envs, when the action space has no shared-memory layout: step
     STEP = "step"
     #: no data: close the envs and exit

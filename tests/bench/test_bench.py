@@ -25,6 +25,8 @@ BENCHMARKS = {
     "autoreset": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "load-trial": (["--repeats", "1"], {"seconds", "samples"}),
     "python-reward": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
+    "saved-states": (["--calls", "20", "--repeats", "1"], {"cores", "results"}),
+    "init-once": (["--n", "2", "--init-seconds", "0.01", "--repeats", "1"], {"cores", "results"}),
 }
 
 

@@ -75,3 +75,16 @@ def test_one_file_ppo_trains_and_plots(tmp_path, env):
     assert re.search(r"^\s+\d+ steps .* steps/s\s+mean return .* mean length", out, re.MULTILINE), out
     assert "trained for 4096 steps" in out or "solved:" in out
     assert plot.stat().st_size > 0
+
+
+def test_one_file_ppo_resumed_from_its_checkpoint_ends_as_an_uninterrupted_run(tmp_path):
+    pytest.importorskip("torch", reason="torch is not installed: pip install torch==2.13.0")
+    common = ("ppo.py", "--num-envs", "4", "--total-steps", "3072", "--max-episode-steps", "60",
+              "--plot", str(tmp_path / "curve.png"))
+    checkpoint = str(tmp_path / "run.pt")
+    uninterrupted = run_example(*common)
+    first = run_example(*common, "--checkpoint", checkpoint, "--stop-after", "9")
+    resumed = run_example(*common, "--checkpoint", checkpoint)
+    assert "stopped after update 9" in first and "resumed from" in resumed
+    fingerprint = re.compile(r"^network fingerprint: \w+$", re.MULTILINE)
+    assert fingerprint.findall(resumed) == fingerprint.findall(uninterrupted) != fingerprint.findall(first)

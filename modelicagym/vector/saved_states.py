@@ -1,0 +1,60 @@
+"""A pool's envs' states at once (`VectorState`), for a checkpoint a run resumes from exactly.
+
+``pool.get_states()`` asks every env for its state (``env.get_state()``, the env contract's
+`StatefulEnv`) and keeps beside them which envs the pool will reset at their next step (the
+``NEXT_STEP`` autoreset); ``pool.set_states(...)`` puts both back, in this pool or a new one of the
+same envs (any layout). Nothing here knows what an env's state holds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from modelicagym.errors import ArgumentError, ArgumentTypeError
+
+__all__ = ["VectorState", "check_options_per_env", "split_states"]
+
+
+@dataclass(frozen=True, eq=False)
+class VectorState:
+    """Every env's state (``states[i]``, as its ``get_state()`` gave it) and the pool's per-env
+    ``needs_reset`` flags; picklable when the states are."""
+
+    states: tuple[Any, ...]
+    needs_reset: tuple[int, ...]
+
+    def __len__(self) -> int:
+        return len(self.states)
+
+
+def split_states(states: VectorState | Sequence[Any], num_envs: int) -> tuple[list[Any], np.ndarray | None]:
+    """The per-env states of ``states`` (a `VectorState`, or one state per env) and the
+    ``needs_reset`` flags to restore (``None`` for a plain sequence: left as they are)."""
+    if isinstance(states, VectorState):
+        env_states, needs_reset = list(states.states), np.asarray(states.needs_reset, dtype=np.uint8)
+    elif isinstance(states, Sequence):
+        env_states, needs_reset = list(states), None
+    else:
+        raise ArgumentTypeError(f"set_states takes pool.get_states()'s VectorState or one state per env, "
+                                f"got {type(states).__name__}")
+    if len(env_states) != num_envs:
+        raise ArgumentError(f"set_states got {len(env_states)} states for {num_envs} envs")
+    return env_states, needs_reset
+
+
+def check_options_per_env(options: dict[str, Any] | None, num_envs: int) -> None:
+    """``reset``'s ``options["options_per_env"]``: one dict (or None) per env, refused before any env sees it."""
+    if options is None or "options_per_env" not in options:
+        return
+    per_env = options["options_per_env"]
+    if not isinstance(per_env, Sequence) or isinstance(per_env, (str, bytes)) or len(per_env) != num_envs:
+        got = f"{len(per_env)} entries" if isinstance(per_env, Sequence) else type(per_env).__name__
+        raise ArgumentError(f"options['options_per_env'] must be a list of {num_envs} dicts (one per env), got {got}")
+    bad = next((k for k, entry in enumerate(per_env) if entry is not None and not isinstance(entry, dict)), None)
+    if bad is not None:
+        raise ArgumentTypeError(f"options['options_per_env'][{bad}] must be a dict or None, "
+                                f"got {type(per_env[bad]).__name__}")
