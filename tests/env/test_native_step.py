@@ -131,9 +131,7 @@ def test_envs_the_config_does_not_define_take_the_python_path_and_say_why(make: 
     assert reason in env.step_path_reason
 
 
-def test_non_float_variables_and_termination_callables_keep_the_python_path(family_fmu: Callable[[str, int], Path]) -> None:
-    env = FMUEnv(fmu=family_fmu("probe", 2), inputs=["force"], outputs=["position", "speed"])
-    assert env.step_path == "python" and "'speed' is of type Integer" in env.step_path_reason
+def test_termination_callables_keep_the_python_path(family_fmu: Callable[[str, int], Path]) -> None:
     env = probe_env(family_fmu("probe", 2), termination=lambda env, observation: False)
     assert env.step_path == "python" and "'termination' is a callable" in env.step_path_reason
 

@@ -34,7 +34,7 @@ static int64_t step_batch(mg_batch *b) {
         }
         mg_env *env = b->envs[i];
         *b->current_env = b->first_env + i;
-        size_t obs_bytes = sizeof(double) * (size_t)env->n_outputs;
+        size_t obs_bytes = (size_t)env->observation_bytes;
         int64_t started = timed ? mg_now_ns() : 0;
         int64_t fmu_before = env->clock->fmu_time_ns;
         int32_t f;
@@ -61,12 +61,12 @@ static int64_t step_batch(mg_batch *b) {
             if (next_step) {
                 b->needs_reset[i] = ended;
             } else if (same_step && ended) {
-                memcpy(b->final_obs + i * b->obs_stride, env->outputs, obs_bytes);
+                memcpy(b->final_obs + i * b->obs_stride, env->observation, obs_bytes);
                 f |= env->native_reset && mg_env_reset(env) == 0 ? MG_RESET_DONE : MG_PYTHON_RESET;
             }
         }
         if (!(f & (MG_FMU_ERROR | MG_PYTHON_RESET)))
-            memcpy(b->observations + i * b->obs_stride, env->outputs, obs_bytes);
+            memcpy(b->observations + i * b->obs_stride, env->observation, obs_bytes);
         if (f & (MG_FMU_ERROR | MG_PYTHON_RESET | MG_MODEL_ENDED))
             for_python++;
         else if (same_step && (f & MG_RESET_DONE))
