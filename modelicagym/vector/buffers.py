@@ -175,6 +175,14 @@ class SharedBatch:
         batch = read_from_shared_memory(self.space, self._memory, n=self.n)
         return copy.deepcopy(next(itertools.islice(iterate(self._batch_space, batch), index, None)))
 
+    def read_observation(self, index: int) -> Any:
+        """The value of env ``index`` as an env returns it, copied out: a ``Discrete`` value as a
+        numpy integer, a ``Box`` of shape ``()`` as a 0-d array (where `read` gives the scalar
+        ``iterate`` would, as actions are handed to envs)."""
+        if self._array is not None and not isinstance(self.space, Discrete):
+            return self._array[index, ...].copy()
+        return self.read(index)
+
     def write_batch(self, values: Any) -> None:
         """Store a whole batch (an element of the batched space)."""
         array = self._array
@@ -217,6 +225,10 @@ class PickledBatch:
     def read(self, index: int) -> Any:
         """The value of env ``index`` (a copy: the caller may keep it)."""
         return copy.deepcopy(self._values[index])
+
+    def read_observation(self, index: int) -> Any:
+        """The value of env ``index`` as an env returns it (as stored: a copy)."""
+        return self.read(index)
 
     def write_batch(self, values: Any) -> None:
         """Store a whole batch (an element of the batched space)."""
@@ -314,7 +326,7 @@ class SharedBuffers:
     def final_info(self, index: int) -> dict[str, Any]:
         """The info ``SyncVectorEnv`` reports for env ``index`` reset in a ``SAME_STEP`` step by
         the native step (`take_final_ready`): its final observation and its (empty) final info."""
-        return {"final_obs": self.final_observations.read(index), "final_info": {}}
+        return {"final_obs": self.final_observations.read_observation(index), "final_info": {}}
 
     def signal_address(self, slot: int, which: int) -> int:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""

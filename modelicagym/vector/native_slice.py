@@ -18,6 +18,7 @@ import ctypes
 from typing import Any
 
 import numpy as np
+from gymnasium.spaces import Box, Discrete, MultiBinary, MultiDiscrete
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
@@ -27,6 +28,8 @@ from modelicagym.vector.env_contract import NativeEnv, PoolEnv
 
 __all__ = ["NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
 
+#: the spaces whose values are one row of the pool's shared memory per env
+_ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
 #: flags of an env that Python must finish after ``mg_step_batch``
 NEEDS_PYTHON = Flags.FMU_ERROR | Flags.PYTHON_RESET | Flags.MODEL_ENDED | Flags.BAD_ACTION
 
@@ -36,13 +39,18 @@ _AUTORESET_CODES = {AutoresetMode.NEXT_STEP: AutoresetCode.NEXT_STEP, AutoresetM
 
 def batch_path_reason(envs: list[PoolEnv]) -> str | None:
     """Why a slice of ``envs`` must step on the Python path, or ``None`` when it can be a
-    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces)."""
+    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces,
+    array spaces: one row of shared memory per env)."""
     for offset, env in enumerate(envs):
         if env is not env.unwrapped:
             return f"env {offset} of the slice is wrapped in {type(env).__name__} (the native path steps bare FMUEnvs)"
         if getattr(env, "step_path", None) != "native":
             reason = getattr(env, "step_path_reason", "it is not an FMUEnv")
             return f"env {offset} of the slice steps on the Python path: {reason}"
+        for role, space in (("action", env.action_space), ("observation", env.observation_space)):
+            if not isinstance(space, _ARRAY_SPACES):
+                return (f"the {role} space {space} is not a Box, Discrete, MultiDiscrete or MultiBinary "
+                        "(a native slice moves one row of shared memory per env)")
     return None
 
 
