@@ -93,7 +93,7 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 
 def add_arguments(parser: Any) -> None:
-    """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
+    """``modelicagym bench {fmi-calls,step-paths,model-exchange,throughput,shared,autoreset,training,partial-batches,
     runner,solver-accuracy,ray,load-trial}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
@@ -105,12 +105,13 @@ def add_arguments(parser: Any) -> None:
         runner,
         shared_machine,
         solver_accuracy,
+        step_paths,
         throughput,
         training,
     )
 
     which = parser.add_subparsers(dest="benchmark", required=True)
-    benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput),
+    benchmarks = (("fmi-calls", fmi_calls), ("step-paths", step_paths), ("model-exchange", model_exchange), ("throughput", throughput),
                   ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
                   ("partial-batches", partial_batches),
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial))

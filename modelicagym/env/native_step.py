@@ -318,6 +318,11 @@ class NativeStep:
         return self._step(self._state_ref, self._action_ref, self._reward_ref)
 
     @property
+    def action_pointer(self) -> Any:
+        """The action as the last :meth:`step` handed it to C (for ``mg_loop``, the benchmarks' C loop)."""
+        return self._action_ref
+
+    @property
     def reward(self) -> float:
         """The reward of the last :meth:`step`."""
         return self._reward.value
