@@ -190,7 +190,7 @@ class FMUEnv(gym.Env):
             flags = native.step(action)
             if flags & Flags.FMU_ERROR:
                 return self.fmu_failure(native.error())
-            return (self.observation(), native.reward, *Flags.ending(flags))
+            return (native.observation(), native.reward, *Flags.ending(flags))
         write_values(self.fmu.inputs, self.action_to_inputs(action))
         info: dict[str, Any] = {}
         try:

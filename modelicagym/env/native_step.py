@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import ctypes
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -165,6 +166,13 @@ def _storage_dtypes(space: spaces.Space, variables: list) -> list[np.dtype]:
     return [np.dtype(space.dtype)] * sum(v.size for v in variables)
 
 
+def _reader(values: np.ndarray, space: spaces.Space) -> Callable[[], Any]:
+    """Reads one (sub-)space's value out of its flat ``values`` in the observation row."""
+    if isinstance(space, spaces.Discrete):
+        return lambda: values[0]
+    return values.reshape(space.shape).copy
+
+
 def _moves(pairs: list[tuple[int, int, int, int]]) -> ctypes.Array:
     moves = (MgMove * max(len(pairs), 1))()
     for move, (source, source_type, target, target_type) in zip(moves, pairs):
@@ -209,6 +217,7 @@ class NativeStep:
             sources = self._action_row(_action_parts(env.action_space, fmu.input_variables))
         self._keep["action_moves"] = _moves([(*source, *target) for source, target in zip(sources, inputs)])
         self._keep["observation"] = observation = self._observation_row(outputs, env._observer.space)
+        self.observation = self._observation_reader(observation, env._observer.space)
         self._keep["observation_moves"] = _moves(self._observation_pairs)
         for field, array in self._keep.items():
             setattr(state, field, _address(array))
@@ -264,6 +273,20 @@ class NativeStep:
         self._observation_pairs = [(address, code, int(offset), ValueType.of(dtype))
                                    for (address, code), offset, dtype in zip(outputs, offsets, dtypes)]
         return np.zeros(max(int(offsets[-1]), 1), dtype=np.uint8)
+
+    def _observation_reader(self, row: np.ndarray, space: spaces.Space) -> Callable[[], Any]:
+        """A function returning the observation C wrote into ``row`` as the env's `Observer` gives
+        it (fresh arrays of the space's dtypes and shapes; a Discrete value as a numpy integer)."""
+        if not isinstance(space, spaces.Dict):
+            return _reader(row[: _space_values(space) * space.dtype.itemsize].view(space.dtype), space)
+        readers, offset = {}, 0
+        for v in self.env.fmu.output_variables:  # C lays the values out in variable order
+            sub = space[v.name]
+            size = v.size * sub.dtype.itemsize
+            readers[v.name] = _reader(row[offset : offset + size].view(sub.dtype), sub)
+            offset += size
+        entries = [(name, readers[name]) for name in space.keys()]
+        return lambda: {name: read() for name, read in entries}
 
     def _make_calls(self, buffer: Any) -> tuple[ctypes.Array, list[tuple[str, str]]]:
         """One ``mg_call`` per FMI type of ``buffer`` (its function is bound in :meth:`bind`), and
