@@ -62,12 +62,23 @@ def _fast_check(space: spaces.Space) -> Callable[[Any], bool] | None:
         bounds = list(zip(low.tolist(), high.tolist()))
         shape, kinds = space.shape, ("fiu" if type(space) is spaces.Box else "iub")
 
-        def check_array(action: Any) -> bool:
-            if type(action) is not np.ndarray or action.shape != shape or action.dtype.kind not in kinds:
-                return False
-            return all(low <= value <= high and isfinite(value) for value, (low, high) in zip(action.ravel().tolist(), bounds))
+        def is_array(action: Any) -> bool:
+            return isinstance(action, (np.ndarray, np.generic)) and action.shape == shape and action.dtype.kind in kinds
 
-        return check_array
+        if shape == ():  # a Dict's entry for one scalar variable: often a numpy scalar
+            ((low, high),) = bounds
+            scalars = (np.floating, np.integer) if type(space) is spaces.Box else (np.integer, np.bool_)
+
+            def check_scalar(action: Any) -> bool:
+                if not (isinstance(action, scalars) or (type(action) is np.ndarray and is_array(action))):
+                    return False
+                value = action.item()
+                return low <= value <= high and isfinite(value)
+
+            return check_scalar
+
+        return lambda action: is_array(action) and all(
+            low <= value <= high and isfinite(value) for value, (low, high) in zip(action.ravel().tolist(), bounds))
     if type(space) is spaces.Dict:
         entries = [(key, _fast_check(sub)) for key, sub in space.items()]
         if any(check is None for _, check in entries):
