@@ -150,3 +150,20 @@ def test_a_pool_of_typed_envs_steps_natively_as_sync_over_python(family_fmu: Cal
             expected, actual = rollout(sync, 40), rollout(pool, 40)
         sync.close()
         assert_same(expected, actual)
+
+
+def test_a_float_box_over_typed_inputs_is_cast_as_numpy_casts(family_fmu: Callable[[str, int], Path],
+                                                              fmi_version: int) -> None:
+    """Fractions into integers truncate, into FMI 2.0's int booleans too, into FMI 3.0's bools: != 0."""
+    box = spaces.Box(np.array([0, 1, 0, 0, -10.0]), np.array([4.9, 3.9, 1, 1, 10.0]), dtype=np.float64)
+    make = partial(probe, family_fmu("probe", fmi_version), ["gear", "mode", "enable", "boost", "force"],
+                   ["position", "speed", "moving"], action_space=box)
+    assert_same_episodes(*both_paths(make))
+
+
+def test_a_pool_with_dict_spaces_says_why_its_slices_step_in_python(family_fmu: Callable[[str, int], Path]) -> None:
+    fns = [partial(probe, family_fmu("probe", 2), ["gear", "force"], ["position"])] * 2
+    with PoolVectorEnv(fns, num_workers=1, caller_steps=True) as pool:
+        assert {path for path, _ in pool.step_paths} == {"python"}
+        assert "the action space Dict(" in pool.step_paths[0].reason
+    assert fns[0]().step_path == "native"  # each env alone steps natively
