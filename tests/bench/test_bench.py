@@ -94,3 +94,12 @@ def test_the_shared_machine_benchmark_leaves_no_load_behind(tmp_path: Path) -> N
     assert len(two["pairs"]["pool"]) == 2 and all(len(pair) == 2 for pair in two["pairs"]["pool"])
     assert two["steps_per_second"]["pool"] == statistics.median(map(sum, two["pairs"]["pool"]))  # the pair's sum
     assert _processes_with(BUSY_MARKER) == [] and _processes_with("modelicagym.bench.shared_machine") == []
+
+
+def test_the_step_paths_benchmark_times_any_fmu_on_both_paths(family_fmu, tmp_path: Path) -> None:
+    args = [str(family_fmu("probe", 3)), "--time-step", "0.1", "--steps", "50", "--repeats", "1"]
+    out = run_bench("step-paths", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert set(result["seconds_per_step"]) == {"C loop", "FMUEnv.step (native)", "FMUEnv.step (python)"}
+    assert result["inputs"][:5] == ["gear", "mode", "enable", "boost", "force"]
+    assert "native env step / C loop" in out
