@@ -206,6 +206,10 @@ class NativeStep:
             "bound_high": np.array([high for _, _, high in bounds], dtype=np.float64),
         }
         self._discrete = config.action_table is not None
+        #: a Dict action's entries in the action row C reads: ``(name, byte offset, bytes, dtype)``
+        self.action_layout: list[tuple[str, int, int, np.dtype]] | None = None
+        #: a Dict observation's entries in the row C writes: ``{name: (byte offset, bytes)}``
+        self.observation_layout: dict[str, tuple[int, int]] | None = None
         if self._discrete:
             table = np.array(config.action_table, dtype=np.float64).reshape(len(config.action_table), len(inputs))
             self._keep["action_table"] = table
@@ -254,11 +258,14 @@ class NativeStep:
         sizes = [_space_values(space) for _, space in parts]
         offsets = np.cumsum([0] + [-(-n * d.itemsize // 8) * 8 for n, d in zip(sizes, dtypes)])
         self._row = row = np.zeros(int(offsets[-1]) // 8 or 1, dtype=np.float64)
+        self.action_row_bytes = row.nbytes
         raw = row.view(np.uint8)
         views = [raw[offsets[k] : offsets[k] + sizes[k] * dtypes[k].itemsize].view(dtypes[k]) for k in range(len(parts))]
         self._views = [(name, view if isinstance(space, spaces.Discrete) else view.reshape(space.shape))
                        for (name, space), view in zip(parts, views)]
         self._single = self._views[0][1] if parts[0][0] is None else None
+        self.action_layout = None if self._single is not None else [
+            (name, int(offsets[k]), sizes[k] * dtypes[k].itemsize, dtypes[k]) for k, (name, _) in enumerate(parts)]
         self._action_ref = ctypes.c_void_p(row.ctypes.data)
         lows, highs = zip(*(_array_bounds(space) for _, space in parts))
         self._keep["action_low"], self._keep["action_high"] = np.concatenate(lows), np.concatenate(highs)
@@ -280,10 +287,12 @@ class NativeStep:
         if not isinstance(space, spaces.Dict):
             return _reader(row[: _space_values(space) * space.dtype.itemsize].view(space.dtype), space)
         readers, offset = {}, 0
+        self.observation_layout = {}
         for v in self.env.fmu.output_variables:  # C lays the values out in variable order
             sub = space[v.name]
             size = v.size * sub.dtype.itemsize
             readers[v.name] = _reader(row[offset : offset + size].view(sub.dtype), sub)
+            self.observation_layout[v.name] = (offset, size)
             offset += size
         entries = [(name, readers[name]) for name in space.keys()]
         return lambda: {name: read() for name, read in entries}

@@ -42,6 +42,7 @@ __all__ = [
     "MgCall",
     "MgEnv",
     "MgMove",
+    "MgPart",
     "MgIntegrator",
     "MgQLearner",
     "MgRecorder",
@@ -362,6 +363,22 @@ class MgBatch(ctypes.Structure):
         *_pointers("flags", "current_env"),
         ("first_env", ctypes.c_int64),
         *_pointers("timing_enabled", "timing"),
+        ("action_parts", ctypes.c_void_p),
+        ("n_action_parts", ctypes.c_int64),
+        ("obs_parts", ctypes.c_void_p),
+        ("n_obs_parts", ctypes.c_int64),
+        ("scratch", ctypes.c_void_p),
+    ]
+
+
+class MgPart(ctypes.Structure):
+    """``mg_part`` (``csrc/slice.h``): one entry of a Dict space in the pool's shared memory."""
+
+    _fields_ = [
+        ("offset", ctypes.c_int64),
+        ("bytes", ctypes.c_int64),
+        *_pointers("base", "final_base"),
+        ("stride", ctypes.c_int64),
     ]
 
 
@@ -432,6 +449,7 @@ STRUCTS: dict[str, type[ctypes.Structure]] = {
     "mg_move": MgMove,
     "mg_env": MgEnv,
     "mg_batch": MgBatch,
+    "mg_part": MgPart,
     "mg_waiter": MgWaiter,
     "mg_server": MgServer,
     "mg_collector": MgCollector,

@@ -73,6 +73,15 @@ def _item(batch: Any, index: int) -> Any:
     return tuple(_item(sub, index) for sub in batch)
 
 
+def _observed(space: Space, batch: Any, index: int) -> Any:
+    """Element ``index`` of a batch of static views as an env returns it (see `SharedBatch.read_observation`)."""
+    if isinstance(space, Dict):
+        return {key: _observed(sub, batch[key], index) for key, sub in space.spaces.items()}
+    if isinstance(space, Discrete):
+        return batch[index]
+    return batch[index, ...].copy()
+
+
 def _assign(batch: Any, values: Any) -> None:
     """Copy a batch of values into a batch of static views of the same structure."""
     if isinstance(batch, np.ndarray):
@@ -178,9 +187,9 @@ class SharedBatch:
     def read_observation(self, index: int) -> Any:
         """The value of env ``index`` as an env returns it, copied out: a ``Discrete`` value as a
         numpy integer, a ``Box`` of shape ``()`` as a 0-d array (where `read` gives the scalar
-        ``iterate`` would, as actions are handed to envs)."""
-        if self._array is not None and not isinstance(self.space, Discrete):
-            return self._array[index, ...].copy()
+        ``iterate`` would, as actions are handed to envs), a ``Dict`` as a dict of those."""
+        if self._views is not None and isinstance(self.space, (Dict, *_ARRAY_SPACES)):
+            return _observed(self.space, self._views, index)
         return self.read(index)
 
     def write_batch(self, values: Any) -> None:

@@ -129,9 +129,10 @@ def test_fmi1_co_simulation_steps_natively_as_in_python() -> None:
 
 
 POOL_CASES = {
-    2: [(["gear", "mode"], ["speed", "mode_out"]), (["enable", "boost"], ["moving"]), (["gear"], ["steps"])],
+    2: [(["gear", "mode"], ["speed", "mode_out"]), (["enable", "boost"], ["moving"]), (["gear"], ["steps"]),
+        CASES["every type as a Dict"]],
     3: [(["u"], ["y"]), (["trim"], ["level"]), (["enable", "boost"], ["positive"]), (["tag"], ["tag_out"]),
-        (["gear"], ["ticks"]), (["force"], ["thrust"])],
+        (["gear"], ["ticks"]), (["force"], ["thrust"]), CASES3["every type as a Dict"]],
 }
 
 
@@ -161,9 +162,11 @@ def test_a_float_box_over_typed_inputs_is_cast_as_numpy_casts(family_fmu: Callab
     assert_same_episodes(*both_paths(make))
 
 
-def test_a_pool_with_dict_spaces_says_why_its_slices_step_in_python(family_fmu: Callable[[str, int], Path]) -> None:
-    fns = [partial(probe, family_fmu("probe", 2), ["gear", "force"], ["position"])] * 2
+def test_a_pool_with_a_float32_dict_entry_says_why_its_slices_step_in_python(
+        family_fmu: Callable[[str, int], Path]) -> None:
+    box = spaces.Dict({"force": spaces.Box(-10, 10, (), np.float32), "gear": spaces.Discrete(5)})
+    fns = [partial(probe, family_fmu("probe", 2), ["gear", "force"], ["position"], action_space=box)] * 2
     with PoolVectorEnv(fns, num_workers=1, caller_steps=True) as pool:
         assert {path for path, _ in pool.step_paths} == {"python"}
-        assert "the action space Dict(" in pool.step_paths[0].reason
+        assert "entry 'force' of the action space is a float32 Box" in pool.step_paths[0].reason
     assert fns[0]().step_path == "native"  # each env alone steps natively
