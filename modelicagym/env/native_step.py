@@ -254,7 +254,9 @@ class NativeStep:
     def _action_row(self, parts: list[tuple[str | None, spaces.Space]]) -> list[tuple[int, int]]:
         """Lay out the action row C reads (one typed array per part, in input order) and return
         ``(byte offset, MG_TYPE_*)`` of each of its values; :meth:`step` fills it."""
-        dtypes = [action_storage_dtype(space) for _, space in parts]
+        float32 = {v.name for v in self.env.fmu.input_variables if v.fmi_type == "Float32"}
+        dtypes = [np.dtype(np.float32) if name in float32 and space.dtype == np.float32 else action_storage_dtype(space)
+                  for name, space in parts]  # a Dict's float32 entry over Float32 values: as the pool keeps it
         sizes = [_space_values(space) for _, space in parts]
         offsets = np.cumsum([0] + [-(-n * d.itemsize // 8) * 8 for n, d in zip(sizes, dtypes)])
         self._row = row = np.zeros(int(offsets[-1]) // 8 or 1, dtype=np.float64)

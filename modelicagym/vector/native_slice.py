@@ -22,7 +22,6 @@ from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
-from modelicagym.env.native_step import action_storage_dtype
 from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgCollector, MgEnv, MgPart, MgServer, MgWaiter
 from modelicagym.native.library import load_library
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
@@ -55,10 +54,11 @@ def batch_path_reason(envs: list[PoolEnv]) -> str | None:
                     what = f"entry {name!r} of the {role} space" if name else f"the {role} space {space}"
                     return (f"{what} is not a Box, Discrete, MultiDiscrete or MultiBinary (a native slice moves "
                             "rows of shared memory)")
-                if role == "action" and name and sub.dtype != action_storage_dtype(sub):
-                    return (f"entry {name!r} of the action space is a {sub.dtype} Box: the pool's shared memory "
-                            f"holds it as {sub.dtype}, the native step as float64")
         native, first = env.native_step, envs[0].native_step
+        for name, _, _, dtype in native.action_layout or ():
+            if env.action_space[name].dtype != dtype:
+                return (f"entry {name!r} of the action space is a {env.action_space[name].dtype} Box over "
+                        f"{dtype} values: the pool's shared memory holds it as {env.action_space[name].dtype}")
         if (native.action_layout, native.observation_layout) != (first.action_layout, first.observation_layout):
             return f"env {offset} lays out its Dict action or observation otherwise than env 0 (another input order)"
     return None

@@ -168,5 +168,5 @@ def test_a_pool_with_a_float32_dict_entry_says_why_its_slices_step_in_python(
     fns = [partial(probe, family_fmu("probe", 2), ["gear", "force"], ["position"], action_space=box)] * 2
     with PoolVectorEnv(fns, num_workers=1, caller_steps=True) as pool:
         assert {path for path, _ in pool.step_paths} == {"python"}
-        assert "entry 'force' of the action space is a float32 Box" in pool.step_paths[0].reason
+        assert "entry 'force' of the action space is a float32 Box over float64 values" in pool.step_paths[0].reason
     assert fns[0]().step_path == "native"  # each env alone steps natively
