@@ -1,6 +1,6 @@
 """Every numeric FMI type on the native step path: integer, enumeration, boolean, Float32, the sized
 integers and FMI 3.0 arrays as inputs and outputs, tunable parameters as actions, FMI 1.0
-co-simulation; each steps in C with the Python path's results bit for bit (observations of the same
+co-simulation and model exchange; each steps in C with the Python path's results bit for bit (observations of the same
 dtypes), and a pool of them steps natively too."""
 
 from __future__ import annotations
@@ -13,11 +13,14 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium import spaces
+from fmu_family import BALL_DIR, BALL_OUTPUTS
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from vector_rollouts import assert_same, rollout
 
 import modelicagym
 from modelicagym import FMUEnv
+from modelicagym.fmu import FMUInstance
+from modelicagym.fmu.build import build_source_fmu
 from modelicagym.vector import PoolVectorEnv
 
 #: (inputs, outputs) per case; FMI 3.0 cases use the variables only the FMI 3.0 probe has
@@ -123,9 +126,29 @@ def test_an_action_table_over_typed_inputs(family_fmu: Callable[[str, int], Path
     assert_same_episodes(*both_paths(make))
 
 
-def test_fmi1_co_simulation_steps_natively_as_in_python() -> None:
-    native, python = both_paths(partial(modelicagym.make, "cartpole", fmi_version=1, mode="cs", max_episode_steps=9))
+@pytest.mark.parametrize("mode", ["cs", "me"])
+def test_fmi1_steps_natively_as_in_python(mode: str) -> None:
+    native, python = both_paths(partial(modelicagym.make, "cartpole", fmi_version=1, mode=mode, max_episode_steps=9))
     assert_same_episodes(native.unwrapped, python.unwrapped, steps=80)
+
+
+def test_fmi1_model_exchange_events_in_c_as_in_python() -> None:
+    """The bouncing ball's state events and time event, through fmiEventUpdate in C."""
+    path = build_source_fmu(BALL_DIR, 1, "me")
+
+    def run(integrator: str) -> list[bytes]:
+        with FMUInstance(path, mode="me", outputs=BALL_OUTPUTS, integrator=integrator) as fmu:
+            assert fmu.integrator_path == ("python" if integrator == "python" else "native")
+            rows = []
+            for _ in range(2):
+                fmu.reset({"t_switch": 1.5})
+                for _ in range(40):
+                    fmu.step(0.05)
+                    rows.append(fmu.outputs.snapshot())
+            assert fmu.outputs.views["bounces"] == 3 and fmu.outputs.views["t_switched"] == pytest.approx(1.5)
+            return rows
+
+    assert run("auto") == run("python")
 
 
 POOL_CASES = {
