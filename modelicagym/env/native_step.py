@@ -4,7 +4,8 @@ An env takes the native path when its step is fully defined by its config (:func
 says why not, in a sentence a user can act on): co-simulation (FMI 1.0, 2.0, 3.0) or model exchange
 with the native integrator and continuous inputs; `FMUEnv`'s own step, reward, termination,
 observation and action mapping; no reward or termination callables; inputs and outputs (tunable
-parameters too) of any FMI type but String and Binary, scalars and FMI 3.0 arrays; an action space
+parameters too) of any numeric FMI type (String and Binary variables are never actions or
+observations), scalars and FMI 3.0 arrays; an action space
 whose values map one to one onto the input values (a Box, MultiDiscrete, MultiBinary or Discrete over
 them, a Dict keyed by the inputs' names, or a Discrete over the config's ``action_table``); no strip
 chart to record (``render_mode="rgb_array"``). Everything else stays on the Python path, with the
@@ -39,8 +40,6 @@ __all__ = ["NativeStep", "action_storage_dtype", "python_path_reason"]
 logger = logging.getLogger(__name__)
 
 _OVERRIDABLE = ("step", "compute_reward", "is_terminal", "action_to_inputs", "observation")
-#: the kinds of variables C cannot move (their values are not numbers)
-_NOT_NUMBERS = ("string", "binary", "clock")
 #: the spaces whose values C reads from a flat row (a Dict of them: one row per key, in input order)
 _ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
 #: the function a native reset restores the snapshot with (FMI 1.0 has none)
@@ -124,10 +123,6 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
         return "'reward' is a callable in the config"
     if callable(config.termination):
         return "'termination' is a callable in the config"
-    for role, variables in (("input", fmu.input_variables), ("output", fmu.output_variables)):
-        for v in variables:
-            if v.kind in _NOT_NUMBERS:
-                return f"{role} {v.name!r} is of type {v.fmi_type} (the native path moves numbers)"
     n_values = sum(v.size for v in fmu.input_variables)
     if config.action_table is not None:
         if env.action_space != spaces.Discrete(len(config.action_table)):
