@@ -120,7 +120,6 @@ class ShapedReward(CartPoleEnv):
     "make, reason",
     [
         (lambda: modelicagym.make("cartpole", step_path="python"), "step_path='python'"),
-        (lambda: modelicagym.make("cartpole", fmi_version=1, mode="me"), "FMI 1.0"),
         (lambda: ShapedReward(), "compute_reward is overridden by ShapedReward"),
         (lambda: modelicagym.make("cartpole", reward=lambda env, obs, action, terminated: 1.0), "'reward' is a callable"),
     ],
