@@ -37,9 +37,6 @@ static int call_all(const mg_env *env, const mg_call *calls, int64_t n) {
 
 static int set_inputs(mg_env *env) { return call_all(env, env->set_calls, env->n_set_calls); }
 
-/* Read the outputs and convert them into the observation. */
-static int get_outputs(mg_env *env);
-
 /* -- moves: numpy's assignment casts, in C --------------------------------------------------------
  * A source value is read exactly as a double (float types), an int64 (signed, bool) or a uint64,
  * and cast from there to the target type directly (an int64 to float32 rounds once, as numpy does). */
@@ -104,6 +101,7 @@ static bool store(void *p, int32_t type, value v) {
 #undef PUT
 }
 
+/* Read the outputs and convert them into the observation. */
 static int get_outputs(mg_env *env) {
     int status = call_all(env, env->get_calls, env->n_get_calls);
     for (int64_t k = 0; k < env->n_outputs; k++) {
