@@ -58,8 +58,8 @@ def _fast_check(space: spaces.Space) -> Callable[[Any], bool] | None:
         low, high = int(space.start), int(space.start + space.n)
         return lambda action: (type(action) is int or isinstance(action, np.integer)) and low <= action < high
     if type(space) in (spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary) and 0 < int(np.prod(space.shape)) <= 16:
-        low, high = _element_bounds(space)
-        bounds = list(zip(low.tolist(), high.tolist()))
+        lows, highs = _element_bounds(space)
+        bounds = list(zip(lows.tolist(), highs.tolist()))
         shape, kinds = space.shape, ("fiu" if type(space) is spaces.Box else "iub")
 
         def is_array(action: Any) -> bool:
