@@ -216,7 +216,8 @@ class NativeStep:
             sources = self._action_row(_action_parts(env.action_space, fmu.input_variables))
         self._keep["action_moves"] = _moves([(*source, *target) for source, target in zip(sources, inputs)])
         self._keep["observation"] = observation = self._observation_row(outputs, env._observer.space)
-        self.observation = self._observation_reader(observation, env._observer.space)
+        #: the observation of the last C step or reset, as the env's `Observer` gives it (a fresh copy)
+        self.observation: Callable[[], Any] = self._observation_reader(observation, env._observer.space)
         self._keep["observation_moves"] = _moves(self._observation_pairs)
         for field, array in self._keep.items():
             setattr(state, field, _address(array))
