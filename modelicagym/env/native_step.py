@@ -96,7 +96,7 @@ def _same_layout(a: spaces.Space, b: spaces.Space) -> bool:
     """Whether values of ``a`` and ``b`` are laid out alike (type, shape and dtype; bounds may differ)."""
     if isinstance(a, spaces.Dict) or isinstance(b, spaces.Dict):
         return (type(a) is type(b) and list(a.keys()) == list(b.keys())
-                and all(_same_layout(a[k], b[k]) for k in a.keys()))
+                and all(_same_layout(a[k], b[k]) for k in a))
     return type(a) is type(b) and a.shape == b.shape and a.dtype == b.dtype
 
 
@@ -292,7 +292,7 @@ class NativeStep:
             readers[v.name] = _reader(row[offset : offset + size].view(sub.dtype), sub)
             self.observation_layout[v.name] = (offset, size)
             offset += size
-        entries = [(name, readers[name]) for name in space.keys()]
+        entries = [(name, readers[name]) for name in space]
         return lambda: {name: read() for name, read in entries}
 
     def _make_calls(self, buffer: Any) -> tuple[ctypes.Array, list[tuple[str, str]]]:

@@ -126,7 +126,7 @@ class _Allocator:
         """Whether this allocator only measures (has no buffer)."""
         return self._buffer is None
 
-    def Array(self, typecode: Any, size: int) -> _Region:  # noqa: N802 - mimics ctx.Array
+    def Array(self, typecode: Any, size: int) -> _Region:
         itemsize = ctypes.sizeof(typecode) if isinstance(typecode, type) else np.dtype(typecode).itemsize
         start = -(-self.size // _ALIGNMENT) * _ALIGNMENT
         self.size = start + itemsize * size

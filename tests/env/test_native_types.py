@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from gymnasium import spaces
 from fmu_family import BALL_DIR, BALL_OUTPUTS
+from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from vector_rollouts import assert_same, rollout
 
