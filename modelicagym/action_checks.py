@@ -38,30 +38,64 @@ def check_action(space: spaces.Space, action: Any) -> None:
 
 
 def action_checker(space: spaces.Space) -> Callable[[Any], None]:
-    """A fast `check_action` for one space: common valid actions pass in well under a microsecond."""
-    if type(space) is spaces.Discrete:
-        low, high = int(space.start), int(space.start + space.n)
+    """A fast `check_action` for one space: common valid actions pass in well under a microsecond
+    (a Dict's in about a microsecond per entry)."""
+    fast = _fast_check(space)
+    if fast is None:
+        return partial(check_action, space)
 
-        def check_discrete(action: Any) -> None:
-            if not (type(action) is int or isinstance(action, np.integer)) or not low <= action < high:
-                check_action(space, action)
-
-        return check_discrete
-    if type(space) is spaces.Box and len(space.shape) == 1 and space.shape[0] <= 16:
-        bounds = list(zip(space.low.tolist(), space.high.tolist()))
-        shape = space.shape
-
-        def check_box(action: Any) -> None:
-            if type(action) is np.ndarray and action.shape == shape and action.dtype.kind in "fiu":
-                for value, (low, high) in zip(action.tolist(), bounds):
-                    if not (low <= value <= high and isfinite(value)):
-                        break
-                else:
-                    return
+    def check(action: Any) -> None:
+        if not fast(action):
             check_action(space, action)
 
-        return check_box
-    return partial(check_action, space)
+    return check
+
+
+def _fast_check(space: spaces.Space) -> Callable[[Any], bool] | None:
+    """A predicate true for the common valid actions of ``space`` (false: ask `check_action`, which
+    accepts the others and names what is wrong), or ``None`` when the space has none."""
+    if type(space) is spaces.Discrete:
+        low, high = int(space.start), int(space.start + space.n)
+        return lambda action: (type(action) is int or isinstance(action, np.integer)) and low <= action < high
+    if type(space) in (spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary) and 0 < int(np.prod(space.shape)) <= 16:
+        lows, highs = _element_bounds(space)
+        bounds = list(zip(lows.tolist(), highs.tolist()))
+        shape, kinds = space.shape, ("fiu" if type(space) is spaces.Box else "iub")
+
+        def is_array(action: Any) -> bool:
+            return isinstance(action, (np.ndarray, np.generic)) and action.shape == shape and action.dtype.kind in kinds
+
+        if shape == ():  # a Dict's entry for one scalar variable: often a numpy scalar
+            ((low, high),) = bounds
+            scalars = (np.floating, np.integer) if type(space) is spaces.Box else (np.integer, np.bool_)
+
+            def check_scalar(action: Any) -> bool:
+                if not (isinstance(action, scalars) or (type(action) is np.ndarray and is_array(action))):
+                    return False
+                value = action.item()
+                return low <= value <= high and isfinite(value)
+
+            return check_scalar
+
+        return lambda action: is_array(action) and all(
+            low <= value <= high and isfinite(value) for value, (low, high) in zip(action.ravel().tolist(), bounds))
+    if type(space) is spaces.Dict:
+        entries = [(key, _fast_check(sub)) for key, sub in space.items()]
+        if any(check is None for _, check in entries):
+            return None
+        keys = set(space.keys())
+        return lambda action: (type(action) is dict and action.keys() == keys
+                               and all(check(action[key]) for key, check in entries))
+    return None
+
+
+def _element_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
+    """Each element's lowest and highest valid value (a Box's bounds, a MultiDiscrete's range, 0/1)."""
+    if type(space) is spaces.Box:
+        return np.ravel(space.low), np.ravel(space.high)
+    if type(space) is spaces.MultiDiscrete:
+        return np.ravel(space.start), np.ravel(space.start + space.nvec - 1)
+    return np.zeros(int(np.prod(space.shape)), np.int64), np.ones(int(np.prod(space.shape)), np.int64)
 
 
 def action_problem(space: spaces.Space, action: Any) -> str | None:

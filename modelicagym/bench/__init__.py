@@ -93,7 +93,7 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 
 def add_arguments(parser: Any) -> None:
-    """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
+    """``modelicagym bench {fmi-calls,step-paths,model-exchange,throughput,shared,autoreset,training,partial-batches,
     runner,solver-accuracy,ray,load-trial,fmu,python-reward,saved-states,init-once}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
@@ -109,13 +109,14 @@ def add_arguments(parser: Any) -> None:
         saved_states,
         shared_machine,
         solver_accuracy,
+        step_paths,
         throughput,
         training,
     )
 
     which = parser.add_subparsers(dest="benchmark", required=True)
-    benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput),
-                  ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
+    benchmarks = (("fmi-calls", fmi_calls), ("step-paths", step_paths), ("model-exchange", model_exchange),
+                  ("throughput", throughput), ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
                   ("partial-batches", partial_batches),
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial),
                   ("fmu", own_fmu), ("python-reward", python_reward),

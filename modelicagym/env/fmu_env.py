@@ -217,9 +217,10 @@ class FMUEnv(gym.Env):
                 return self.fmu_failure(native.error())
             terminated, truncated, info = Flags.ending(flags)
             endings = self.native_endings
+            observation = native.observation()
             if endings is None:
-                return self.observation(), native.reward, terminated, truncated, info
-            observation = self.observation()  # C stepped the FMU; the ending is Python's, as below
+                return observation, native.reward, terminated, truncated, info
+            # C stepped the FMU; the ending is Python's, as below
             if endings.termination:
                 terminated = self.is_terminal(observation)
                 if flags & Flags.MODEL_ENDED:

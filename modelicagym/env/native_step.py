@@ -1,22 +1,30 @@
 """The native step path of an `FMUEnv`: one C call per step instead of ~10 µs of Python.
 
 An env takes the native path when its step is fully defined by its config (:func:`python_path_reason`
-says why not, in a sentence a user can act on): co-simulation; `FMUEnv`'s own step, observation
-and action mapping; Float64 scalar inputs and outputs; a Box action copied to the inputs, or a
-Discrete action looked up in the config's ``action_table``; no strip chart to record
-(``render_mode="rgb_array"``). Everything else stays on the Python path, with the same results. A
-reward or termination written in Python does not keep an env off the native path: C steps the FMU
-and Python ends the step (`modelicagym.env.endings`); C then checks no termination bounds when the
-termination is Python's.
+says why not, in a sentence a user can act on): co-simulation (FMI 1.0, 2.0, 3.0) or model exchange
+with the native integrator and continuous inputs; `FMUEnv`'s own step, observation and action
+mapping; inputs and outputs (tunable parameters too) of any numeric FMI type (String and Binary
+variables are never actions or observations), scalars and FMI 3.0 arrays; an action space whose
+values map one to one onto the input values (a Box, MultiDiscrete, MultiBinary or Discrete over
+them, a Dict keyed by the inputs' names, or a Discrete over the config's ``action_table``); no strip
+chart to record (``render_mode="rgb_array"``). Everything else stays on the Python path, with the
+same results. A reward or termination written in Python does not keep an env off the native path:
+C steps the FMU and Python ends the step (`modelicagym.env.endings`); C then checks no termination
+bounds when the termination is Python's.
 
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
-buffers and clock, so both paths read and write the same memory and either can take any step.
+buffers and clock, so both paths read and write the same memory and either can take any step. C calls
+one fmiSet/fmiGet per FMI type (the buffers are grouped so), converts the action's values into the
+inputs and the outputs into a flat observation as numpy's casts do (``mg_move``): the single env
+reads its observation from the buffers as the Python path does (`modelicagym.env.spaces.Observer`),
+a pool's slice copies the flat one into shared memory.
 """
 
 from __future__ import annotations
 
 import ctypes
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -25,19 +33,72 @@ from gymnasium import spaces
 
 from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
-from modelicagym.native.abi import FailedCall, MgEnv
+from modelicagym.native.abi import FailedCall, MgCall, MgEnv, MgMove, ValueType
 from modelicagym.native.library import NativeBuildError, load_library
 
-__all__ = ["NativeStep", "python_path_reason"]
+__all__ = ["NativeStep", "action_storage_dtype", "python_path_reason"]
 
 logger = logging.getLogger(__name__)
 
-_FLOAT64 = ("Real", "Float64")
 _OVERRIDABLE = ("step", "action_to_inputs", "observation")
+#: the spaces whose values C reads from a flat row (a Dict of them: one row per key, in input order)
+_ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
+#: the function a native reset restores the snapshot with (FMI 1.0 has none)
+_SET_STATE = {2: "fmi2SetFMUstate", 3: "fmi3SetFMUState"}
 #: ``failed_call`` codes -> how the Python path names the failing call
 _FAILED_CALLS = {FailedCall.SET_INPUTS: "set inputs", FailedCall.DO_STEP: "fmiDoStep",
                  FailedCall.GET_OUTPUTS: "get outputs", FailedCall.SET_STATE: "set FMU state",
                  FailedCall.INTEGRATE: "integrate"}
+
+
+def action_storage_dtype(space: spaces.Space) -> np.dtype:
+    """The dtype an action of an array ``space`` is kept in on the way to C: as the pool's shared
+    memory keeps it (a float Box as float64, so a float64 action reaches the inputs rounded once)."""
+    if isinstance(space, spaces.Box) and space.dtype.kind == "f":
+        return np.dtype(np.float64)
+    return np.dtype(space.dtype)
+
+
+def _space_values(space: spaces.Space) -> int:
+    return 1 if isinstance(space, spaces.Discrete) else int(np.prod(space.shape))
+
+
+def _array_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest and highest value of each element of an array space, flat, as doubles."""
+    if isinstance(space, spaces.Box):
+        return np.ravel(space.low).astype(np.float64), np.ravel(space.high).astype(np.float64)
+    if isinstance(space, spaces.Discrete):
+        return np.array([space.start], np.float64), np.array([space.start + space.n - 1], np.float64)
+    if isinstance(space, spaces.MultiDiscrete):
+        low = np.ravel(space.start).astype(np.float64)
+        return low, low + np.ravel(space.nvec) - 1
+    n = _space_values(space)
+    return np.zeros(n), np.ones(n)
+
+
+def _action_parts(space: spaces.Space, variables: list) -> list[tuple[str | None, spaces.Space]] | str:
+    """The action row's parts in input order: ``[(None, space)]`` for an array space over all the
+    input values, ``[(name, sub-space), ...]`` for a Dict keyed by the inputs; else why not."""
+    n_values = sum(v.size for v in variables)
+    if isinstance(space, _ARRAY_SPACES):
+        if _space_values(space) != n_values or (isinstance(space, spaces.Box) and space.dtype.kind not in "fiub"):
+            return f"the action space {space} does not hold one number per input value ({n_values})"
+        return [(None, space)]
+    if isinstance(space, spaces.Dict) and set(space.keys()) == {v.name for v in variables}:
+        for v in variables:
+            sub = space[v.name]
+            if not isinstance(sub, _ARRAY_SPACES) or _space_values(sub) != v.size:
+                return f"the action space's {v.name!r} entry {sub} does not hold the input's {v.size} value(s)"
+        return [(v.name, space[v.name]) for v in variables]
+    return f"the action space {space} is not an array or a Dict of the inputs' values"
+
+
+def _same_layout(a: spaces.Space, b: spaces.Space) -> bool:
+    """Whether values of ``a`` and ``b`` are laid out alike (type, shape and dtype; bounds may differ)."""
+    if isinstance(a, spaces.Dict) or isinstance(b, spaces.Dict):
+        return (type(a) is type(b) and list(a.keys()) == list(b.keys())
+                and all(_same_layout(a[k], b[k]) for k in a))
+    return type(a) is type(b) and a.shape == b.shape and a.dtype == b.dtype
 
 
 def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
@@ -50,8 +111,6 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
         return "the config asks for step_path='python'"
     if env.strip_chart is not None:
         return "render_mode='rgb_array' records every step for the strip chart, in Python"
-    if fmu.description.fmi_version == 1:
-        return "FMI 1.0: the native step library calls FMI 2.0/3.0 functions only"
     if fmu.mode == "me":
         if fmu.integrator_path != "native":
             return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
@@ -61,19 +120,19 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     for name in _OVERRIDABLE:
         if getattr(cls, name) is not getattr(base, name):
             return f"{name} is overridden by {cls.__name__}"
-    for role, variables in (("input", fmu.input_variables), ("output", fmu.output_variables)):
-        for v in variables:
-            if v.fmi_type not in _FLOAT64 or v.shape:
-                kind = f"an array of {v.fmi_type}" if v.shape else f"of type {v.fmi_type}"
-                return f"{role} {v.name!r} is {kind} (the native path moves Float64 scalars)"
-    n_in, n_out = len(fmu.input_variables), len(fmu.output_variables)
+    n_values = sum(v.size for v in fmu.input_variables)
     if config.action_table is not None:
         if env.action_space != spaces.Discrete(len(config.action_table)):
             return f"the action space {env.action_space} is not Discrete({len(config.action_table)}) of 'action_table'"
-    elif not _is_float64_box(env.action_space, n_in):
-        return f"the action space {env.action_space} is not a float64 Box of the {n_in} inputs"
-    if not _is_float64_box(env.observation_space, n_out):
-        return f"the observation space {env.observation_space} is not a float64 Box of the {n_out} outputs"
+        if len(config.action_table[0]) != n_values:
+            return f"the rows of 'action_table' have {len(config.action_table[0])} values, the inputs {n_values}"
+    else:
+        parts = _action_parts(env.action_space, fmu.input_variables)
+        if isinstance(parts, str):
+            return parts
+    if not _same_layout(env.observation_space, env._observer.space):
+        return (f"the observation space {env.observation_space} is not laid out as the outputs' own "
+                f"{env._observer.space}")
     try:
         load_library()
     except NativeBuildError as error:
@@ -81,12 +140,36 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     return None
 
 
-def _is_float64_box(space: spaces.Space, n: int) -> bool:
-    return type(space) is spaces.Box and space.dtype == np.float64 and space.shape == (n,)
-
-
 def _address(array: np.ndarray | ctypes.Array) -> int:
     return array.ctypes.data if isinstance(array, np.ndarray) else ctypes.addressof(array)
+
+
+def _value_addresses(buffer: Any, variable: Any) -> list[tuple[int, int]]:
+    """``(address, MG_TYPE_*)`` of each of a variable's values in an instance's buffer."""
+    view = buffer.views[variable.name]
+    code = ValueType.of(view.dtype)
+    return [(view.ctypes.data + k * view.itemsize, code) for k in range(variable.size)]
+
+
+def _storage_dtypes(space: spaces.Space, variables: list) -> list[np.dtype]:
+    """The dtype of each value of the outputs in a flat observation of ``space`` (variable order)."""
+    if isinstance(space, spaces.Dict):
+        return [np.dtype(space[v.name].dtype) for v in variables for _ in range(v.size)]
+    return [np.dtype(space.dtype)] * sum(v.size for v in variables)
+
+
+def _reader(values: np.ndarray, space: spaces.Space) -> Callable[[], Any]:
+    """Reads one (sub-)space's value out of its flat ``values`` in the observation row."""
+    if isinstance(space, spaces.Discrete):
+        return lambda: values[0]
+    return values.reshape(space.shape).copy
+
+
+def _moves(pairs: list[tuple[int, int, int, int]]) -> ctypes.Array:
+    moves = (MgMove * max(len(pairs), 1))()
+    for move, (source, source_type, target, target_type) in zip(moves, pairs):
+        move.source, move.source_type, move.target, move.target_type = source, source_type, target, target_type
+    return moves
 
 
 class NativeStep:
@@ -103,35 +186,49 @@ class NativeStep:
         fmu, config = env.fmu, env.config
         self.state = state = MgEnv()
         state.fmi_version = fmu.description.fmi_version
-        self._prefix = "fmi2" if state.fmi_version == 2 else "fmi3"
-        self._names = ("SetReal", "GetReal") if state.fmi_version == 2 else ("SetFloat64", "GetFloat64")
-        starts = [0.0 if v.start is None else float(v.start) for v in fmu.input_variables]
+        inputs = [pair for v in fmu.input_variables for pair in _value_addresses(fmu.inputs, v)]
+        outputs = [pair for v in fmu.output_variables for pair in _value_addresses(fmu.outputs, v)]
         names = [v.name for v in fmu.output_variables]
+        positions = np.cumsum([0] + [v.size for v in fmu.output_variables])
         termination = {} if python_termination else dict(config.termination or {})
         bounds = [(name, float(low), float(high)) for name, (low, high) in termination.items()]
         # arrays the struct points to: kept alive by this object
-        self._keep = {
-            "input_starts": np.array(starts, dtype=np.float64),
-            "bound_index": np.array([names.index(name) for name, _, _ in bounds], dtype=np.int64),
+        self._keep: dict[str, Any] = {
+            "input_starts": np.frombuffer(self._input_starts(), dtype=np.uint8).copy(),
+            "bound_index": np.array([positions[names.index(name)] for name, _, _ in bounds], dtype=np.int64),
             "bound_low": np.array([low for _, low, _ in bounds], dtype=np.float64),
             "bound_high": np.array([high for _, _, high in bounds], dtype=np.float64),
         }
-        if config.action_table is not None:
-            table = np.array(config.action_table, dtype=np.float64).reshape(len(config.action_table), len(starts))
+        self._discrete = config.action_table is not None
+        #: a Dict action's entries in the action row C reads: ``(name, byte offset, bytes, dtype)``
+        self.action_layout: list[tuple[str, int, int, np.dtype]] | None = None
+        #: a Dict observation's entries in the row C writes: ``{name: (byte offset, bytes)}``
+        self.observation_layout: dict[str, tuple[int, int]] | None = None
+        if self._discrete:
+            table = np.array(config.action_table, dtype=np.float64).reshape(len(config.action_table), len(inputs))
             self._keep["action_table"] = table
             state.discrete, state.n_actions = 1, len(table)
+            sources = [(8 * k, ValueType.F64) for k in range(len(inputs))]
+            self._action_index = ctypes.c_int64(0)
+            self._action_ref = ctypes.byref(self._action_index)
         else:
-            self._keep["action_low"] = np.array(env.action_space.low, dtype=np.float64)
-            self._keep["action_high"] = np.array(env.action_space.high, dtype=np.float64)
+            sources = self._action_row(_action_parts(env.action_space, fmu.input_variables))
+        self._keep["action_moves"] = _moves([(*source, *target) for source, target in zip(sources, inputs)])
+        self._keep["observation"] = observation = self._observation_row(outputs, env._observer.space)
+        #: the observation of the last C step or reset, as the env's `Observer` gives it (a fresh copy)
+        self.observation: Callable[[], Any] = self._observation_reader(observation, env._observer.space)
+        self._keep["observation_moves"] = _moves(self._observation_pairs)
         for field, array in self._keep.items():
             setattr(state, field, _address(array))
-        state.n_inputs, state.n_outputs, state.n_bounds = len(starts), len(names), len(bounds)
+        state.n_inputs, state.n_outputs, state.n_bounds = len(inputs), len(outputs), len(bounds)
+        state.observation_bytes = observation.nbytes
+        self._calls = {"set": self._make_calls(fmu.inputs), "get": self._make_calls(fmu.outputs)}
+        state.set_calls, state.n_set_calls = ctypes.addressof(self._calls["set"][0]), len(self._calls["set"][1])
+        state.get_calls, state.n_get_calls = ctypes.addressof(self._calls["get"][0]), len(self._calls["get"][1])
         state.time_step = env.time_step
         state.positive_reward, state.negative_reward = env.positive_reward, env.negative_reward
         state.max_episode_steps = -1 if env.max_episode_steps is None else env.max_episode_steps
         state.clock = ctypes.pointer(fmu.clock)
-        self._action_index = ctypes.c_int64(0)
-        self._action_values = np.zeros(len(starts), dtype=np.float64)
         self._reward = ctypes.c_double(0.0)
         # resets only Python can do: parameters drawn per episode, or a start state drawn from a list
         self._random_parameters = (any(callable(value) for value in config.parameters.values())
@@ -140,28 +237,94 @@ class NativeStep:
         self._reset = self.library.mg_env_reset
         self._state_ref = ctypes.byref(state)
         self._reward_ref = ctypes.byref(self._reward)
-        self._index_ref = ctypes.byref(self._action_index)
-        self._values_ptr = ctypes.c_void_p(self._action_values.ctypes.data)
         self.bind()
 
+    def _input_starts(self) -> bytes:
+        """The input buffers' bytes as a reset leaves them (their start values)."""
+        inputs = self.env.fmu.inputs
+        current = inputs.snapshot()
+        inputs.fill_start_values()
+        starts = inputs.snapshot()
+        inputs.load(current)
+        return starts
+
+    def _action_row(self, parts: list[tuple[str | None, spaces.Space]]) -> list[tuple[int, int]]:
+        """Lay out the action row C reads (one typed array per part, in input order) and return
+        ``(byte offset, MG_TYPE_*)`` of each of its values; :meth:`step` fills it."""
+        float32 = {v.name for v in self.env.fmu.input_variables if v.fmi_type == "Float32"}
+        dtypes = [np.dtype(np.float32) if name in float32 and space.dtype == np.float32 else action_storage_dtype(space)
+                  for name, space in parts]  # a Dict's float32 entry over Float32 values: as the pool keeps it
+        sizes = [_space_values(space) for _, space in parts]
+        offsets = np.cumsum([0] + [-(-n * d.itemsize // 8) * 8 for n, d in zip(sizes, dtypes)])
+        self._row = row = np.zeros(int(offsets[-1]) // 8 or 1, dtype=np.float64)
+        self.action_row_bytes = row.nbytes
+        raw = row.view(np.uint8)
+        views = [raw[offsets[k] : offsets[k] + sizes[k] * dtypes[k].itemsize].view(dtypes[k]) for k in range(len(parts))]
+        self._views = [(name, view if isinstance(space, spaces.Discrete) else view.reshape(space.shape))
+                       for (name, space), view in zip(parts, views)]
+        self._single = self._views[0][1] if parts[0][0] is None else None
+        self.action_layout = None if self._single is not None else [
+            (name, int(offsets[k]), sizes[k] * dtypes[k].itemsize, dtypes[k]) for k, (name, _) in enumerate(parts)]
+        self._action_ref = ctypes.c_void_p(row.ctypes.data)
+        lows, highs = zip(*(_array_bounds(space) for _, space in parts))
+        self._keep["action_low"], self._keep["action_high"] = np.concatenate(lows), np.concatenate(highs)
+        return [(int(offsets[k]) + j * dtypes[k].itemsize, ValueType.of(dtypes[k]))
+                for k in range(len(parts)) for j in range(sizes[k])]
+
+    def _observation_row(self, outputs: list[tuple[int, int]], space: spaces.Space) -> np.ndarray:
+        """The flat observation C writes (as the pool's shared memory holds one), and the moves
+        from the outputs into it (``self._observation_pairs``)."""
+        dtypes = _storage_dtypes(space, self.env.fmu.output_variables)
+        offsets = np.cumsum([0] + [d.itemsize for d in dtypes])
+        self._observation_pairs = [(address, code, int(offset), ValueType.of(dtype))
+                                   for (address, code), offset, dtype in zip(outputs, offsets, dtypes)]
+        return np.zeros(max(int(offsets[-1]), 1), dtype=np.uint8)
+
+    def _observation_reader(self, row: np.ndarray, space: spaces.Space) -> Callable[[], Any]:
+        """A function returning the observation C wrote into ``row`` as the env's `Observer` gives
+        it (fresh arrays of the space's dtypes and shapes; a Discrete value as a numpy integer)."""
+        if not isinstance(space, spaces.Dict):
+            return _reader(row[: _space_values(space) * space.dtype.itemsize].view(space.dtype), space)
+        readers, offset = {}, 0
+        self.observation_layout = {}
+        for v in self.env.fmu.output_variables:  # C lays the values out in variable order
+            sub = space[v.name]
+            size = v.size * sub.dtype.itemsize
+            readers[v.name] = _reader(row[offset : offset + size].view(sub.dtype), sub)
+            self.observation_layout[v.name] = (offset, size)
+            offset += size
+        entries = [(name, readers[name]) for name in space]
+        return lambda: {name: read() for name, read in entries}
+
+    def _make_calls(self, buffer: Any) -> tuple[ctypes.Array, list[tuple[str, str]]]:
+        """One ``mg_call`` per FMI type of ``buffer`` (its function is bound in :meth:`bind`), and
+        the function names to bind."""
+        groups = buffer.groups()
+        calls = (MgCall * max(len(groups), 1))()
+        binding = self.env.fmu.binding
+        names = []
+        for call, (fmi_type, refs, n_refs, values, n_values, n_bytes) in zip(calls, groups):
+            call.refs, call.n_refs, call.values, call.n_values, call.n_bytes = refs, n_refs, values, n_values, n_bytes
+            names.append((fmi_type, binding.TYPE_FUNCTIONS[fmi_type][0]))
+        return calls, names
+
     def bind(self) -> None:
-        """Point the struct at the instance as it is now: its component, functions, buffers and snapshot."""
+        """Point the struct at the instance as it is now: its component, functions and snapshot."""
         fmu, state = self.env.fmu, self.state
         binding = fmu.binding
-        prefix = self._prefix
+        prefix = binding.PREFIX
         state.component = binding.component
-        state.set_real = binding.function_address(prefix + self._names[0])
-        state.get_real = binding.function_address(prefix + self._names[1])
+        for verb, (calls, names) in zip(("Set", "Get"), (self._calls["set"], self._calls["get"])):
+            for call, (_, suffix) in zip(calls, names):
+                call.function = binding.function_address(prefix + verb + suffix)
         integrator = fmu.native_integrator
         if integrator is None:
             state.do_step = binding.function_address(prefix + "DoStep")
             state.get_boolean_status = binding.function_address("fmi2GetBooleanStatus") if prefix == "fmi2" else None
         state.integrator = None if integrator is None else ctypes.addressof(integrator.state)
-        state.set_state = binding.function_address(prefix + ("SetFMUstate" if prefix == "fmi2" else "SetFMUState"))
-        state.input_refs, state.inputs = fmu.inputs.addresses()
-        state.output_refs, state.outputs = fmu.outputs.addresses()
         # a native reset stands for reset() without options: the config's parameters
         snapshot = None if self._random_parameters else fmu.restorable_snapshot(self.env.config.parameters)
+        state.set_state = None if snapshot is None else binding.function_address(_SET_STATE[state.fmi_version])
         state.snapshot = snapshot
         state.native_reset = snapshot is not None
         next_event = fmu.snapshot_next_event_time
@@ -176,11 +339,19 @@ class NativeStep:
 
     def step(self, action: Any) -> int:
         """One step with a checked action; returns the flags (the reward is in :attr:`reward`)."""
-        if self.state.discrete:
+        if self._discrete:
             self._action_index.value = action
-            return self._step(self._state_ref, self._index_ref, self._reward_ref)
-        self._action_values[:] = action
-        return self._step(self._state_ref, self._values_ptr, self._reward_ref)
+        elif self._single is not None:
+            self._single[...] = action
+        else:
+            for name, view in self._views:
+                view[...] = action[name]
+        return self._step(self._state_ref, self._action_ref, self._reward_ref)
+
+    @property
+    def action_pointer(self) -> Any:
+        """The action as the last :meth:`step` handed it to C (for ``mg_loop``, the benchmarks' C loop)."""
+        return self._action_ref
 
     @property
     def reward(self) -> float:

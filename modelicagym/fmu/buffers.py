@@ -13,7 +13,6 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from modelicagym.errors import ArgumentError
 from modelicagym.fmu.binding import OK, WARNING, FMIBinding
 from modelicagym.fmu.variables import Variable
 
@@ -69,12 +68,11 @@ class ValueBuffer:
             self.read = lambda: max(g() for g in getters)
             self.write = lambda: max(s() for s in setters)
 
-    def addresses(self) -> tuple[int, int]:
-        """Where the value references and the values of a single-type buffer live (for native callers)."""
-        if len(self._groups) != 1:
-            raise ArgumentError("only a buffer of one FMI type has one array of values")
-        _, refs, values, _ = self._groups[0]
-        return ctypes.addressof(refs), ctypes.addressof(values)
+    def groups(self) -> list[tuple[str, int, int, int, int, int]]:
+        """Per FMI type, in call order, for native callers: ``(fmi_type, refs address, number of
+        references, values address, number of values, bytes of values)``."""
+        return [(t, ctypes.addressof(refs), len(refs), ctypes.addressof(values), n, ctypes.sizeof(values))
+                for t, refs, values, n in self._groups]
 
     def snapshot(self) -> bytes:
         """The values as they are now, to tell later whether any changed (bit for bit)."""

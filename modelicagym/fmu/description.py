@@ -263,6 +263,9 @@ class FMUDescription:
                 f"{', '.join(v.name for v in self.inputs) or 'none'}; tunable parameters: "
                 f"{', '.join(v.name for v in tunable) or 'none'}"
             )
+        if variable.kind in ("binary", "clock", "string"):
+            raise VariableError(f"{self.name}: {name!r} is of type {variable.fmi_type}, which cannot be an action "
+                                "(actions set numbers)")
         return variable
 
     def observable_variable(self, name: str) -> Variable:

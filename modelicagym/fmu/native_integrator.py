@@ -60,18 +60,19 @@ _SUNDIALS_LIBRARIES = {
 _SOLVERS = {"cvode": (Solver.CVODE, CVodeMethod.AUTO), "cvode-bdf": (Solver.CVODE, CVodeMethod.BDF),
             "euler": (Solver.EULER, CVodeMethod.BDF), "rk4": (Solver.RK4, CVodeMethod.BDF)}
 
-#: FMU functions the integrator calls, by field: the suffix per FMI version (2, 3)
+#: FMU functions the integrator calls, by field: the suffix per FMI version (1, 2, 3); FMI 1.0 has no
+#: event or continuous-time mode to enter (None: C skips the call)
 _FUNCTIONS = {
-    "set_time": ("SetTime", "SetTime"),
-    "set_x": ("SetContinuousStates", "SetContinuousStates"),
-    "get_x": ("GetContinuousStates", "GetContinuousStates"),
-    "get_dx": ("GetDerivatives", "GetContinuousStateDerivatives"),
-    "get_z": ("GetEventIndicators", "GetEventIndicators"),
-    "get_nominals": ("GetNominalsOfContinuousStates", "GetNominalsOfContinuousStates"),
-    "completed_integrator_step": ("CompletedIntegratorStep", "CompletedIntegratorStep"),
-    "enter_event_mode": ("EnterEventMode", "EnterEventMode"),
-    "update_discrete_states": ("NewDiscreteStates", "UpdateDiscreteStates"),
-    "enter_continuous_time_mode": ("EnterContinuousTimeMode", "EnterContinuousTimeMode"),
+    "set_time": ("SetTime", "SetTime", "SetTime"),
+    "set_x": ("SetContinuousStates", "SetContinuousStates", "SetContinuousStates"),
+    "get_x": ("GetContinuousStates", "GetContinuousStates", "GetContinuousStates"),
+    "get_dx": ("GetDerivatives", "GetDerivatives", "GetContinuousStateDerivatives"),
+    "get_z": ("GetEventIndicators", "GetEventIndicators", "GetEventIndicators"),
+    "get_nominals": ("GetNominalContinuousStates", "GetNominalsOfContinuousStates", "GetNominalsOfContinuousStates"),
+    "completed_integrator_step": ("CompletedIntegratorStep", "CompletedIntegratorStep", "CompletedIntegratorStep"),
+    "enter_event_mode": (None, "EnterEventMode", "EnterEventMode"),
+    "update_discrete_states": ("EventUpdate", "NewDiscreteStates", "UpdateDiscreteStates"),
+    "enter_continuous_time_mode": (None, "EnterContinuousTimeMode", "EnterContinuousTimeMode"),
 }
 #: ``failed_call`` codes (1, 2, ...) in the order of ``_FUNCTIONS``
 _CALLS = list(_FUNCTIONS)
@@ -91,8 +92,6 @@ def sundials() -> MgSundials:
 
 def python_integrator_reason(fmi_version: int, solver: str) -> str | None:
     """Why a model-exchange instance must integrate in Python, or ``None`` when C can."""
-    if fmi_version == 1:
-        return "FMI 1.0: the native integrator calls FMI 2.0/3.0 functions only"
     if solver not in _SOLVERS:
         return f"the solver {solver!r} has no native implementation"
     try:
@@ -164,9 +163,9 @@ class NativeIntegrator(ModelExchangeIntegrator):
         state, binding = self.state, self.binding
         if state.component != binding.component:
             state.component = binding.component
-            suffix = 0 if state.fmi_version == 2 else 1
             for field, names in _FUNCTIONS.items():
-                setattr(state, field, binding.function_address(binding.PREFIX + names[suffix]))
+                name = names[state.fmi_version - 1]
+                setattr(state, field, None if name is None else binding.function_address(binding.PREFIX + name))
             self._set_time = binding.continuous_state_functions()["set_time"]
         self._check(self.library.mg_integrator_open(self._ref, time))
 
@@ -186,7 +185,7 @@ class NativeIntegrator(ModelExchangeIntegrator):
             message = state.message.decode(errors="replace") or f"CVode returned {state.fmi_status}"
             return FMUError(f"{binding.fmu_name}: the {self.solver_name} solver failed at t={state.failed_at}: {message}")
         names = _FUNCTIONS[_CALLS[state.failed_call - 1]]
-        return binding.fail(binding.PREFIX + names[0 if state.fmi_version == 2 else 1], state.fmi_status)
+        return binding.fail(binding.PREFIX + names[state.fmi_version - 1], state.fmi_status)
 
     def close(self) -> None:
         """Free CVode's memory."""

@@ -15,6 +15,8 @@ from __future__ import annotations
 import ctypes
 from collections.abc import Mapping
 
+import numpy as np
+
 from modelicagym.errors import NativeBuildError
 
 __all__ = [
@@ -36,9 +38,12 @@ __all__ = [
     "IntegratorCall",
     "IntegratorOutcome",
     "MgBatch",
+    "MgCall",
     "MgCollector",
     "MgEnv",
     "MgIntegrator",
+    "MgMove",
+    "MgPart",
     "MgQLearner",
     "MgRecorder",
     "MgServer",
@@ -47,6 +52,7 @@ __all__ = [
     "NativeABIError",
     "Solver",
     "StepClock",
+    "ValueType",
     "check_layout",
 ]
 
@@ -86,6 +92,32 @@ class FailedCall:
     SET_STATE = 4
     INTEGRATE = 5
     LOG_ERRORS = 6
+
+
+class ValueType:
+    """``mg_move.source_type`` / ``target_type`` (``MG_TYPE_*``): the numpy dtype of a moved value."""
+
+    F64 = 0
+    F32 = 1
+    I8 = 2
+    U8 = 3
+    I16 = 4
+    U16 = 5
+    I32 = 6
+    U32 = 7
+    I64 = 8
+    U64 = 9
+    BOOL = 10
+
+    @staticmethod
+    def of(dtype: object) -> int:
+        """The code of a numpy dtype (a `KeyError` for one C does not move: strings, objects)."""
+        return _VALUE_TYPES[np.dtype(dtype).str[1:]]
+
+
+_VALUE_TYPES = {"f8": ValueType.F64, "f4": ValueType.F32, "i1": ValueType.I8, "u1": ValueType.U8,
+                "i2": ValueType.I16, "u2": ValueType.U16, "i4": ValueType.I32, "u4": ValueType.U32,
+                "i8": ValueType.I64, "u8": ValueType.U64, "b1": ValueType.BOOL}
 
 
 class AutoresetCode:
@@ -166,6 +198,7 @@ CONSTANTS: dict[str, int] = {
     **_prefixed("MG_CVODE_", CVodeMethod),
     **_prefixed("MG_INTEGRATOR_", IntegratorOutcome),
     **_prefixed("MG_FMU_CALL_", IntegratorCall),
+    **_prefixed("MG_TYPE_", ValueType),
 }
 
 
@@ -255,20 +288,48 @@ class MgIntegrator(ctypes.Structure):
     ]
 
 
+class MgCall(ctypes.Structure):
+    """``mg_call`` (``csrc/step.h``): one fmiSet/fmiGet call of a native step (one FMI type's buffer)."""
+
+    _fields_ = [
+        *_pointers("function", "refs"),
+        ("n_refs", ctypes.c_int64),
+        ("values", ctypes.c_void_p),
+        ("n_values", ctypes.c_int64),
+        ("n_bytes", ctypes.c_int64),
+    ]
+
+
+class MgMove(ctypes.Structure):
+    """``mg_move`` (``csrc/step.h``): one value a native step moves and converts (``ValueType`` codes)."""
+
+    _fields_ = [
+        ("source", ctypes.c_int64),
+        ("target", ctypes.c_int64),
+        ("source_type", ctypes.c_int32),
+        ("target_type", ctypes.c_int32),
+    ]
+
+
 class MgEnv(ctypes.Structure):
     """``mg_env`` (``csrc/step.h``): one env on the native step path."""
 
     _fields_ = [
         ("fmi_version", ctypes.c_int32),
         ("discrete", ctypes.c_int32),
-        *_pointers("component", "set_real", "get_real", "do_step", "get_boolean_status", "set_state", "snapshot",
-                   "integrator"),
+        *_pointers("component", "do_step", "get_boolean_status", "set_state", "snapshot", "integrator"),
         ("snapshot_has_next_event", ctypes.c_int32),
         ("snapshot_next_event_time", ctypes.c_double),
-        *_pointers("input_refs", "inputs", "input_starts"),
+        ("set_calls", ctypes.c_void_p),
+        ("n_set_calls", ctypes.c_int64),
+        ("get_calls", ctypes.c_void_p),
+        ("n_get_calls", ctypes.c_int64),
+        ("action_moves", ctypes.c_void_p),
         ("n_inputs", ctypes.c_int64),
-        *_pointers("output_refs", "outputs"),
+        *_pointers("input_starts", "observation_moves"),
         ("n_outputs", ctypes.c_int64),
+        ("observation", ctypes.c_void_p),
+        ("observation_bytes", ctypes.c_int64),
         ("action_table", ctypes.c_void_p),
         ("n_actions", ctypes.c_int64),
         *_pointers("action_low", "action_high", "bound_index", "bound_low", "bound_high"),
@@ -302,6 +363,22 @@ class MgBatch(ctypes.Structure):
         *_pointers("flags", "current_env"),
         ("first_env", ctypes.c_int64),
         *_pointers("timing_enabled", "timing"),
+        ("action_parts", ctypes.c_void_p),
+        ("n_action_parts", ctypes.c_int64),
+        ("obs_parts", ctypes.c_void_p),
+        ("n_obs_parts", ctypes.c_int64),
+        ("scratch", ctypes.c_void_p),
+    ]
+
+
+class MgPart(ctypes.Structure):
+    """``mg_part`` (``csrc/slice.h``): one entry of a Dict space in the pool's shared memory."""
+
+    _fields_ = [
+        ("offset", ctypes.c_int64),
+        ("bytes", ctypes.c_int64),
+        *_pointers("base", "final_base"),
+        ("stride", ctypes.c_int64),
     ]
 
 
@@ -368,8 +445,11 @@ STRUCTS: dict[str, type[ctypes.Structure]] = {
     "mg_clock": StepClock,
     "mg_sundials": MgSundials,
     "mg_integrator": MgIntegrator,
+    "mg_call": MgCall,
+    "mg_move": MgMove,
     "mg_env": MgEnv,
     "mg_batch": MgBatch,
+    "mg_part": MgPart,
     "mg_waiter": MgWaiter,
     "mg_server": MgServer,
     "mg_collector": MgCollector,

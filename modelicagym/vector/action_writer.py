@@ -22,7 +22,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector.utils import batch_space, iterate
 
-from modelicagym.action_checks import CHECKED_SPACES, check_action
+from modelicagym.action_checks import CHECKED_SPACES, action_checker, check_action
 from modelicagym.errors import ActionError, ActionTypeError
 from modelicagym.native.abi import RESET_THEN_REPORT
 from modelicagym.vector.buffers import PickledBatch, SharedBatch
@@ -50,6 +50,7 @@ class ActionWriter:
         needs_reset: np.ndarray | None = None,
     ) -> None:
         self.space = space
+        self._check = action_checker(space)  # check_action, with a fast path for common valid actions
         self._needs_reset = needs_reset
         self._all_envs = np.arange(shared.n)
         self.shared = shared
@@ -129,7 +130,7 @@ class ActionWriter:
             if not self._is_used(index):
                 continue
             try:
-                check_action(self.space, action)
+                self._check(action)
             except ActionError as error:
                 raise ActionError(f"env {index}: {error}") from None
 

@@ -73,6 +73,15 @@ def _item(batch: Any, index: int) -> Any:
     return tuple(_item(sub, index) for sub in batch)
 
 
+def _observed(space: Space, batch: Any, index: int) -> Any:
+    """Element ``index`` of a batch of static views as an env returns it (see `SharedBatch.read_observation`)."""
+    if isinstance(space, Dict):
+        return {key: _observed(sub, batch[key], index) for key, sub in space.spaces.items()}
+    if isinstance(space, Discrete):
+        return batch[index]
+    return batch[index, ...].copy()
+
+
 def _assign(batch: Any, values: Any) -> None:
     """Copy a batch of values into a batch of static views of the same structure."""
     if isinstance(batch, np.ndarray):
@@ -117,7 +126,7 @@ class _Allocator:
         """Whether this allocator only measures (has no buffer)."""
         return self._buffer is None
 
-    def Array(self, typecode: Any, size: int) -> _Region:  # noqa: N802 - mimics ctx.Array
+    def Array(self, typecode: Any, size: int) -> _Region:
         itemsize = ctypes.sizeof(typecode) if isinstance(typecode, type) else np.dtype(typecode).itemsize
         start = -(-self.size // _ALIGNMENT) * _ALIGNMENT
         self.size = start + itemsize * size
@@ -175,6 +184,14 @@ class SharedBatch:
         batch = read_from_shared_memory(self.space, self._memory, n=self.n)
         return copy.deepcopy(next(itertools.islice(iterate(self._batch_space, batch), index, None)))
 
+    def read_observation(self, index: int) -> Any:
+        """The value of env ``index`` as an env returns it, copied out: a ``Discrete`` value as a
+        numpy integer, a ``Box`` of shape ``()`` as a 0-d array (where `read` gives the scalar
+        ``iterate`` would, as actions are handed to envs), a ``Dict`` as a dict of those."""
+        if self._views is not None and isinstance(self.space, (Dict, *_ARRAY_SPACES)):
+            return _observed(self.space, self._views, index)
+        return self.read(index)
+
     def write_batch(self, values: Any) -> None:
         """Store a whole batch (an element of the batched space)."""
         array = self._array
@@ -217,6 +234,10 @@ class PickledBatch:
     def read(self, index: int) -> Any:
         """The value of env ``index`` (a copy: the caller may keep it)."""
         return copy.deepcopy(self._values[index])
+
+    def read_observation(self, index: int) -> Any:
+        """The value of env ``index`` as an env returns it (as stored: a copy)."""
+        return self.read(index)
 
     def write_batch(self, values: Any) -> None:
         """Store a whole batch (an element of the batched space)."""
@@ -314,7 +335,7 @@ class SharedBuffers:
     def final_info(self, index: int) -> dict[str, Any]:
         """The info ``SyncVectorEnv`` reports for env ``index`` reset in a ``SAME_STEP`` step by
         the native step (`take_final_ready`): its final observation and its (empty) final info."""
-        return {"final_obs": self.final_observations.read(index), "final_info": {}}
+        return {"final_obs": self.final_observations.read_observation(index), "final_info": {}}
 
     def signal_address(self, slot: int, which: int) -> int:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""

@@ -308,7 +308,7 @@ class EnvSlice:
         result = (observation, float(self.buffers.rewards[self.first + offset]), terminated, truncated)
         if not (self._same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):
             return (*result, step_info)
-        final_observation = native.final_obs[offset].copy()
+        final_observation = self.buffers.final_observations.read_observation(self.first + offset)
         reset_info: dict[str, Any] = {}
         if flags & Flags.PYTHON_RESET:
             observation, reset_info = env.reset()

@@ -34,8 +34,8 @@ def add_final_infos(infos: dict[str, Any], ready: np.ndarray, final_observations
     final_obs = infos.get("final_obs")
     if final_obs is None:
         final_obs = np.full(n, None, dtype=object)
-    for index, row in zip(ready.tolist(), final_observations.read_batch(copy_out=False)[ready]):
-        final_obs[index] = row
+    for index in ready.tolist():
+        final_obs[index] = final_observations.read_observation(index)
     infos["final_obs"] = final_obs
     infos["_final_obs"] = _marked(infos.get("_final_obs"), ready, n)
     infos.setdefault("final_info", {})

@@ -20,15 +20,18 @@ import ctypes
 from typing import Any
 
 import numpy as np
+from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
-from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgCollector, MgEnv, MgServer, MgWaiter
+from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgCollector, MgEnv, MgPart, MgServer, MgWaiter
 from modelicagym.native.library import load_library
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
 
 __all__ = ["NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
 
+#: the spaces whose values are one row of the pool's shared memory per env
+_ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
 #: flags of an env that Python must finish after ``mg_step_batch``
 NEEDS_PYTHON = Flags.FMU_ERROR | Flags.PYTHON_RESET | Flags.MODEL_ENDED | Flags.BAD_ACTION
 
@@ -38,18 +41,43 @@ _AUTORESET_CODES = {AutoresetMode.NEXT_STEP: AutoresetCode.NEXT_STEP, AutoresetM
 
 def batch_path_reason(envs: list[PoolEnv]) -> str | None:
     """Why a slice of ``envs`` must step on the Python path, or ``None`` when it can be a
-    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces)."""
+    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces,
+    array spaces: one row of shared memory per env)."""
     for offset, env in enumerate(envs):
         if env is not env.unwrapped:
             return f"env {offset} of the slice is wrapped in {type(env).__name__} (the native path steps bare FMUEnvs)"
         if getattr(env, "step_path", None) != "native":
             reason = getattr(env, "step_path_reason", "it is not an FMUEnv")
             return f"env {offset} of the slice steps on the Python path: {reason}"
+        for role, space in (("action", env.action_space), ("observation", env.observation_space)):
+            entries = space.items() if isinstance(space, Dict) else [(None, space)]
+            for name, sub in entries:
+                if not isinstance(sub, _ARRAY_SPACES):
+                    what = f"entry {name!r} of the {role} space" if name else f"the {role} space {space}"
+                    return (f"{what} is not a Box, Discrete, MultiDiscrete or MultiBinary (a native slice moves "
+                            "rows of shared memory)")
+        native, first = env.native_step, envs[0].native_step
+        for name, _, _, dtype in native.action_layout or ():
+            if env.action_space[name].dtype != dtype:
+                return (f"entry {name!r} of the action space is a {env.action_space[name].dtype} Box over "
+                        f"{dtype} values: the pool's shared memory holds it as {env.action_space[name].dtype}")
+        if (native.action_layout, native.observation_layout) != (first.action_layout, first.observation_layout):
+            return f"env {offset} lays out its Dict action or observation otherwise than env 0 (another input order)"
     return None
 
 
 def _row_address(array: np.ndarray, row: int) -> int:
     return array.ctypes.data + row * array.strides[0]
+
+
+def _parts(layout: list[tuple[int, int, np.ndarray, np.ndarray | None]], first_env: int) -> ctypes.Array:
+    """``mg_part``s of a Dict's entries: ``(offset in the env's row, bytes, shared array, final array)``."""
+    parts = (MgPart * len(layout))()
+    for part, (offset, size, array, final) in zip(parts, layout):
+        part.offset, part.bytes, part.stride = offset, size, array.strides[0]
+        part.base = _row_address(array, first_env)
+        part.final_base = None if final is None else _row_address(final, first_env)
+    return parts
 
 
 class NativeBatch:
@@ -81,9 +109,7 @@ class NativeBatch:
         self.python_endings = python_endings
         n = len(envs)
         self.natives = [env.native_step for env in envs]
-        observations = arrays["observations"]
-        #: the final observations of the envs reset in the last same-step step (shared memory)
-        self.final_obs = arrays["final_observations"][first_env : first_env + n]
+        observations, final_observations = arrays["observations"], arrays["final_observations"]
         self.flags = np.zeros(n, dtype=np.int32)
         self._env_pointers = (ctypes.POINTER(MgEnv) * n)(*(ctypes.pointer(native.state) for native in self.natives))
         self.state = batch = MgBatch()
@@ -93,11 +119,24 @@ class NativeBatch:
         same_step = autoreset_mode is AutoresetMode.SAME_STEP
         batch.autoreset_mode = AutoresetCode.DISABLED if python_endings and same_step else self._autoreset_code
         actions = arrays["actions"]
-        batch.actions, batch.action_stride = _row_address(actions, first_env), actions.strides[0]
-        batch.observations, batch.obs_stride = _row_address(observations, first_env), observations.strides[0]
-        if self.final_obs.strides[0] != observations.strides[0]:
-            raise ArgumentError("final observations must have the stride of the shared observations")
-        batch.final_obs = self.final_obs.ctypes.data
+        if isinstance(actions, dict):  # a Dict action: its entries gathered into a row per step
+            layout = [(offset, size, actions[name], None) for name, offset, size, _ in self.natives[0].action_layout]
+            self._scratch = np.zeros(self.natives[0].action_row_bytes, dtype=np.uint8)
+            batch.scratch = self._scratch.ctypes.data
+            self._action_parts = _parts(layout, first_env)
+            batch.action_parts, batch.n_action_parts = ctypes.addressof(self._action_parts), len(layout)
+        else:
+            batch.actions, batch.action_stride = _row_address(actions, first_env), actions.strides[0]
+        if isinstance(observations, dict):  # a Dict observation: its entries scattered from the row
+            layout = [(offset, size, observations[name], final_observations[name])
+                      for name, (offset, size) in self.natives[0].observation_layout.items()]
+            self._obs_parts = _parts(layout, first_env)
+            batch.obs_parts, batch.n_obs_parts = ctypes.addressof(self._obs_parts), len(layout)
+        else:
+            batch.observations, batch.obs_stride = _row_address(observations, first_env), observations.strides[0]
+            if final_observations.strides[0] != observations.strides[0]:
+                raise ArgumentError("final observations must have the stride of the shared observations")
+            batch.final_obs = _row_address(final_observations, first_env)
         batch.final_ready = _row_address(arrays["final_ready"], first_env)
         batch.rewards = _row_address(arrays["rewards"], first_env)
         batch.terminations = _row_address(arrays["terminations"], first_env)

@@ -145,3 +145,12 @@ def test_the_fmu_benchmark_refuses_no_envs_in_one_line(tmp_path: Path) -> None:
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert result.returncode == 1 and result.stderr.strip() == "error: bench fmu --n: at least 1, got 0"
     assert not (tmp_path / "result.json").exists()
+
+
+def test_the_step_paths_benchmark_times_any_fmu_on_both_paths(family_fmu, tmp_path: Path) -> None:
+    args = [str(family_fmu("probe", 3)), "--time-step", "0.1", "--steps", "50", "--repeats", "1"]
+    out = run_bench("step-paths", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert set(result["seconds_per_step"]) == {"C loop", "FMUEnv.step (native)", "FMUEnv.step (python)"}
+    assert result["inputs"][:5] == ["gear", "mode", "enable", "boost", "force"]
+    assert "native env step / C loop" in out

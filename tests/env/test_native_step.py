@@ -114,18 +114,12 @@ def test_actions_outside_the_space_are_refused_on_the_native_path(family_fmu: Ca
     "make, reason",
     [
         (lambda: modelicagym.make("cartpole", step_path="python"), "step_path='python'"),
-        (lambda: modelicagym.make("cartpole", fmi_version=1, mode="me"), "FMI 1.0"),
     ],
 )
 def test_envs_the_config_does_not_define_take_the_python_path_and_say_why(make: Any, reason: str) -> None:
     env = make().unwrapped
     assert env.step_path == "python"
     assert reason in env.step_path_reason
-
-
-def test_non_float_variables_keep_the_python_path(family_fmu: Callable[[str, int], Path]) -> None:
-    env = FMUEnv(fmu=family_fmu("probe", 2), inputs=["force"], outputs=["position", "speed"])
-    assert env.step_path == "python" and "'speed' is of type Integer" in env.step_path_reason
 
 
 def test_the_native_env_passes_gymnasiums_checker() -> None:

@@ -47,14 +47,13 @@ static int64_t end_steps(mg_batch *b, int32_t mode, const uint8_t *open, int64_t
             if (mode == MG_AUTORESET_NEXT_STEP) {
                 b->needs_reset[i] = ended;
             } else if (same_step && ended) {
-                size_t obs_bytes = sizeof(double) * (size_t)env->n_outputs;
-                memcpy(b->final_obs + i * b->obs_stride, env->outputs, obs_bytes);
+                mg_put_observation(b, i, env, true);
                 int64_t fmu_before = env->clock->fmu_time_ns;
                 bool reset = env->native_reset && mg_env_reset(env) == 0;
                 *fmu_ns += env->clock->fmu_time_ns - fmu_before;
                 if (reset) {
                     f |= MG_RESET_DONE;
-                    memcpy(b->observations + i * b->obs_stride, env->outputs, obs_bytes);
+                    mg_put_observation(b, i, env, false);
                 } else {
                     f |= MG_PYTHON_RESET;
                 }

@@ -7,11 +7,14 @@
 #include <stdio.h>
 #include <string.h>
 
-/* The FMU functions: the continuous-state ones have one signature in FMI 2.0 and 3.0. */
+/* The FMU functions: the continuous-state ones have one signature in FMI 1.0, 2.0 and 3.0. FMI 1.0
+ * has no event or continuous-time mode to enter (enter_event_mode and enter_continuous_time_mode
+ * are NULL) and settles an event in one fmiEventUpdate. */
 typedef int (*set_time_t)(void *, double);
 typedef int (*set_vector_t)(void *, const double *, size_t);
 typedef int (*get_vector_t)(void *, double *, size_t);
 typedef int (*enter_mode_t)(void *);
+typedef int (*fmi1_completed_t)(void *, char *);
 typedef int (*fmi2_completed_t)(void *, int, int *, int *);
 typedef int (*fmi3_completed_t)(void *, bool, bool *, bool *);
 typedef struct {
@@ -19,6 +22,12 @@ typedef struct {
     double next_event_time;
 } fmi2_event_info;
 typedef int (*fmi2_new_discrete_states_t)(void *, fmi2_event_info *);
+typedef struct {
+    char iteration_converged, state_value_references_changed, state_values_changed, terminate_simulation,
+        upcoming_time_event;
+    double next_event_time;
+} fmi1_event_info;
+typedef int (*fmi1_event_update_t)(void *, char, fmi1_event_info *);
 typedef int (*fmi3_update_discrete_states_t)(void *, bool *, bool *, bool *, bool *, bool *, double *);
 
 /* SUNDIALS 7 (sunrealtype double, sunindextype int64_t; objects are opaque pointers). */
@@ -106,6 +115,12 @@ static int get_z(mg_integrator *integrator, double *z) {
 }
 
 static int completed_integrator_step(mg_integrator *integrator, bool *enter_event_mode, bool *terminate) {
+    if (integrator->fmi_version == 1) { /* fmiCompletedIntegratorStep(callEventUpdate) */
+        char call_event_update = 0;
+        int status = ((fmi1_completed_t)integrator->completed_integrator_step)(integrator->component, &call_event_update);
+        *enter_event_mode = call_event_update != 0, *terminate = false;
+        return status;
+    }
     if (integrator->fmi_version == 2) {
         int enter = 0, stop = 0;
         int status = ((fmi2_completed_t)integrator->completed_integrator_step)(integrator->component, 1, &enter, &stop);
@@ -121,7 +136,12 @@ static int update_discrete_states(mg_integrator *integrator, bool *needs_update,
     int status;
     bool time_defined;
     double next_time;
-    if (integrator->fmi_version == 2) {
+    if (integrator->fmi_version == 1) { /* fmiEventUpdate iterates until converged (no intermediate results) */
+        fmi1_event_info info = {0};
+        status = ((fmi1_event_update_t)integrator->update_discrete_states)(integrator->component, 0, &info);
+        *needs_update = !info.iteration_converged, *terminate = info.terminate_simulation != 0;
+        time_defined = info.upcoming_time_event != 0, next_time = info.next_event_time;
+    } else if (integrator->fmi_version == 2) {
         fmi2_event_info info = {0};
         status = ((fmi2_new_discrete_states_t)integrator->update_discrete_states)(integrator->component, &info);
         *needs_update = info.new_discrete_states_needed, *terminate = info.terminate_simulation;
@@ -140,15 +160,17 @@ static int update_discrete_states(mg_integrator *integrator, bool *needs_update,
 
 /* Enter event mode, update discrete states until they settle, return to continuous-time mode. */
 static int32_t handle_event(mg_integrator *integrator, double time) {
-    CALL(MG_FMU_CALL_ENTER_EVENT_MODE, time, ((enter_mode_t)integrator->enter_event_mode)(integrator->component));
+    if (integrator->enter_event_mode)
+        CALL(MG_FMU_CALL_ENTER_EVENT_MODE, time, ((enter_mode_t)integrator->enter_event_mode)(integrator->component));
     bool needs_update = true, terminate = false;
     while (needs_update) {
         CALL(MG_FMU_CALL_UPDATE_DISCRETE_STATES, time, update_discrete_states(integrator, &needs_update, &terminate));
         if (terminate)
             return MG_INTEGRATOR_TERMINATE;
     }
-    CALL(MG_FMU_CALL_ENTER_CONTINUOUS_TIME_MODE, time,
-         ((enter_mode_t)integrator->enter_continuous_time_mode)(integrator->component));
+    if (integrator->enter_continuous_time_mode)
+        CALL(MG_FMU_CALL_ENTER_CONTINUOUS_TIME_MODE, time,
+             ((enter_mode_t)integrator->enter_continuous_time_mode)(integrator->component));
     return MG_INTEGRATOR_OK;
 }
 

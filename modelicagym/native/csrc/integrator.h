@@ -43,7 +43,7 @@ enum { MG_SOLVER_CVODE = 0, MG_SOLVER_EULER = 1, MG_SOLVER_RK4 = 2 };
 enum { MG_CVODE_BDF = 0, MG_CVODE_ADAMS = 1, MG_CVODE_AUTO = 2 };
 
 typedef struct {
-    int32_t fmi_version; /* 2 or 3 */
+    int32_t fmi_version; /* 1, 2 or 3 */
     int32_t solver;      /* MG_SOLVER_* */
     int32_t method;      /* CVode: MG_CVODE_BDF, MG_CVODE_ADAMS, or MG_CVODE_AUTO (Adams until stiff, then BDF) */
     int32_t stiff;       /* CVode, MG_CVODE_AUTO: the model proved stiff; the instance now uses BDF */

@@ -8,6 +8,30 @@
 
 static int64_t step_batch(mg_batch *b);
 
+/* Env i's action row: its row of the shared actions, or a Dict's entries gathered into scratch. */
+static const void *action_row(const mg_batch *b, int64_t i) {
+    if (!b->n_action_parts)
+        return b->actions + i * b->action_stride;
+    for (int64_t k = 0; k < b->n_action_parts; k++) {
+        const mg_part *part = &b->action_parts[k];
+        memcpy(b->scratch + part->offset, part->base + i * part->stride, (size_t)part->bytes);
+    }
+    return b->scratch;
+}
+
+void mg_put_observation(const mg_batch *b, int64_t i, const mg_env *env, bool final) {
+    if (!b->n_obs_parts) {
+        memcpy((final ? b->final_obs : b->observations) + i * b->obs_stride, env->observation,
+               (size_t)env->observation_bytes);
+        return;
+    }
+    for (int64_t k = 0; k < b->n_obs_parts; k++) {
+        const mg_part *part = &b->obs_parts[k];
+        memcpy((final ? part->final_base : part->base) + i * part->stride, env->observation + part->offset,
+               (size_t)part->bytes);
+    }
+}
+
 int64_t mg_step_batch(mg_batch *b) {
     if (!b->caller)
         return step_batch(b);
@@ -34,7 +58,6 @@ static int64_t step_batch(mg_batch *b) {
         }
         mg_env *env = b->envs[i];
         *b->current_env = b->first_env + i;
-        size_t obs_bytes = sizeof(double) * (size_t)env->n_outputs;
         int64_t started = timed ? mg_now_ns() : 0;
         int64_t fmu_before = env->clock->fmu_time_ns;
         int32_t f;
@@ -52,7 +75,7 @@ static int64_t step_batch(mg_batch *b) {
             if (f == MG_RESET_DONE)
                 b->needs_reset[i] = MG_NO_RESET;
         } else {
-            f = mg_env_step(env, b->actions + i * b->action_stride, &reward);
+            f = mg_env_step(env, action_row(b, i), &reward);
             if (f & MG_BAD_ACTION) {
                 b->flags[i] = f;
                 return for_python + 1;
@@ -61,12 +84,12 @@ static int64_t step_batch(mg_batch *b) {
             if (next_step) {
                 b->needs_reset[i] = ended;
             } else if (same_step && ended) {
-                memcpy(b->final_obs + i * b->obs_stride, env->outputs, obs_bytes);
+                mg_put_observation(b, i, env, true);
                 f |= env->native_reset && mg_env_reset(env) == 0 ? MG_RESET_DONE : MG_PYTHON_RESET;
             }
         }
         if (!(f & (MG_FMU_ERROR | MG_PYTHON_RESET)))
-            memcpy(b->observations + i * b->obs_stride, env->outputs, obs_bytes);
+            mg_put_observation(b, i, env, false);
         if (f & (MG_FMU_ERROR | MG_PYTHON_RESET | MG_MODEL_ENDED))
             for_python++;
         else if (same_step && (f & MG_RESET_DONE))

@@ -8,6 +8,7 @@
 #ifndef MG_SLICE_H
 #define MG_SLICE_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "signal.h"
@@ -17,6 +18,14 @@ enum { MG_AUTORESET_NEXT_STEP = 0, MG_AUTORESET_SAME_STEP = 1, MG_AUTORESET_DISA
 
 /* mg_batch.needs_reset values */
 enum { MG_NO_RESET = 0, MG_RESET_THEN_REPORT = 1, MG_RESET_THEN_STEP = 2 };
+
+/* One entry of a Dict space in the pool's shared memory (its own array of the batch): its bytes
+ * at `offset` in an env's action row or observation (mg_env.observation) are row i of `base`. */
+typedef struct {
+    int64_t offset, bytes;
+    char *base, *final_base; /* final_base: the entry's final observations (NULL for an action) */
+    int64_t stride;
+} mg_part;
 
 /* A slice of a pool's envs and where its results go: row i of each batch array is env i of the
  * slice. Action and observation rows are action_stride and obs_stride bytes apart. */
@@ -45,6 +54,12 @@ typedef struct {
     int64_t first_env;    /* the pool index of envs[0] */
     const uint8_t *timing_enabled;
     int64_t *timing; /* {env ns, fmu ns} of the batch, written when *timing_enabled */
+    /* Dict spaces: one array per entry in shared memory; 0 parts: one row at actions / observations */
+    const mg_part *action_parts; /* gathered into `scratch` before the env's step */
+    int64_t n_action_parts;
+    const mg_part *obs_parts; /* scattered from the env's observation */
+    int64_t n_obs_parts;
+    char *scratch; /* an action row */
 } mg_batch;
 
 /* One vector step of the slice, with the autoreset of its mode. A native reset that fails becomes
@@ -53,6 +68,10 @@ typedef struct {
  * Returns how many envs need Python: MG_FMU_ERROR, MG_PYTHON_RESET, MG_BAD_ACTION, or an info to
  * report (MG_MODEL_ENDED). A plain same-step reset needs none: final_ready marks it. */
 int64_t mg_step_batch(mg_batch *batch);
+
+/* Copy env i's observation (env->observation) into the shared observations, or the final
+ * observations when `final`: its row, or a Dict's entries scattered to their arrays. */
+void mg_put_observation(const mg_batch *b, int64_t i, const mg_env *env, bool final);
 
 /* A worker's command loop, in C while the commands are steps Python need not see.
  * Waits for `go`; on a STEP command of a native slice runs mg_step_batch and, when no env needs

@@ -4,43 +4,121 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "signal.h"
 
-typedef int (*fmi2_set_real_t)(void *, const uint32_t *, size_t, const double *);
-typedef int (*fmi2_get_real_t)(void *, const uint32_t *, size_t, double *);
+typedef int (*fmi2_values_t)(void *, const uint32_t *, size_t, void *); /* FMI 1.0 and 2.0 fmiSet/Get<Type> */
+typedef int (*fmi3_values_t)(void *, const uint32_t *, size_t, void *, size_t);
+typedef int (*fmi1_do_step_t)(void *, double, double, char);
 typedef int (*fmi2_do_step_t)(void *, double, double, int);
 typedef int (*fmi2_get_boolean_status_t)(void *, int, int *);
-typedef int (*fmi3_set_float64_t)(void *, const uint32_t *, size_t, const double *, size_t);
-typedef int (*fmi3_get_float64_t)(void *, const uint32_t *, size_t, double *, size_t);
 typedef int (*fmi3_do_step_t)(void *, double, double, bool, bool *, bool *, bool *, double *);
 typedef int (*set_state_t)(void *, void *);
 
 enum { OK = 0, WARNING = 1, DISCARD = 2 };
 enum { FMI2_TERMINATED_STATUS_KIND = 3 };
 
-static int set_inputs(mg_env *env) {
-    if (env->n_inputs == 0)
-        return OK;
-    if (env->fmi_version == 2)
-        return ((fmi2_set_real_t)env->set_real)(env->component, env->input_refs, (size_t)env->n_inputs, env->inputs);
-    return ((fmi3_set_float64_t)env->set_real)(env->component, env->input_refs, (size_t)env->n_inputs, env->inputs,
-                                               (size_t)env->n_inputs);
+/* The worst status of a list of fmiSet/fmiGet calls (ValueBuffer.read/write: max of their statuses). */
+static int call_all(const mg_env *env, const mg_call *calls, int64_t n) {
+    int worst = OK;
+    for (int64_t k = 0; k < n; k++) {
+        const mg_call *c = &calls[k];
+        int status = env->fmi_version == 3
+                         ? ((fmi3_values_t)c->function)(env->component, c->refs, (size_t)c->n_refs, c->values,
+                                                        (size_t)c->n_values)
+                         : ((fmi2_values_t)c->function)(env->component, c->refs, (size_t)c->n_refs, c->values);
+        if (status > worst)
+            worst = status;
+    }
+    return worst;
 }
 
+static int set_inputs(mg_env *env) { return call_all(env, env->set_calls, env->n_set_calls); }
+
+/* -- moves: numpy's assignment casts, in C --------------------------------------------------------
+ * A source value is read exactly as a double (float types), an int64 (signed, bool) or a uint64,
+ * and cast from there to the target type directly (an int64 to float32 rounds once, as numpy does). */
+
+typedef enum { AS_DOUBLE, AS_INT, AS_UINT } value_class;
+typedef struct {
+    value_class kind;
+    double d;
+    int64_t i;
+    uint64_t u;
+} value;
+
+static value load(const void *p, int32_t type) {
+    value v = {AS_INT, 0.0, 0, 0};
+    switch (type) {
+    case MG_TYPE_F64: v.kind = AS_DOUBLE; v.d = *(const double *)p; break;
+    case MG_TYPE_F32: v.kind = AS_DOUBLE; v.d = *(const float *)p; break;
+    case MG_TYPE_I8: v.i = *(const int8_t *)p; break;
+    case MG_TYPE_U8: v.i = *(const uint8_t *)p; break;
+    case MG_TYPE_I16: v.i = *(const int16_t *)p; break;
+    case MG_TYPE_U16: v.i = *(const uint16_t *)p; break;
+    case MG_TYPE_I32: v.i = *(const int32_t *)p; break;
+    case MG_TYPE_U32: v.i = *(const uint32_t *)p; break;
+    case MG_TYPE_I64: v.i = *(const int64_t *)p; break;
+    case MG_TYPE_U64: v.kind = AS_UINT; v.u = *(const uint64_t *)p; break;
+    default: v.i = *(const bool *)p; break;
+    }
+    return v;
+}
+
+#define CAST(T, v) ((v).kind == AS_DOUBLE ? (T)(v).d : (v).kind == AS_INT ? (T)(v).i : (T)(v).u)
+
+static double as_double(value v) { return CAST(double, v); }
+
+/* Write v to p as `type`; true if that changed the bytes there. */
+static bool store(void *p, int32_t type, value v) {
+#define PUT(T)                                                                                                     \
+    do {                                                                                                           \
+        T x = CAST(T, v);                                                                                          \
+        bool changed = memcmp(p, &x, sizeof x) != 0;                                                               \
+        memcpy(p, &x, sizeof x);                                                                                   \
+        return changed;                                                                                            \
+    } while (0)
+    switch (type) {
+    case MG_TYPE_F64: PUT(double);
+    case MG_TYPE_F32: PUT(float);
+    case MG_TYPE_I8: PUT(int8_t);
+    case MG_TYPE_U8: PUT(uint8_t);
+    case MG_TYPE_I16: PUT(int16_t);
+    case MG_TYPE_U16: PUT(uint16_t);
+    case MG_TYPE_I32: PUT(int32_t);
+    case MG_TYPE_U32: PUT(uint32_t);
+    case MG_TYPE_I64: PUT(int64_t);
+    case MG_TYPE_U64: PUT(uint64_t);
+    default: {
+        bool x = v.kind == AS_DOUBLE ? v.d != 0.0 : v.kind == AS_INT ? v.i != 0 : v.u != 0;
+        bool changed = *(bool *)p != x;
+        *(bool *)p = x;
+        return changed;
+    }
+    }
+#undef PUT
+}
+
+/* Read the outputs and convert them into the observation. */
 static int get_outputs(mg_env *env) {
-    if (env->fmi_version == 2)
-        return ((fmi2_get_real_t)env->get_real)(env->component, env->output_refs, (size_t)env->n_outputs,
-                                                env->outputs);
-    return ((fmi3_get_float64_t)env->get_real)(env->component, env->output_refs, (size_t)env->n_outputs,
-                                               env->outputs, (size_t)env->n_outputs);
+    int status = call_all(env, env->get_calls, env->n_get_calls);
+    for (int64_t k = 0; k < env->n_outputs; k++) {
+        const mg_move *m = &env->observation_moves[k];
+        store(env->observation + m->target, m->target_type, load((const void *)(intptr_t)m->source, m->source_type));
+    }
+    return status;
 }
 
 /* doStep as `binding.do_step_call` maps it: OK, `ended` set when the model ended the simulation
  * (discard + terminated in FMI 2; terminateSimulation in FMI 3), else the failing status. */
 static int do_step(mg_env *env, double t, double h, bool *ended) {
     *ended = false;
+    if (env->fmi_version == 1) { /* FMI 1.0 cannot say the model ended: a discard is a failure */
+        int status = ((fmi1_do_step_t)env->do_step)(env->component, t, h, 1);
+        return status <= WARNING ? OK : status;
+    }
     if (env->fmi_version == 2) {
         int status = ((fmi2_do_step_t)env->do_step)(env->component, t, h, 1);
         if (status <= WARNING)
@@ -73,27 +151,39 @@ static int32_t fail(mg_env *env, int call, int status) {
     return MG_FMU_ERROR;
 }
 
-/* Copy the action's input values; false (nothing written) if it is outside the action space.
- * In model exchange, new input values end the solver's continuous run. */
+/* Convert the action's values into the inputs; false (nothing written) if it is outside the
+ * action space. In model exchange, new input values end the solver's continuous run. */
 static bool write_action(mg_env *env, const void *action) {
-    const double *values;
+    const char *row = action;
     if (env->discrete) {
         int64_t index = *(const int64_t *)action;
         if (index < 0 || index >= env->n_actions)
             return false;
-        values = env->action_table + index * env->n_inputs;
-    } else {
-        values = action;
-        if (env->action_low)
-            for (int64_t k = 0; k < env->n_inputs; k++)
-                if (!(env->action_low[k] <= values[k] && values[k] <= env->action_high[k]))
-                    return false; /* also NaN */
+        row = (const char *)(env->action_table + index * env->n_inputs);
+    } else if (env->action_low) {
+        for (int64_t k = 0; k < env->n_inputs; k++) {
+            const mg_move *m = &env->action_moves[k];
+            double x = as_double(load(row + m->source, m->source_type));
+            if (!(env->action_low[k] <= x && x <= env->action_high[k]))
+                return false; /* also NaN */
+        }
     }
-    size_t bytes = sizeof(double) * (size_t)env->n_inputs;
-    if (env->integrator && memcmp(env->inputs, values, bytes) != 0)
+    bool changed = false;
+    for (int64_t k = 0; k < env->n_inputs; k++) {
+        const mg_move *m = &env->action_moves[k];
+        changed |= store((void *)(intptr_t)m->target, m->target_type, load(row + m->source, m->source_type));
+    }
+    if (env->integrator && changed)
         env->integrator->continuous = 0;
-    memcpy(env->inputs, values, bytes);
     return true;
+}
+
+/* The recorder's row: the bytes of the calls' buffers, one after the other (ValueBuffer.snapshot). */
+static void record_values(char *row, const mg_call *calls, int64_t n) {
+    for (int64_t k = 0; k < n; k++) {
+        memcpy(row, calls[k].values, (size_t)calls[k].n_bytes);
+        row += calls[k].n_bytes;
+    }
 }
 
 /* FMUInstance.step: set inputs, doStep to origin + (steps + 1) * dt, get outputs. */
@@ -139,8 +229,8 @@ static int32_t advance(mg_env *env) {
     if (recorder && recorder->count < recorder->capacity) { /* as Reference.record */
         int64_t k = recorder->count++;
         recorder->dts[k] = dt;
-        memcpy(recorder->inputs + k * recorder->input_bytes, env->inputs, (size_t)recorder->input_bytes);
-        memcpy(recorder->outputs + k * recorder->output_bytes, env->outputs, (size_t)recorder->output_bytes);
+        record_values(recorder->inputs + k * recorder->input_bytes, env->set_calls, env->n_set_calls);
+        record_values(recorder->outputs + k * recorder->output_bytes, env->get_calls, env->n_get_calls);
     }
     return 0;
 }
@@ -154,7 +244,8 @@ int32_t mg_env_step(mg_env *env, const void *action, double *reward) {
         return flags; /* Python reports the error: truncation with info["fmu_error"] */
     bool terminated = false;
     for (int64_t k = 0; k < env->n_bounds; k++) {
-        double value = env->outputs[env->bound_index[k]];
+        const mg_move *m = &env->observation_moves[env->bound_index[k]];
+        double value = as_double(load((const void *)(intptr_t)m->source, m->source_type));
         if (!(env->bound_low[k] <= value && value <= env->bound_high[k])) {
             terminated = true;
             break;
@@ -184,7 +275,11 @@ int32_t mg_env_reset(mg_env *env) {
         env->failed_call = MG_CALL_SET_STATE;
         return MG_FMU_ERROR;
     }
-    memcpy(env->inputs, env->input_starts, sizeof(double) * (size_t)env->n_inputs);
+    const char *starts = env->input_starts; /* as ValueBuffer.fill_start_values */
+    for (int64_t k = 0; k < env->n_set_calls; k++) {
+        memcpy(env->set_calls[k].values, starts, (size_t)env->set_calls[k].n_bytes);
+        starts += env->set_calls[k].n_bytes;
+    }
     mg_integrator *integrator = env->integrator;
     if (integrator) { /* as ModelExchangeIntegrator.restart */
         integrator->has_next_event = env->snapshot_has_next_event;

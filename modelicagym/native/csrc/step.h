@@ -2,8 +2,10 @@
  *
  * An mg_env describes one env of `FMUEnv` whose step is fully defined by its config (see
  * modelicagym/env/native_step.py for when that holds): co-simulation, or model exchange with the
- * native integrator (integrator.h) and continuous inputs; Float64 scalar inputs and
- * outputs, the action copied to the inputs (a Box) or looked up in a table (a Discrete), bound
+ * native integrator (integrator.h) and continuous inputs; inputs and outputs of every FMI
+ * type but String/Binary (scalars and FMI 3.0 arrays, one fmiSet/fmiGet call per type), the action
+ * converted to the inputs (a Box, MultiDiscrete, MultiBinary, Discrete, or a flattened Dict) or
+ * looked up in a table (a Discrete), bound
  * termination, the paper's positive/negative reward, truncation after max_episode_steps.
  * Python fills it in (pointers into the FMU instance's own value buffers and its clock), so the
  * Python path and the native path read and write the same memory: either may take any step.
@@ -41,26 +43,58 @@ typedef struct {
     mg_recorder *recorder;   /* not NULL: record this step (the first episode of a fresh instance) */
 } mg_clock;
 
+/* The value types a native step moves, as numpy names them (the dtypes of the FMU instance's
+ * buffers, of the action and of the observation): MG_TYPE_BOOL is numpy's bool (FMI 3.0's
+ * fmi3Boolean); FMI 2.0's fmi2Boolean is an MG_TYPE_I32, FMI 1.0's fmiBoolean an MG_TYPE_I8. A move
+ * converts as numpy's assignment casts (C casts from the source value, never through a wider type). */
+enum {
+    MG_TYPE_F64 = 0, MG_TYPE_F32 = 1, MG_TYPE_I8 = 2, MG_TYPE_U8 = 3, MG_TYPE_I16 = 4, MG_TYPE_U16 = 5,
+    MG_TYPE_I32 = 6, MG_TYPE_U32 = 7, MG_TYPE_I64 = 8, MG_TYPE_U64 = 9, MG_TYPE_BOOL = 10,
+};
+
+/* One fmiSet<Type> / fmiGet<Type> call of a step: all the inputs (or outputs) of one FMI type, in
+ * the FMU instance's own buffer (fmu/buffers.py ValueBuffer, one group). */
 typedef struct {
-    int32_t fmi_version; /* 2 or 3 */
-    int32_t discrete;    /* 1: action is an int64 index into action_table; 0: n_inputs float64 */
+    void *function; /* fmi2SetInteger, fmi3GetFloat32, <modelIdentifier>_fmiSetReal, ... */
+    const uint32_t *refs;
+    int64_t n_refs;
+    void *values;
+    int64_t n_values; /* FMI 3.0 arrays: more values than references */
+    int64_t n_bytes;
+} mg_call;
+
+/* One value moved and converted: an action value to an input (source: a byte offset in the action
+ * row, target: an address in an input buffer), or an output to the observation (source: an
+ * address in an output buffer, target: a byte offset in mg_env.observation). */
+typedef struct {
+    int64_t source, target;
+    int32_t source_type, target_type; /* MG_TYPE_* */
+} mg_move;
+
+typedef struct {
+    int32_t fmi_version; /* 1, 2 or 3 */
+    int32_t discrete;    /* 1: action is an int64 index into action_table; 0: an action row */
     void *component;
-    void *set_real, *get_real, *do_step, *get_boolean_status, *set_state;
+    void *do_step, *get_boolean_status, *set_state;
     void *snapshot; /* FMU state taken after initialization (NULL: no native reset) */
     mg_integrator *integrator;       /* model exchange: the solver loop; NULL: co-simulation (doStep) */
     int32_t snapshot_has_next_event; /* model exchange: the time event pending when the snapshot was taken */
     double snapshot_next_event_time;
-    const uint32_t *input_refs;
-    double *inputs;
-    const double *input_starts;
-    int64_t n_inputs;
-    const uint32_t *output_refs;
-    double *outputs;
+    const mg_call *set_calls; /* one per FMI type of the inputs */
+    int64_t n_set_calls;
+    const mg_call *get_calls; /* one per FMI type of the outputs */
+    int64_t n_get_calls;
+    const mg_move *action_moves; /* action row (or action_table row) -> input values, in variable order */
+    int64_t n_inputs;            /* input values (array elements count one each) */
+    const char *input_starts;    /* the input buffers' bytes after a reset, in set_calls order */
+    const mg_move *observation_moves; /* output values -> the observation, in variable order */
     int64_t n_outputs;
+    char *observation; /* the observation as the env's observation space holds it (flat) */
+    int64_t observation_bytes;
     const double *action_table; /* n_actions x n_inputs */
     int64_t n_actions;
-    const double *action_low, *action_high; /* Box bounds per input (NULL: none) */
-    const int64_t *bound_index; /* output index of each termination bound */
+    const double *action_low, *action_high; /* bounds per action value, compared as doubles (NULL: none) */
+    const int64_t *bound_index; /* observation_moves index of each termination bound */
     const double *bound_low, *bound_high;
     int64_t n_bounds;
     double time_step;
@@ -92,8 +126,9 @@ enum {
     MG_CALL_LOG_ERRORS = 6, /* the calls returned OK, but the FMU logged more errors than clock->log_error_limit */
 };
 
-/* One step of one env. `action` points to an int64 (discrete) or n_inputs doubles. Returns the
- * flags; the reward is written to *reward. The outputs are in env->outputs afterwards. */
+/* One step of one env. `action` points to an int64 (discrete) or an action row (action_moves).
+ * Returns the flags; the reward is written to *reward. The outputs are in the instance's buffers
+ * afterwards, and the observation in env->observation. */
 int32_t mg_env_step(mg_env *env, const void *action, double *reward);
 
 /* Restore the snapshot (a reset on the "snapshot" rung); 0 on success, else MG_FMU_ERROR. */
