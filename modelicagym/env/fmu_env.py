@@ -292,9 +292,7 @@ class FMUEnv(gym.Env):
         """Put back a state `get_state` gave (this env's or another's over the same FMU): the
         FMU, the episode's steps and parameters, and (unless ``restore_generator`` is false) the
         random generator. A state of another FMU is refused (`StateMismatchError`), nothing changed."""
-        if not isinstance(state, EnvState):
-            raise ArgumentTypeError(f"{self.description.name}: set_state takes an EnvState "
-                                    f"(env.unwrapped.get_state()), got {type(state).__name__}")
+        self.check_state(state)
         self.fmu.load_state(state.fmu, state.episode_parameters)
         self.episode_parameters = dict(state.episode_parameters)
         if restore_generator and state.rng is not None:
@@ -302,6 +300,15 @@ class FMUEnv(gym.Env):
         if self._native is not None:
             self._native.bind()
         self.elapsed_steps = state.elapsed_steps
+
+    def check_state(self, state: EnvState) -> None:
+        """Raise what `set_state` would raise before changing anything (not an `EnvState`, a state
+        of another FMU, an FMU that cannot serialize), changing nothing: a pool's ``set_states``
+        checks every env's state so before it loads any."""
+        if not isinstance(state, EnvState):
+            raise ArgumentTypeError(f"{self.description.name}: set_state takes an EnvState "
+                                    f"(env.unwrapped.get_state()), got {type(state).__name__}")
+        self.fmu.check_state(state.fmu)
 
     def fmu_failure(self, error: FMUError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The step result when the FMU failed: the episode is truncated with the FMU's message

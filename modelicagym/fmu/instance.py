@@ -406,8 +406,7 @@ class FMUInstance:
 
         The reset ladder is untouched (its snapshot is a separate FMU state); a reference being
         recorded for its check stops here, since what follows is not a fresh episode."""
-        self._check_serializable()
-        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
+        self.check_state(state)
         if not self.initialized or self.broken:
             self.reset(values)
         if self._recording is not None:
@@ -437,8 +436,7 @@ class FMUInstance:
         values starts from it too, and the reset ladder works as after an initialization (the
         episode is recorded for the rungs' check, the snapshot is taken from it)."""
         values = dict(values or {})
-        self._check_serializable()
-        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
+        self.check_state(state)
         if state.steps or state.time != self.start_time:
             raise StateMismatchError(f"{self.fmu_name}: a state to start from must be saved right after a reset "
                                      f"(at t={self.start_time}, step 0), not at t={state.time}, step {state.steps}")
@@ -464,6 +462,14 @@ class FMUInstance:
         self.initialized = True
         self._after_initialization(values, take_snapshot=self.reset_rung == "snapshot")
         self.terminated = state.terminated
+
+    def check_state(self, state: FMUState) -> None:
+        """Refuse a state `load_state` would refuse, changing nothing: one of another FMU, of this
+        one changed or in the other mode (`StateMismatchError`), or any state when this FMU cannot
+        serialize (`UnsupportedFeatureError`). Cheap (no FMU call), so a pool checks every env's
+        state before loading any."""
+        self._check_serializable()
+        state.check_fits(self.fmu_name, self._content_hash(), self.mode)
 
     def _check_serializable(self) -> None:
         refusal = self.description.serialize_refusal(self.mode)

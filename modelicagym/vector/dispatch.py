@@ -245,9 +245,10 @@ class Dispatcher:
         for command in seen_done:
             command.party.repost()
 
-    def call_results(self, outcomes: list[Outcome], doing: str) -> list[Any]:
+    def call_results(self, outcomes: list[Outcome], doing: str, named: bool = False) -> list[Any]:
         """The results of ``call`` (or ``set_attr``) in env order, from outcomes without failures;
-        raises the first env's exception (the original one when it could be pickled). Where an
+        raises the first env's exception (the original one when it could be pickled; with
+        ``named``, an `EnvError` of its type whose message names the env and ``doing``). Where an
         env has two copies (an adaptive layout), the result is that of the copy stepped now."""
         in_caller = self.buffers.in_caller
         results: dict[int, Any] = {}
@@ -257,8 +258,10 @@ class Dispatcher:
                 continue
             if message.kind is Kind.CALL_ERROR:
                 remote = message.data
-                original = remote.original()
-                raise original if original is not None else remote.to_env_error(outcome.party.index, doing)
+                original = None if named else remote.original()
+                party = outcome.party
+                raise original if original is not None else remote.to_env_error(
+                    party.index, doing, party.process if party.in_caller else None)
             here = outcome.party.in_caller
             for index, value in zip(outcome.party.env_indices, message.data):
                 if bool(in_caller[index]) == here:

@@ -12,6 +12,9 @@ env that offers more gets more, and the pool asks for it by these names only:
   Python, its ``native_endings`` (``None`` otherwise) computes them after C stepped the FMUs, for
   every env of the slice sharing its ``key`` in one ``finish(envs, observations, actions,
   terminated)`` call (`~modelicagym.vector.slice_endings`);
+* a `StatefulEnv` gives its whole state as a value (``get_state()``), loads one (``set_state``)
+  and says, changing nothing, whether it would (``check_state``, which raises what ``set_state``
+  would): the pool's ``get_states`` / ``set_states``, which checks every env before loading any;
 * ``env.reset_is_deterministic`` (a reset without seed or options starts the same episode in any
   env the same env fn makes): with it, and the native step path, a pool whose layout it plans may
   move the env between the calling process and its worker at an episode boundary
@@ -41,7 +44,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from gymnasium import Space
 
-__all__ = ["NativeEnv", "PoolEnv", "StepResult", "TimedEnv", "fault_label", "fn_safe_in_caller", "safe_in_caller"]
+__all__ = ["NativeEnv", "PoolEnv", "StatefulEnv", "StepResult", "TimedEnv", "fault_label", "fn_safe_in_caller", "safe_in_caller"]
 
 #: ``(observation, reward, terminated, truncated, info)``, as ``gymnasium.Env.step`` returns it
 StepResult = tuple[Any, float, bool, bool, dict[str, Any]]
@@ -72,6 +75,16 @@ class TimedEnv(Protocol):
     """An env that counts the nanoseconds it spent inside FMU calls, since it was created."""
 
     fmu_time_ns: int
+
+
+class StatefulEnv(Protocol):
+    """An env whose state is a value (see the module docstring; `modelicagym.FMUEnv` is one)."""
+
+    def get_state(self) -> Any: ...
+
+    def check_state(self, state: Any) -> None: ...
+
+    def set_state(self, state: Any) -> None: ...
 
 
 class NativeEnv(PoolEnv, Protocol):

@@ -617,18 +617,38 @@ class PoolVectorEnv(VectorEnv):
 
     def _set_states(self, states: VectorState | Sequence[Any]) -> None:
         """Put back :meth:`get_states`'s checkpoint (or one state per env, e.g. start states): each
-        env's ``set_state``, then the pool's per-env reset flags. The next step goes on from there."""
-        self._assert_is_running()
+        env's ``set_state``, then the pool's per-env reset flags. The next step goes on from there.
+
+        All or nothing: every env first checks its state (:meth:`check_states`), and if one
+        refuses it (another FMU's, a changed binary's, an FMU that cannot serialize) that env's
+        error is raised and no env has changed."""
+        self._check_states(states)
         env_states, needs_reset = split_states(states, self.num_envs)
-        self._assert_idle("set_states")
-        with self._stopped_on_interrupt():
-            self._dispatcher.call_each("set_state", [(state,) for state in env_states])
-            self._state = AsyncState.WAITING_CALL
-        self._collect_calls(None, "set_states")
+        self._each_env("set_state", env_states, "set_states")
         if needs_reset is not None:
             self._buffers.needs_reset[:] = needs_reset
 
     set_states = one_thread_at_a_time(_set_states)
+
+    def _check_states(self, states: VectorState | Sequence[Any]) -> None:
+        """Check that every env would load its state from ``states`` (as :meth:`set_states` takes
+        them), changing nothing: a wrong count or type of ``states`` raises before anything is
+        sent; then each env's ``check_state`` (the env contract's `StatefulEnv`) runs where the env
+        is, and the first refusal is raised as an `EnvError` of its type that names the env."""
+        self._assert_is_running()
+        env_states, _ = split_states(states, self.num_envs)
+        self._assert_idle("check_states")
+        self._each_env("check_state", env_states, "set_states, before any env changed")
+
+    check_states = one_thread_at_a_time(_check_states)
+
+    def _each_env(self, name: str, values: list[Any], doing: str) -> list[Any]:
+        """Call method ``name`` of env ``i`` with ``values[i]``; their results in env order (an
+        env's error raised as an `EnvError` of its type naming the env and ``doing``)."""
+        with self._stopped_on_interrupt():
+            self._dispatcher.call_each(name, [(value,) for value in values])
+            self._state = AsyncState.WAITING_CALL
+        return self._collect_calls(None, doing, named=True)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Attribute ``name`` of every env (through wrappers, like ``env.get_wrapper_attr``)."""
@@ -651,13 +671,14 @@ class PoolVectorEnv(VectorEnv):
         """The rendered frames of the envs (``render_mode`` applies)."""
         return self.call("render")
 
-    def _collect_calls(self, timeout: float | None, doing: str) -> list[Any]:
-        """Results of a pending call/set_attr, in env order; raises the first env's exception."""
+    def _collect_calls(self, timeout: float | None, doing: str, named: bool = False) -> list[Any]:
+        """Results of a pending call/set_attr, in env order; raises the first env's exception
+        (with ``named``, as an `EnvError` of its type naming the env)."""
         outcomes = self._gather(timeout, doing)
         for handle, _, failure in outcomes:
             if failure is not None:
                 self._recovery.after_call(handle, failure)
-        return self._dispatcher.call_results(outcomes, doing)
+        return self._dispatcher.call_results(outcomes, doing, named)
 
     @property
     def np_random_seed(self) -> tuple[int, ...]:

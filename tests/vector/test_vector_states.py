@@ -12,7 +12,8 @@ from gymnasium.vector import AutoresetMode
 
 import modelicagym
 from modelicagym.env.saved_state import StartStates
-from modelicagym.errors import ArgumentError
+from modelicagym.errors import ArgumentError, ArgumentTypeError
+from modelicagym.fmu import StateMismatchError
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.saved_states import VectorState
 
@@ -129,3 +130,33 @@ def test_a_pools_autoresets_start_from_the_configs_start_states(autoreset: Autor
             for _ in range(3 if autoreset is AutoresetMode.SAME_STEP else 4):
                 envs.step(np.zeros(N, dtype=np.int64))
             assert envs.get_attr("time") == (state.time,) * N and envs.get_attr("elapsed_steps") == (0,) * N
+
+
+def test_set_states_changes_no_env_when_one_refuses_its_state(no_leaks: None) -> None:
+    """Cart-poles over FMI 2.0 and 3.0 (two FMUs, same spaces), one in the calling process and
+    one in a worker: a state the other FMU refuses leaves both envs exactly where they were."""
+    def mixed() -> PoolVectorEnv:
+        return modelicagym.make_vec("cartpole", n=2, num_workers=1, caller_steps=True,
+                                    options_per_env=[{"fmi_version": 2}, {"fmi_version": 3}])
+
+    actions = np.random.default_rng(4).integers(2, size=(12, 2))
+    with mixed() as untouched:
+        untouched.reset(seed=1)
+        steps(untouched, actions[:4])
+        expected = steps(untouched, actions[4:])
+    with mixed() as envs:
+        assert envs.layout.envs_in_caller == 1
+        envs.reset(seed=1)
+        stale = envs.get_states().states
+        steps(envs, actions[:4])
+        # swapped, both refuse; env 0's own (stale) state with env 1 refusing the FMI 2.0 one:
+        # env 0 would load its state if the refusal were not checked everywhere first
+        for given, refused_by in (([stale[1], stale[0]], 0), ([stale[0], stale[0]], 1)):
+            with pytest.raises(StateMismatchError) as caught:
+                envs.set_states(given)
+            message = str(caught.value)
+            assert message.startswith(f"env {refused_by} (") and "before any env changed" in message
+            assert "\n" not in message
+        with pytest.raises(ArgumentTypeError, match="got bytes .unpickle"):
+            envs.set_states(pickle.dumps(envs.get_states()))
+        assert steps(envs, actions[4:]) == expected
