@@ -178,7 +178,8 @@ def _vector_env(
         return gym.vector.SyncVectorEnv(env_fns, autoreset_mode=autoreset_mode)
     from modelicagym.distributed import RayVectorEnv
 
-    return RayVectorEnv(env_fns, autoreset_mode=autoreset_mode, pool_options=pool_options, **ray_options)
+    init = pool_options.pop("init", "each")  # across actors, not per actor's pool
+    return RayVectorEnv(env_fns, autoreset_mode=autoreset_mode, pool_options=pool_options, init=init, **ray_options)
 
 
 def _env_option_names(env_class: Any) -> set[str] | None:

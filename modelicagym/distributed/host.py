@@ -12,7 +12,8 @@ once (:meth:`EnvHost.rollout`), the pattern that amortises a remote call over ma
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,7 +21,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from modelicagym.errors import ArgumentError
+from modelicagym.errors import ArgumentError, ModelicaGymError
+from modelicagym.vector.errors import EnvError
 
 __all__ = ["EnvHost", "Policy", "Rollout", "env_info", "local_vector_env"]
 
@@ -122,6 +124,35 @@ class EnvHost:
     def set_attr(self, name: str, values: list[Any]) -> None:
         """``set_attr`` of the local vector env, one value per env."""
         self.envs.set_attr(name, values)
+
+    def get_states(self) -> Any:
+        """``get_states`` of the local pool: its envs' states and reset flags (a `VectorState`)."""
+        return self.envs.get_states()
+
+    def check_states(self, states: Any) -> None:
+        """``check_states`` of the local pool, changing nothing."""
+        with self._env_named("refuses its state, before any env changed"):
+            self.envs.check_states(states)
+
+    def set_states(self, states: Any) -> None:
+        """``set_states`` of the local pool."""
+        with self._env_named("could not load its state"):
+            self.envs.set_states(states)
+
+    @contextmanager
+    def _env_named(self, what: str) -> Iterator[None]:
+        """An env's error from the local pool raised as its own type, naming the env by its index
+        in the whole vector env (the pool's `EnvError` types are made at run time, and Ray could not
+        unpickle them in the driver)."""
+        try:
+            yield
+        except EnvError as error:
+            if error.env_index is None:
+                raise
+            index = int(self.env_indices[error.env_index])
+            original = error.original
+            kind = type(original) if isinstance(original, ModelicaGymError) else ArgumentError
+            raise kind(f"env {index} {what}: {original if original is not None else error}") from None
 
     def set_policy(self, policy: Policy) -> None:
         """Keep ``policy`` for the following rollouts (Ray resolves the object reference)."""

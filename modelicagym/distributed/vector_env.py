@@ -31,6 +31,8 @@ from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
 from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
 from modelicagym.vector.errors import PoolClosedError
+from modelicagym.vector.pool import INIT_MODES
+from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
 
 __all__ = ["RAY_OPTIONS", "RayVectorEnv"]
 
@@ -64,6 +66,7 @@ class RayVectorEnv(VectorEnv):
         pool_options: Mapping[str, Any] | None = None,
         actor_options: Mapping[str, Any] | None = None,
         placement_timeout: float = 60.0,
+        init: str = "each",
     ) -> None:
         """Connect to Ray (see `~modelicagym.distributed.connect`) and start the actors.
 
@@ -80,6 +83,10 @@ class RayVectorEnv(VectorEnv):
             actor_options: more Ray actor options (``resources``, ``scheduling_strategy``, ...).
             placement_timeout: seconds to wait for Ray to place an actor (find it the CPUs) before
                 giving up with a `ClusterError`; creating its envs afterwards may take longer.
+            init: ``"each"`` (default): every env initializes itself at its first reset.
+                ``"once"``: the first reset resets the actor of the first env, takes that env's
+                state and starts every other env, on every actor, from it (the pool's
+                ``init="once"``, across actors: one initialization in all, where the envs allow).
         """
         self.env_fns = list(env_fns)
         if not self.env_fns:
@@ -97,7 +104,13 @@ class RayVectorEnv(VectorEnv):
         self.num_actors = len(self.plans)
         self._host_class = self._ray.remote(EnvHost)
         self._actor_options = {"max_restarts": 0, "max_concurrency": 1, **(actor_options or {})}
-        self._pool_options = dict(pool_options or {})
+        if init not in INIT_MODES:
+            raise ConfigError(f"init must be one of {INIT_MODES}, got {init!r}")
+        if "init" in (pool_options or {}):
+            raise ConfigError("give RayVectorEnv init=... itself, not in pool_options: it initializes once across actors")
+        #: ``init="once"`` until the first reset has done it; the actors' pools have it too
+        self._init_once = init == "once"
+        self._pool_options = {**(pool_options or {}), "init": init}
         self.placement_timeout = placement_timeout
         self._policy: tuple[Policy, Any] | None = None
         self._actors: list[Any] = [None] * self.num_actors
@@ -127,15 +140,47 @@ class RayVectorEnv(VectorEnv):
         """Reset every env (or those in ``options["reset_mask"]``); seeds as ``SyncVectorEnv``'s."""
         self._check_open()
         seeds = seeds_per_env(seed, self.num_envs)
+        check_options_per_env(options, self.num_envs)
         mask = None
         if options is not None and "reset_mask" in options:
             options = dict(options)
             mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
-        refs = []
-        for k, envs in enumerate(self.slices):
-            actor_options = options if mask is None else {**(options or {}), "reset_mask": mask[envs.start:envs.stop]}
-            refs.append(self._actors[k].reset.remote(seeds[envs.start:envs.stop], actor_options))
+        refs: list[Any] = [None] * self.num_actors
+        if self._init_once and (mask is None or mask.any()):
+            self._init_once = False
+            options = self._initialized_once(seeds, options, mask, refs)
+        for k in range(self.num_actors):
+            if refs[k] is None:
+                refs[k] = self._reset_actor(k, seeds, options, mask)
         return self._batch_reset(refs)
+
+    def _reset_actor(self, k: int, seeds: list[int | None], options: dict[str, Any] | None,
+                     mask: np.ndarray | None) -> Any:
+        """Start resetting actor ``k``'s envs with their part of ``seeds``, ``options`` and ``mask``."""
+        envs = self.slices[k]
+        part = dict(options or {})
+        if mask is not None:
+            part["reset_mask"] = mask[envs.start:envs.stop]
+        if "options_per_env" in part:
+            part["options_per_env"] = part["options_per_env"][envs.start:envs.stop]
+        return self._actors[k].reset.remote(seeds[envs.start:envs.stop], part if part or options is not None else None)
+
+    def _initialized_once(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray | None,
+                          refs: list[Any]) -> dict[str, Any] | None:
+        """``init="once"``: reset the actor of the first env to reset (its pool initializes it once
+        and starts its other envs from its state), take that env's state, and return the options
+        that start every other actor's envs from it (as given if it cannot give its state)."""
+        first = 0 if mask is None else int(np.flatnonzero(mask)[0])
+        k = next(k for k, envs in enumerate(self.slices) if first in envs)
+        refs[k] = self._reset_actor(k, seeds, options, mask)
+        try:
+            state = self._get([self._actors[k].call.remote("get_state", (), {})], [k])[0][first - self.slices[k].start]
+        except self._ray.exceptions.RayTaskError as error:  # it cannot give its state: each actor initializes its own
+            logger.info("init='once': env %d cannot give its state (%s); each actor initializes its envs", first,
+                        str(error).splitlines()[0])
+            return options
+        per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
+        return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every env with its action; one remote call per actor, in parallel."""
@@ -154,6 +199,27 @@ class RayVectorEnv(VectorEnv):
         self._check_open()
         refs = [actor.call.remote(name, args, kwargs) for actor in self._actors]
         return tuple(value for part in self._get(refs, range(self.num_actors)) for value in part)
+
+    def get_states(self) -> VectorState:
+        """Every env's state and reset flag, from every actor's pool (`PoolVectorEnv.get_states`):
+        a checkpoint that :meth:`set_states` resumes exactly, here or in another vector env of the
+        same envs (a pool too)."""
+        self._check_open()
+        parts = self._get([actor.get_states.remote() for actor in self._actors], range(self.num_actors))
+        return VectorState(tuple(s for part in parts for s in part.states),
+                           tuple(flag for part in parts for flag in part.needs_reset))
+
+    def set_states(self, states: VectorState | Sequence[Any]) -> None:
+        """Put back :meth:`get_states`'s checkpoint (or one state per env), all or nothing: every
+        actor first checks its envs' states, and a refusal (naming the env) changes no env."""
+        self._check_open()
+        env_states, needs_reset = split_states(states, self.num_envs)
+        parts = [env_states[envs.start:envs.stop] if needs_reset is None else
+                 VectorState(tuple(env_states[envs.start:envs.stop]), tuple(needs_reset[envs.start:envs.stop].tolist()))
+                 for envs in self.slices]
+        actors = range(self.num_actors)
+        self._get([self._actors[k].check_states.remote(parts[k]) for k in actors], actors)
+        self._get([self._actors[k].set_states.remote(parts[k]) for k in actors], actors)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Attribute ``name`` of every env."""

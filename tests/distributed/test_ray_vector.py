@@ -155,6 +155,43 @@ def test_a_dead_actor_is_named_with_its_envs_and_can_be_restarted():
         envs.close()
 
 
+def steps_as_bytes(envs, actions):
+    return [tuple(part.tobytes() for part in envs.step(batch)[:4]) for batch in actions]
+
+
+def test_init_once_across_actors_and_a_checkpoint_that_resumes_all_or_nothing():
+    """``init="once"``: one initialization in all (two actors), the same results as ``"each"``;
+    ``get_states``/``set_states`` resume bit for bit, and a state one env refuses changes none."""
+    actions = np.random.default_rng(1).integers(0, 2, size=(30, N))
+    runs = {}
+    for init in ("each", "once"):
+        envs = modelicagym.make_vec("cartpole", n=N, backend="ray", init=init, max_episode_steps=25)
+        try:
+            first, _ = envs.reset(seed=3)
+            runs[init] = [first.tobytes()] + steps_as_bytes(envs, actions[:10])
+            runs[init, "initializations"] = envs.get_attr("initializations")
+            if init == "once":
+                checkpoint = envs.get_states()
+                runs[init] += steps_as_bytes(envs, actions[10:])
+                other = modelicagym.make("cartpole", fmi_version=3)
+                other.reset(seed=0)
+                refused = [*checkpoint.states[:-1], other.get_state()]
+                before = envs.get_states()
+                with pytest.raises(modelicagym.fmu.StateMismatchError, match=f"env {N - 1} refuses its state"):
+                    envs.set_states(refused)  # envs 0-2 on actor 0 would take theirs otherwise
+                assert [(s.fmu.data, s.elapsed_steps) for s in envs.get_states().states] == [
+                    (s.fmu.data, s.elapsed_steps) for s in before.states]
+                envs.set_states(checkpoint)
+                assert steps_as_bytes(envs, actions[10:]) == runs[init][11:]
+            else:
+                runs[init] += steps_as_bytes(envs, actions[10:])
+        finally:
+            envs.close()
+    assert envs.num_actors == 2
+    assert runs["once"] == runs["each"]
+    assert runs["each", "initializations"] == (1,) * N and sum(runs["once", "initializations"]) == 1
+
+
 def test_make_vec_routes_ray_and_pool_options():
     envs = modelicagym.make_vec("cartpole", n=3, backend="ray", num_actors=1, cpus_per_actor=2, force=7.0,
                                 pool_options={"spin_time": 0.0})
