@@ -3,10 +3,12 @@ bit as the one it came from; refused by another FMU; one line for an FMU that ca
 
 from __future__ import annotations
 
+import pickle
 from functools import partial
 from pathlib import Path
 from typing import Any, Callable
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from fmu_family import STAIRCASE_OUTPUTS
@@ -221,3 +223,24 @@ def test_a_state_is_refused_by_the_same_fmu_with_a_changed_binary(tmp_path: Path
     rebuilt = FMUEnv(fmu=changed, inputs=["f"], outputs=["x"], time_step=0.05)
     with pytest.raises(StateMismatchError, match="a state loads only into the FMU it was saved from, unchanged"):
         rebuilt.set_state(state)
+
+
+def test_a_gymnasium_made_env_has_no_step_count_of_its_own_and_resumes_a_state() -> None:
+    """A state holds the env's own step count (``max_episode_steps`` truncates on it), not a
+    wrapper's: ``gymnasium.make`` adds no ``TimeLimit`` (unless given ``max_episode_steps``), only
+    wrappers without a state to lose; a state loaded after a ``reset`` goes on as its source."""
+    source = modelicagym.make("cartpole")
+    source.reset(seed=2)
+    for action in (1, 1, 0, 1, 0):
+        source.step(action)
+    state = source.get_state()
+    actions = [1, 0, 0, 1, 1, 1, 0, 0]
+    expected = [pickle.dumps(source.step(a)[:4]) for a in actions]
+    env = gym.make("ModelicaGym/CartPole-v0")
+    chain = [env]
+    while isinstance(chain[-1], gym.Wrapper):
+        chain.append(chain[-1].env)
+    assert [type(w).__name__ for w in chain[:-1]] == ["OrderEnforcing", "PassiveEnvChecker"]
+    env.reset()  # OrderEnforcing's own flag: a step needs a reset first
+    env.unwrapped.set_state(state)
+    assert [pickle.dumps(env.step(a)[:4]) for a in actions] == expected
