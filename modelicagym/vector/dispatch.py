@@ -286,7 +286,7 @@ class Dispatcher:
             party = command.party
             message, failure = party.answer(deadline, doing, buffers.reply, buffers.current_env)
             if message is not None and message.kind is Kind.ERROR:
-                failure = message.data.to_env_error(party.index, doing, party.process)
+                failure = message.data.to_env_error(party.index, doing, party.process if party.in_caller else None)
             elif message is not None and message.kind is Kind.OBSERVATIONS:
                 message = self._take_observations(message)
             outcomes.append(Outcome(party, message, failure))

@@ -91,7 +91,7 @@ def test_hang_past_step_timeout() -> None:
 @pytest.mark.usefixtures("no_leaks")
 def test_exception_in_step_carries_the_original_traceback() -> None:
     pool = PoolVectorEnv(fns_with_fault("raise"), num_workers=2)
-    with pytest.raises(EnvError, match="env 2 .* ValueError in step") as info:
+    with pytest.raises(EnvError, match=r"env 2 \(worker 1\) raised ValueError in step") as info:
         step_until_failure(pool)
     error = info.value
     assert isinstance(error.original, ValueError) and error.env_index == 2
