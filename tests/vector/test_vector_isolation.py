@@ -117,11 +117,12 @@ def test_the_worker_that_learnt_an_env_is_safe_in_the_caller_is_gone() -> None:
 @pytest.mark.usefixtures("no_leaks")
 def test_envs_that_cannot_move_get_plain_workers_and_no_stand_in() -> None:
     """A stand-in's copies serve only a layout that moves envs: for envs that cannot move (here
-    on the Python path), the pool replaces it by a plain worker of the caller's slice."""
+    toy envs that do not say their reset is deterministic), the pool replaces it by a plain worker of
+    the caller's slice."""
     with PoolVectorEnv([MadeElsewhere(fn, os.getpid()) for fn in count_fns(4)]) as pool:
         layout = pool.layout
         assert not layout.adaptive and layout.envs_in_stand_in == 0 and "standing in" not in str(layout), layout
-        assert "steps on the Python path" in layout.reason
+        assert "does not reset deterministically" in layout.reason
         assert pool.num_workers == min(usable_cores(), 4) and os.getpid() not in pool.call("pid")
         assert pool.call("max_len") == (4, 7, 10, 13)
 

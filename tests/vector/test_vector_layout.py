@@ -220,16 +220,17 @@ def _users_cartpole(**options: Any) -> modelicagym.FMUEnv:
                               action_table=[[-15.0], [15.0]], termination={"x": (-2.4, 2.4)}, **options)
 
 
+@pytest.mark.parametrize("step_path", ["auto", "python"])
 @pytest.mark.parametrize("mode", list(AutoresetMode))
 def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatch: pytest.MonkeyPatch,
-                                                                      mode: AutoresetMode) -> None:
+                                                                      mode: AutoresetMode, step_path: str) -> None:
     """Envs not safe in the calling process: a worker stands in for it (a copy of every env), and
-    the adaptive layout moves envs between it and their workers."""
+    the adaptive layout moves envs between it and their workers, on either step path."""
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
-    native = [partial(_users_cartpole, max_episode_steps=5 + 4 * i) for i in range(6)]
+    stepped = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path=step_path) for i in range(6)]
     python = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path="python") for i in range(6)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(stepped, autoreset_mode=mode) as pool:
         layout = pool.layout
         assert not pool.caller_steps and layout.adaptive and layout.envs_in_caller == 0, layout
         assert layout.envs_in_stand_in == 3 and "standing in for the calling process" in str(layout)
