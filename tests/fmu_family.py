@@ -124,6 +124,9 @@ VARIANTS: dict[str, Variant] = {
     "leaky_both": Variant(FMUS_DIR / "leaky", {"LEAKY_SNAPSHOT": None, "LEAKY_RESET": None}),
     # a lag whose doStep logs warnings, and an error loop returning OK beyond |u| > u_max (tests/fmus/noisy)
     "noisy": Variant(FMUS_DIR / "noisy"),
+    # a lag whose co-simulation step costs 100x more while x > threshold (tests/fmus/moody): a pool's
+    # load balance under step costs that vary with the state
+    "moody": Variant(FMUS_DIR / "moody"),
 }
 
 

@@ -269,3 +269,40 @@ def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> Non
     assert not window(20.0)  # the next try waits twice as long
     now[0] += PROBE_FIRST_SECONDS
     assert window(20.0) and policy.target == 0
+
+
+def _moody(fmu: str, threshold: float, **options: Any) -> modelicagym.FMUEnv:
+    """The moody test FMU (tests/fmus/moody): its step costs 100x more while x > ``threshold``."""
+    return modelicagym.FMUEnv(fmu=fmu, inputs=["u"], outputs=["x", "effort"], time_step=0.05,
+                              action_table=[[-1.0], [1.0]], parameters={"threshold": threshold}, **options)
+
+
+def test_the_moody_fmu_steps_costlier_exactly_in_its_moody_phase(family_fmu: Any) -> None:
+    """Its ``effort`` output (the factor on its internal steps) is the ratio exactly while x is above
+    the threshold, and a push one way then the other takes x through both phases."""
+    with _moody(str(family_fmu("moody", 2)), 0.5) as env:
+        env.reset(seed=0)
+        observations = [env.step(action)[0] for action in [1] * 30 + [0] * 30]
+    efforts = {float(effort) for x, effort in observations}
+    assert efforts == {1.0, 100.0}
+    assert all((effort == 100.0) == (x > 0.5) for x, effort in observations)
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode))
+def test_moody_envs_whose_cost_varies_keep_sync_results_as_they_move(family_fmu: Any, monkeypatch: pytest.MonkeyPatch,
+                                                                      mode: AutoresetMode) -> None:
+    """Envs whose step cost varies with their state (and between envs: thresholds differ) move
+    between their worker and the stand-in at episode boundaries; each keeps SyncVectorEnv's
+    trajectory."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    fmu = str(family_fmu("moody", 3))
+    fns = [partial(_moody, fmu, 0.2 * i, max_episode_steps=6 + 3 * i) for i in range(6)]
+    sync = SyncVectorEnv([partial(fn, step_path="python") for fn in fns], autoreset_mode=mode)
+    with PoolVectorEnv(fns, autoreset_mode=mode) as pool:
+        assert pool.layout.adaptive and pool.layout.envs_in_stand_in == 3, pool.layout
+        policy = _flipping(pool, every=5)
+        actual, in_stand_in = _rollout_recording_layouts(pool, 200)
+    expected, _ = _rollout_recording_layouts(sync, 200)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 30 and min(in_stand_in) == 3 and max(in_stand_in) == 6, in_stand_in
