@@ -18,6 +18,7 @@ from vector_rollouts import assert_same
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv, placement
+from modelicagym.vector.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
 from modelicagym.vector.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.sync import futex_library
 
@@ -34,7 +35,7 @@ class Flipping:
         self.movable, self.target, self.switches, self.last_decision = movable, 0, 0, ""
         self._every, self._seen = every, 0
 
-    def observe(self, *measured: Any) -> bool:
+    def observe(self, *measured: Any, **parties: Any) -> bool:
         self._seen += 1
         if self._seen % self._every:
             return False
@@ -300,9 +301,61 @@ def test_moody_envs_whose_cost_varies_keep_sync_results_as_they_move(family_fmu:
     sync = SyncVectorEnv([partial(fn, step_path="python") for fn in fns], autoreset_mode=mode)
     with PoolVectorEnv(fns, autoreset_mode=mode) as pool:
         assert pool.layout.adaptive and pool.layout.envs_in_stand_in == 3, pool.layout
-        policy = _flipping(pool, every=5)
+        policy = Cycling(pool._placement.policy.movable, every=5)
+        pool._placement.policy = policy
         actual, in_stand_in = _rollout_recording_layouts(pool, 200)
     expected, _ = _rollout_recording_layouts(sync, 200)
     sync.close()
     assert_same(expected, actual)
-    assert policy.switches >= 30 and min(in_stand_in) == 3 and max(in_stand_in) == 6, in_stand_in
+    assert policy.switches >= 30 and in_stand_in == {3, 4, 5, 6}, in_stand_in
+
+
+class Cycling(Flipping):
+    """A policy that gives the stand-in one more of the workers' envs every ``every`` parts it
+    observes, then all of them back: every partial balance in turn."""
+
+    def observe(self, *measured: Any, **parties: Any) -> bool:
+        self._seen += 1
+        if self._seen % self._every:
+            return False
+        self.target = (self.target + 1) % (self.movable + 1)
+        self.switches += 1
+        return True
+
+
+def _party_times(worker_us: float, stand_in_us: float, lent: int) -> PartyTimes:
+    """Sampled party times of a pool of 8 envs, 4 per worker and stand-in, ``lent`` of the worker's
+    in the stand-in."""
+    in_caller = np.array([0] * (4 - lent) + [1] * (4 + lent), dtype=np.uint8)
+    times = PartyTimes(np.array([worker_us * 1e3, stand_in_us * 1e3]), in_caller, [range(4)], np.ones(2, np.uint8))
+    for _ in range(SAMPLE_EVERY):
+        times.count()
+    return times
+
+
+def test_the_balance_moves_half_the_excess_of_the_busier_party() -> None:
+    costs = PartyCosts(worker_us=400.0, worker_envs=4, stand_in_us=20.0, stand_in_envs=4)
+    assert balance_shift(costs, lent=0, movable=4) == 2  # 100 us an env: two of them even it
+    assert balance_shift(PartyCosts(100.0, 4, 80.0, 4), lent=0, movable=4) == 0  # less than 1.5 envs' worth
+    assert balance_shift(PartyCosts(100.0, 2, 400.0, 8), lent=2, movable=4) == -2  # back, at most those lent
+    assert balance_shift(PartyCosts(4000.0, 4, 0.0, 4), lent=0, movable=4) == 2  # an idle stand-in: half of them
+
+
+def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs() -> None:
+    now = [0.0]
+    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0])
+
+    def window(batch_us: float, worker_us: float, stand_in_us: float) -> bool:
+        changed = False
+        for _ in range(WINDOW_PARTS):
+            now[0] += 0.01
+            parties = _party_times(worker_us, stand_in_us, policy.target)
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, 8, True, parties=parties)
+        return changed
+
+    assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
+    assert "400.0 us" in policy.last_decision and "20.0 us" in policy.last_decision
+    assert not window(220.0, 210.0, 220.0) and policy.target == 2  # balanced: stays
+    now[0] += PROBE_FIRST_SECONDS
+    assert window(220.0, 210.0, 220.0) and policy.target == 4  # consolidation is tried ...
+    assert window(420.0, 0.0, 420.0) and policy.target == 2  # ... and loses: back to the balanced spread
