@@ -94,9 +94,10 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 
 def add_arguments(parser: Any) -> None:
     """``modelicagym bench {fmi-calls,model-exchange,throughput,shared,autoreset,training,partial-batches,
-    runner,solver-accuracy,ray,load-trial}``: their arguments."""
+    runner,solver-accuracy,ray,load-trial,balance}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
+        balance,
         fmi_calls,
         load_trial,
         model_exchange,
@@ -113,7 +114,8 @@ def add_arguments(parser: Any) -> None:
     benchmarks = (("fmi-calls", fmi_calls), ("model-exchange", model_exchange), ("throughput", throughput),
                   ("shared", shared_machine), ("autoreset", autoreset), ("training", training),
                   ("partial-batches", partial_batches),
-                  ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial))
+                  ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial),
+                  ("balance", balance))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
         module.add_arguments(sub)

@@ -24,6 +24,7 @@ BENCHMARKS = {
     "solver-accuracy": (["--repeats", "1"], {"rows"}),
     "autoreset": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "load-trial": (["--repeats", "1"], {"seconds", "samples"}),
+    "balance": (["--n", "4", "--settings", "skewed", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
 }
 
 
