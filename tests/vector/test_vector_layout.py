@@ -359,3 +359,17 @@ def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs() ->
     now[0] += PROBE_FIRST_SECONDS
     assert window(220.0, 210.0, 220.0) and policy.target == 4  # consolidation is tried ...
     assert window(420.0, 0.0, 420.0) and policy.target == 2  # ... and loses: back to the balanced spread
+
+
+def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:
+    """The balance's input: the parties time their steps while a stand-in layout adapts, whatever
+    the user's ``set_timing`` says (the pool's own timing summary stays off)."""
+    with PoolVectorEnv([partial(_users_cartpole, max_episode_steps=50)] * 4) as pool:
+        assert pool.layout.envs_in_stand_in == 2, pool.layout
+        pool.set_timing(False)
+        pool.reset(seed=0)
+        for _ in range(7 * SAMPLE_EVERY):
+            pool.step(np.zeros(4, dtype=np.int64))
+        samples = pool._placement._party_times.take()
+        assert pool.timing().steps == 0
+    assert len(samples) == 7 and all(worker > 0 and stand_in > 0 for worker, stand_in in samples), samples
