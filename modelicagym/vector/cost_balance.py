@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PartyCosts", "PartyTimes", "SAMPLE_EVERY", "balance_shift"]
+__all__ = ["SAMPLE_EVERY", "PartyCosts", "PartyTimes", "balance_shift"]
 
 #: steps between two samples of the parties' stepping times (a sample costs a few microseconds)
 SAMPLE_EVERY = 8
