@@ -24,6 +24,7 @@ from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 from modelicagym.vector.plan import usable_cores
 from modelicagym.vector.sync import futex_library
+from modelicagym.vector.worker_set import go_spin_time
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
 
@@ -202,3 +203,16 @@ def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how:
                             env={**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR), *sys.path])})
     assert "modelicagym: env" not in result.stderr
     assert result.returncode == (3 if how == "exit" else -signal.SIGSEGV), result.stderr
+
+
+def test_workers_that_fill_the_cores_beside_a_waiting_caller_sleep_between_batches() -> None:
+    """Pollers must not outnumber the cores: where the calling process steps nothing and the workers
+    fill the usable cores, a worker sleeps as soon as it waits for its next command."""
+    cores = usable_cores()
+    assert go_spin_time(1e-4, cores, caller_steps=False) == 0.0
+    assert go_spin_time(1e-4, cores, caller_steps=True) == 1e-4
+    assert go_spin_time(1e-4, cores - 1, caller_steps=False) == 1e-4
+    with PoolVectorEnv([MadeElsewhere(users_cartpole, os.getpid())] * 4) as pool:
+        assert pool.num_workers == min(cores, 4) and pool._workers.go_spin_time == (0.0 if cores <= 4 else 1e-4)
+        pool.reset(seed=0)
+        assert pool.step(np.zeros(4, dtype=np.int64))[0].shape == (4, 4)  # the sleeping workers are woken
