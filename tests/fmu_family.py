@@ -126,6 +126,9 @@ VARIANTS: dict[str, Variant] = {
     "noisy": Variant(FMUS_DIR / "noisy"),
     # a lag whose initialization spends init_seconds of CPU (tests/fmus/slowinit): the pool's init="once"
     "slowinit": Variant(FMUS_DIR / "slowinit"),
+    # a lag whose co-simulation step costs 100x more while x > threshold (tests/fmus/moody): a pool's
+    # load balance under step costs that vary with the state
+    "moody": Variant(FMUS_DIR / "moody"),
 }
 
 

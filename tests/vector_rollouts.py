@@ -66,7 +66,7 @@ class Flipping:
         self.movable, self.target, self.switches, self.last_decision = movable, 0, 0, ""
         self._every, self._seen = every, 0
 
-    def observe(self, *measured: Any) -> bool:
+    def observe(self, *measured: Any, **parties: Any) -> bool:
         self._seen += 1
         if self._seen % self._every:
             return False

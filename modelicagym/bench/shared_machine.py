@@ -8,10 +8,13 @@ of ``single`` (one env in a plain loop), ``sync`` (`gymnasium.vector.SyncVectorE
 in the calling process), under four loads. The setting ``user`` is the light cart-pole's FMU given
 as a user gives any FMU (a plain ``FMUEnv`` config over its path; ``user-heavy``: the heavy one):
 the pool's default keeps it out of the calling process (crash isolation: a worker stands in for
-the calling process and takes every env when that is faster), and the extra candidate ``caller``
+the calling process and takes every env when that is faster; ``user-1ms``: ~1 ms a step;
+``user-python``, ``user-python-heavy``: the same on the Python step path), and the extra candidate ``caller``
 (``caller_steps=True``: the calling process steps a slice, the layout adapts) is what the default
 was before, so the rows say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every
-env in fewer workers, isolated, fixed, as many parties as cores) is the consolidated layout alone.
+env in fewer workers, isolated, fixed, as many parties as cores) is the consolidated layout alone;
+``fixed`` (``adapt_layout=False``: the planned workers, no stand-in) is the layout the default had
+on the Python path before issue 32.
 
 * ``idle``: nothing else runs (plus ``c_loop``, the one-core C loop: the physical limit);
 * ``busy``: one busy Python process beside it;
@@ -50,12 +53,16 @@ from modelicagym.vector.plan import usable_cores
 
 logger = logging.getLogger(__name__)
 
-SETTINGS = {"light": {}, "heavy": {"cs_step_size": 1e-4}, "user": {}, "user-heavy": {"cs_step_size": 1e-4}}
+SETTINGS = {"light": {}, "heavy": {"cs_step_size": 1e-4}, "user": {}, "user-heavy": {"cs_step_size": 1e-4},
+            "user-1ms": {"cs_step_size": 1e-5}, "user-python": {"step_path": "python"},
+            "user-python-heavy": {"step_path": "python", "cs_step_size": 1e-4}}
 LOADS = ("idle", "busy", "two", "learner")
 CANDIDATES = ("single", "sync", "pool", "pool0")
 #: the settings whose env is a user's FMU, with their extra candidate: the calling process steps a slice
-USER_SETTINGS = ("user", "user-heavy")
-USER_CANDIDATES = (*CANDIDATES, "caller", "one_worker")
+USER_SETTINGS = ("user", "user-heavy", "user-1ms", "user-python", "user-python-heavy")
+USER_CANDIDATES = (*CANDIDATES, "caller", "one_worker", "fixed")
+#: issue 32's bounds on pool/single at n=8, idle, by a step's cost: >= 1.0x, >= 1.5x from 20 us, >= 1.8x from 1 ms
+USER_N8_BOUNDS = {"user": 1.0, "user-python": 1.0, "user-heavy": 1.5, "user-python-heavy": 1.5, "user-1ms": 1.8}
 #: seconds of numpy work per batch in the ``learner`` load
 LEARNER_SECONDS = 1e-3
 #: the busy process's command line carries this, so that tests can find it
@@ -111,7 +118,7 @@ def make_candidate(candidate: str, setting: str, n: int, stack: ExitStack) -> Ca
             return _timed(batch)
         return single
     layouts = {"pool": {}, "pool0": {"num_workers": 0}, "caller": {"caller_steps": True},
-               "one_worker": {"num_workers": max(1, usable_cores() - 1)}}
+               "one_worker": {"num_workers": max(1, usable_cores() - 1)}, "fixed": {"adapt_layout": False}}
     if user and candidate == "sync":
         envs = gym.vector.SyncVectorEnv([functools.partial(modelicagym.FMUEnv, users_config(options))] * n)
     elif user:
@@ -194,7 +201,8 @@ def measure_group(load: str, setting: str, n: int, repeats: int, seconds: float)
     """Rates of every candidate for one (load, setting, n), medians of interleaved rounds."""
     if load == "two":
         return _measure_two(setting, n, repeats, seconds)
-    names = [*candidates(setting), "c_loop"] if load == "idle" else list(candidates(setting))
+    python_path = SETTINGS[setting].get("step_path") == "python"  # no C loop over a Python step
+    names = [*candidates(setting), "c_loop"] if load == "idle" and not python_path else list(candidates(setting))
     after = learner_work() if load == "learner" else (lambda: None)
     samples: dict[str, list[float]] = {name: [] for name in names}
     layout = None
@@ -264,7 +272,7 @@ def child_main(candidate: str, setting: str, n: int, seconds: float) -> None:
 def _group(load: str, setting: str, n: int, samples: dict[str, list[float]], extra: dict[str, Any]) -> dict[str, Any]:
     rates = {name: median(values) for name, values in samples.items()}
     ratios = {f"{name}/single": rates[name] / rates["single"]
-              for name in ("pool", "pool0", "sync", "caller", "one_worker") if name in rates}
+              for name in ("pool", "pool0", "sync", "caller", "one_worker", "fixed") if name in rates}
     if "c_loop" in rates:
         ratios["pool/c_loop"] = rates["pool"] / rates["c_loop"]
     return {"load": load, "setting": setting, "n": n, "steps_per_second": rates, "samples": samples,
@@ -297,6 +305,8 @@ def targets(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for key, field, bound in ((("idle", "light", 2), "pool/single", 1.0), (("idle", "light", 8), "pool/single", 2.2),
                               (("idle", "light", 64), "pool/c_loop", 1.75), (("idle", "heavy", 2), "pool/single", 1.8)):
         target(f"idle {key[1]} n={key[2]}: {field}", key, lambda r, field=field: r["ratios"][field], bound)
+    for setting, bound in USER_N8_BOUNDS.items():  # issue 32: a pool of a user's FMU never slower than one env
+        target(f"idle {setting} n=8: pool/single", ("idle", setting, 8), lambda r: r["ratios"]["pool/single"], bound)
     return rows
 
 
@@ -307,7 +317,7 @@ def report(results: list[dict[str, Any]], target_rows: list[dict[str, Any]]) -> 
         if not rows:
             continue
         columns = [*USER_CANDIDATES, "c_loop"] if load == "idle" else list(USER_CANDIDATES)
-        ratios = ("pool/single", "pool0/single", "caller/single", "one_worker/single")
+        ratios = ("pool/single", "pool0/single", "caller/single", "one_worker/single", "fixed/single")
         table = format_table(
             ("setting", "n", *columns, *ratios),
             [(r["setting"], r["n"], *(_cell(r["steps_per_second"].get(c), "{:,.0f}") for c in columns),

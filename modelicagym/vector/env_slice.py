@@ -43,10 +43,9 @@ logger = logging.getLogger(__name__)
 
 
 def movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None:
-    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can)."""
-    reason = batch_path_reason(envs)
-    if reason is not None:
-        return reason
+    """Why ``envs`` cannot move between processes at an episode boundary (``None``: they can).
+    Either step path moves them (both honour ``in_caller`` and ``RESET_THEN_STEP``); a layout
+    that steps copies in the calling process checks for the native path itself."""
     for offset, env in enumerate(envs):
         if not getattr(env, "reset_is_deterministic", False):
             return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"

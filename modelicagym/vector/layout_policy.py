@@ -14,6 +14,8 @@ import statistics
 import time
 from collections.abc import Callable
 
+from modelicagym.vector.cost_balance import PartyTimes, balance_shift
+
 __all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
 
 logger = logging.getLogger(__name__)
@@ -148,7 +150,8 @@ class LayoutPolicy:
 
 
 class ConsolidationPolicy:
-    """Decides whether a stand-in worker steps every env (consolidated) or only its own slice.
+    """Decides whether a stand-in worker steps every env (consolidated) or shares them with the
+    other workers (spread), and in the spread layout how many of theirs it takes (balanced by cost).
 
     Where the calling process may not step a user's envs, a worker stands in for it
     (`modelicagym.vector.assembly`), and its costs cannot be told apart from the other workers'
@@ -157,8 +160,13 @@ class ConsolidationPolicy:
     the same in both). After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
-    before the next try (0.5 s up to 30 s). ``target``: 0 (the planned layout) or ``movable``
-    (every env in the stand-in).
+    before the next try (0.5 s up to 30 s). ``target``: the workers' envs the stand-in steps,
+    ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
+
+    In the spread layout, a window's party costs (`modelicagym.vector.cost_balance`: what the
+    busiest worker and the stand-in took to step their envs) move envs from the busier to the
+    other (`balance_shift`), so that a synchronous step does not wait on one party while the
+    other's core idles; the parent's comparison of the two layouts then sees the balanced one.
 
     Args:
         movable: the other workers' envs; ``home``: the stand-in's own.
@@ -168,6 +176,8 @@ class ConsolidationPolicy:
     def __init__(self, movable: int, home: int, clock: Callable[[], float] = time.monotonic) -> None:
         self.movable, self.home = movable, home
         self.target = 0
+        #: the target of the spread layout, moved by the balance
+        self.spread = 0
         self.switches = 0
         self.last_decision = ""
         self._clock = clock
@@ -179,42 +189,64 @@ class ConsolidationPolicy:
 
     def _window(self) -> None:
         self._parts: list[float] = []
+        self._party_samples: list[tuple[int, int]] = []
         self._window_start = self._clock()
 
     def observe(
-        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
+        parties: PartyTimes | None = None,
     ) -> bool:
         """Account a part of ``batches`` batches that took ``local_ns + wait_ns`` in all (the
-        parent's measurement, as `LayoutPolicy.observe`'s); ``True`` when the target changed."""
+        parent's measurement, as `LayoutPolicy.observe`'s), and the parties' sampled costs
+        (``parties``, if the pool samples them); ``True`` when the target changed."""
+        samples = [] if parties is None else parties.take()
         if not settled:
             self._window()
             return False
         if batches:
             self._parts.append((local_ns + wait_ns) / batches / 1e3)
+        self._party_samples += samples
         now = self._clock()
         if now - self._window_start < WINDOW_SECONDS or len(self._parts) < WINDOW_PARTS:
             return False
         batch_us = statistics.median(self._parts)
+        costs = None if parties is None else parties.costs(self._party_samples)
         self._window()
-        here, there = self._names(self.target), self._names(self.movable - self.target)
+        here, there = self._names(self.target), self._names(self._other())
         if self._left_us is not None:
             left_us, self._left_us = self._left_us, None
             if MARGIN * batch_us < left_us:
                 self._probe_wait, self._switched_at = PROBE_FIRST_SECONDS, now
                 return False
             self._probe_wait = min(2 * self._probe_wait, PROBE_MAX_SECONDS)
-            return self._switch(now, f"the parent waited {batch_us:.1f} us a batch with {here}, {left_us:.1f} us "
-                                     f"with {there}")
+            return self._switch(self._other(), now, f"the parent waited {batch_us:.1f} us a batch with {here}, "
+                                                    f"{left_us:.1f} us with {there}")
+        if costs is not None and self.target != self.movable and (shift := balance_shift(costs, self.target,
+                                                                                         self.movable)):
+            self.spread = self.target + shift
+            return self._switch(self.spread, None, f"the busiest worker stepped its {costs.worker_envs} envs in "
+                                                   f"{costs.worker_us:.1f} us a batch, the stand-in its "
+                                                   f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
         if now - self._switched_at < self._probe_wait:
             return False
         self._left_us = batch_us
-        return self._switch(now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} are tried")
+        return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
+                                                "are tried")
+
+    def _other(self) -> int:
+        """The target of the layout not running now."""
+        return self.spread if self.target == self.movable else self.movable
 
     def _names(self, target: int) -> str:
-        return "every env in the stand-in worker" if target == self.movable else "the envs in their workers"
+        if target == self.movable:
+            return "every env in the stand-in worker"
+        return "the envs in their workers" if target == 0 else f"{target} of the workers' envs in the stand-in"
 
-    def _switch(self, now: float, why: str) -> bool:
-        self.target, self._switched_at = self.movable - self.target, now
+    def _switch(self, target: int, now: float | None, why: str) -> bool:
+        """Take ``target``; ``now``: a change of layout (a balance, ``None``, does not delay the next try)."""
+        self.target = target
+        if now is not None:
+            self._switched_at = now
         self.switches += 1
         self.last_decision = f"{self.home + self.target} envs to the stand-in worker: {why}"
         logger.debug("pool layout: %s", self.last_decision)

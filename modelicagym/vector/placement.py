@@ -42,6 +42,8 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
+from modelicagym.vector.buffers import SharedBuffers
+from modelicagym.vector.cost_balance import PartyTimes
 from modelicagym.vector.creation import close_envs, create_envs
 from modelicagym.vector.env_slice import EnvSlice, movable_reason
 from modelicagym.vector.errors import PoolMemoryError
@@ -105,6 +107,8 @@ class Placement:
         stand_in: the envs marked ``in_caller`` are stepped by one more worker, after those of
             ``worker_slices``, that holds a copy of every env (`modelicagym.vector.assembly`),
             rather than by the calling process.
+        env_ns: with a stand-in, the pool's ``timing[:, ENV_NS]``: the parties' stepping times are
+            sampled from it for the policy's balance (`modelicagym.vector.cost_balance`).
     """
 
     def __init__(
@@ -117,6 +121,7 @@ class Placement:
         policy: LayoutPolicy | ConsolidationPolicy | None,
         reason: str,
         stand_in: bool = False,
+        env_ns: np.ndarray | None = None,
     ) -> None:
         self.in_caller = in_caller
         self.needs_reset = needs_reset
@@ -146,6 +151,13 @@ class Placement:
         #: steps until the next window of measurements is taken in; a fixed layout never is
         self._countdown = PART_BATCHES if policy is not None else 1 << 62
         self._caller_envs = int(in_caller.sum())
+        self._party_times = (None if env_ns is None or policy is None
+                             else PartyTimes(env_ns, in_caller, worker_slices, self.stepping))
+
+    @property
+    def samples_parties(self) -> bool:
+        """Whether the parties must time their steps (``timing_enabled``) for the balance."""
+        return self._party_times is not None
 
     @property
     def adaptive(self) -> bool:
@@ -166,6 +178,8 @@ class Placement:
         """Count a step; whether :meth:`after_step` has work after it: a window of measurements
         is complete, or envs wait to move (cheap: the pool asks after every step)."""
         self._countdown -= 1
+        if self._party_times is not None:
+            self._party_times.count()
         return self._countdown <= 0 or not self._settled
 
     def after_step(
@@ -179,7 +193,8 @@ class Placement:
             self._countdown = PART_BATCHES
             times = take_times()
             policy, envs = self.policy, len(self.in_caller)
-            if times is not None and policy.observe(*times, self._caller_envs, envs, self._settled):
+            parties = {} if self._party_times is None else {"parties": self._party_times}
+            if times is not None and policy.observe(*times, self._caller_envs, envs, self._settled, **parties):
                 self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
@@ -291,7 +306,7 @@ def _place_with_stand_in(workers: WorkerSet, home: range, autoreset_mode: Autore
     worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
     buffers = workers.buffers
     return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, autoreset_mode, policy, reason,
-                     stand_in=True)
+                     stand_in=True, env_ns=buffers.timing[:, SharedBuffers.ENV_NS])
 
 
 def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:

@@ -712,7 +712,7 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         self._assert_idle("set_timing")
         self._timing_enabled = bool(enabled)
-        self._buffers.timing_enabled[0] = self._timing_enabled
+        self._buffers.timing_enabled[0] = self._timing_enabled or self._placement.samples_parties
         self._timing.clear()
 
     set_timing = one_thread_at_a_time(_set_timing)

@@ -66,7 +66,8 @@ class Kind(str, enum.Enum):
     STEP = "step"
     #: no data: close the envs and exit
     CLOSE = "close"
-    #: ``(BufferSpec, needs_reset)``, followed on the pipe by the memory's file descriptor
+    #: ``(BufferSpec, needs_reset, seconds to poll for a command)``, followed on the pipe by the
+    #: memory's file descriptor
     BUFFERS = "buffers"
     # worker -> parent
     #: :class:`EnvDescription`: the envs are created

@@ -119,6 +119,7 @@ class Worker:
         self._go = go
         self._done = done
         self._config = config
+        #: seconds it polls for a command before it sleeps (the parent's choice comes with the buffers)
         self._spin_time = config.spin_time
         self._buffers: SharedBuffers | None = None
         self._server: NativeServer | None = None
@@ -127,7 +128,7 @@ class Worker:
 
     def attach(self) -> None:
         """Receive and map the shared memory, then confirm."""
-        spec, needs_reset = self._conn.recv().data
+        spec, needs_reset, self._spin_time = self._conn.recv().data
         fd = recv_handle(self._conn)
         try:
             self._buffers = SharedBuffers.attach(spec, fd)

@@ -27,6 +27,7 @@ BENCHMARKS = {
     "python-reward": (["--n", "4", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "saved-states": (["--calls", "20", "--repeats", "1"], {"cores", "results"}),
     "init-once": (["--n", "2", "--init-seconds", "0.01", "--repeats", "1"], {"cores", "results"}),
+    "balance": (["--n", "4", "--settings", "skewed", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
 }
 
 

@@ -24,6 +24,7 @@ from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 from modelicagym.vector.plan import usable_cores
 from modelicagym.vector.sync import futex_library
+from modelicagym.vector.worker_set import go_spin_time
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
 
@@ -117,11 +118,12 @@ def test_the_worker_that_learnt_an_env_is_safe_in_the_caller_is_gone() -> None:
 @pytest.mark.usefixtures("no_leaks")
 def test_envs_that_cannot_move_get_plain_workers_and_no_stand_in() -> None:
     """A stand-in's copies serve only a layout that moves envs: for envs that cannot move (here
-    on the Python path), the pool replaces it by a plain worker of the caller's slice."""
+    toy envs that do not say their reset is deterministic), the pool replaces it by a plain worker of
+    the caller's slice."""
     with PoolVectorEnv([MadeElsewhere(fn, os.getpid()) for fn in count_fns(4)]) as pool:
         layout = pool.layout
         assert not layout.adaptive and layout.envs_in_stand_in == 0 and "standing in" not in str(layout), layout
-        assert "steps on the Python path" in layout.reason
+        assert "does not reset deterministically" in layout.reason
         assert pool.num_workers == min(usable_cores(), 4) and os.getpid() not in pool.call("pid")
         assert pool.call("max_len") == (4, 7, 10, 13)
 
@@ -201,3 +203,16 @@ def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how:
                             env={**os.environ, "PYTHONPATH": os.pathsep.join([str(TESTS_DIR), *sys.path])})
     assert "modelicagym: env" not in result.stderr
     assert result.returncode == (3 if how == "exit" else -signal.SIGSEGV), result.stderr
+
+
+def test_workers_that_fill_the_cores_beside_a_waiting_caller_sleep_between_batches() -> None:
+    """Pollers must not outnumber the cores: where the calling process steps nothing and the workers
+    fill the usable cores, a worker sleeps as soon as it waits for its next command."""
+    cores = usable_cores()
+    assert go_spin_time(1e-4, cores, caller_steps=False) == 0.0
+    assert go_spin_time(1e-4, cores, caller_steps=True) == 1e-4
+    assert go_spin_time(1e-4, cores - 1, caller_steps=False) == 1e-4
+    with PoolVectorEnv([MadeElsewhere(users_cartpole, os.getpid())] * 4) as pool:
+        assert pool.num_workers == min(cores, 4) and pool._workers.go_spin_time == (0.0 if cores <= 4 else 1e-4)
+        pool.reset(seed=0)
+        assert pool.step(np.zeros(4, dtype=np.int64))[0].shape == (4, 4)  # the sleeping workers are woken

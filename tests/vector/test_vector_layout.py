@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from step_paths import cartpole_fns
-from vector_rollouts import assert_same, flipping, rollout_recording_layouts
+from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_layouts
 
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv, placement
+from modelicagym.vector.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
 from modelicagym.vector.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.sync import futex_library
 
@@ -178,16 +179,17 @@ def _users_cartpole(**options: Any) -> modelicagym.FMUEnv:
                               action_table=[[-15.0], [15.0]], termination={"x": (-2.4, 2.4)}, **options)
 
 
+@pytest.mark.parametrize("step_path", ["auto", "python"])
 @pytest.mark.parametrize("mode", list(AutoresetMode))
 def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatch: pytest.MonkeyPatch,
-                                                                      mode: AutoresetMode) -> None:
+                                                                      mode: AutoresetMode, step_path: str) -> None:
     """Envs not safe in the calling process: a worker stands in for it (a copy of every env), and
-    the adaptive layout moves envs between it and their workers."""
+    the adaptive layout moves envs between it and their workers, on either step path."""
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
-    native = [partial(_users_cartpole, max_episode_steps=5 + 4 * i) for i in range(6)]
+    stepped = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path=step_path) for i in range(6)]
     python = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path="python") for i in range(6)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(stepped, autoreset_mode=mode) as pool:
         layout = pool.layout
         assert not pool.caller_steps and layout.adaptive and layout.envs_in_caller == 0, layout
         assert layout.envs_in_stand_in == 3 and "standing in for the calling process" in str(layout)
@@ -226,3 +228,106 @@ def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> Non
     assert not window(20.0)  # the next try waits twice as long
     now[0] += PROBE_FIRST_SECONDS
     assert window(20.0) and policy.target == 0
+
+
+def _moody(fmu: str, threshold: float, **options: Any) -> modelicagym.FMUEnv:
+    """The moody test FMU (tests/fmus/moody): its step costs 100x more while x > ``threshold``."""
+    return modelicagym.FMUEnv(fmu=fmu, inputs=["u"], outputs=["x", "effort"], time_step=0.05,
+                              action_table=[[-1.0], [1.0]], parameters={"threshold": threshold}, **options)
+
+
+def test_the_moody_fmu_steps_costlier_exactly_in_its_moody_phase(family_fmu: Any) -> None:
+    """Its ``effort`` output (the factor on its internal steps) is the ratio exactly while x is above
+    the threshold, and a push one way then the other takes x through both phases."""
+    with _moody(str(family_fmu("moody", 2)), 0.5) as env:
+        env.reset(seed=0)
+        observations = [env.step(action)[0] for action in [1] * 30 + [0] * 30]
+    efforts = {float(effort) for x, effort in observations}
+    assert efforts == {1.0, 100.0}
+    assert all((effort == 100.0) == (x > 0.5) for x, effort in observations)
+
+
+@pytest.mark.parametrize("mode", list(AutoresetMode))
+def test_moody_envs_whose_cost_varies_keep_sync_results_as_they_move(family_fmu: Any, monkeypatch: pytest.MonkeyPatch,
+                                                                      mode: AutoresetMode) -> None:
+    """Envs whose step cost varies with their state (and between envs: thresholds differ) move
+    between their worker and the stand-in at episode boundaries; each keeps SyncVectorEnv's
+    trajectory."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    fmu = str(family_fmu("moody", 3))
+    fns = [partial(_moody, fmu, 0.2 * i, max_episode_steps=6 + 3 * i) for i in range(6)]
+    sync = SyncVectorEnv([partial(fn, step_path="python") for fn in fns], autoreset_mode=mode)
+    with PoolVectorEnv(fns, autoreset_mode=mode) as pool:
+        assert pool.layout.adaptive and pool.layout.envs_in_stand_in == 3, pool.layout
+        policy = Cycling(pool._placement.policy.movable, every=5)
+        pool._placement.policy = policy
+        actual, in_stand_in = rollout_recording_layouts(pool, 200)
+    expected, _ = rollout_recording_layouts(sync, 200)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 30 and in_stand_in == {3, 4, 5, 6}, in_stand_in
+
+
+class Cycling(Flipping):
+    """A policy that gives the stand-in one more of the workers' envs every ``every`` parts it
+    observes, then all of them back: every partial balance in turn."""
+
+    def observe(self, *measured: Any, **parties: Any) -> bool:
+        self._seen += 1
+        if self._seen % self._every:
+            return False
+        self.target = (self.target + 1) % (self.movable + 1)
+        self.switches += 1
+        return True
+
+
+def _party_times(worker_us: float, stand_in_us: float, lent: int) -> PartyTimes:
+    """Sampled party times of a pool of 8 envs, 4 per worker and stand-in, ``lent`` of the worker's
+    in the stand-in."""
+    in_caller = np.array([0] * (4 - lent) + [1] * (4 + lent), dtype=np.uint8)
+    times = PartyTimes(np.array([worker_us * 1e3, stand_in_us * 1e3]), in_caller, [range(4)], np.ones(2, np.uint8))
+    for _ in range(SAMPLE_EVERY):
+        times.count()
+    return times
+
+
+def test_the_balance_moves_half_the_excess_of_the_busier_party() -> None:
+    costs = PartyCosts(worker_us=400.0, worker_envs=4, stand_in_us=20.0, stand_in_envs=4)
+    assert balance_shift(costs, lent=0, movable=4) == 2  # 100 us an env: two of them even it
+    assert balance_shift(PartyCosts(100.0, 4, 80.0, 4), lent=0, movable=4) == 0  # less than 1.5 envs' worth
+    assert balance_shift(PartyCosts(100.0, 2, 400.0, 8), lent=2, movable=4) == -2  # back, at most those lent
+    assert balance_shift(PartyCosts(4000.0, 4, 0.0, 4), lent=0, movable=4) == 2  # an idle stand-in: half of them
+
+
+def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs() -> None:
+    now = [0.0]
+    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0])
+
+    def window(batch_us: float, worker_us: float, stand_in_us: float) -> bool:
+        changed = False
+        for _ in range(WINDOW_PARTS):
+            now[0] += 0.01
+            parties = _party_times(worker_us, stand_in_us, policy.target)
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, 8, True, parties=parties)
+        return changed
+
+    assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
+    assert "400.0 us" in policy.last_decision and "20.0 us" in policy.last_decision
+    assert not window(220.0, 210.0, 220.0) and policy.target == 2  # balanced: stays
+    now[0] += PROBE_FIRST_SECONDS
+    assert window(220.0, 210.0, 220.0) and policy.target == 4  # consolidation is tried ...
+    assert window(420.0, 0.0, 420.0) and policy.target == 2  # ... and loses: back to the balanced spread
+
+
+def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:
+    """The balance's input: the parties time their steps while a stand-in layout adapts, whatever
+    the user's ``set_timing`` says (the pool's own timing summary stays off)."""
+    with PoolVectorEnv([partial(_users_cartpole, max_episode_steps=50)] * 4) as pool:
+        assert pool.layout.envs_in_stand_in == 2, pool.layout
+        pool.set_timing(False)
+        pool.reset(seed=0)
+        for _ in range(7 * SAMPLE_EVERY):
+            pool.step(np.zeros(4, dtype=np.int64))
+        samples = pool._placement._party_times.take()
+        assert pool.timing().steps == 0
+    assert len(samples) == 7 and all(worker > 0 and stand_in > 0 for worker, stand_in in samples), samples
