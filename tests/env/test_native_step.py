@@ -10,28 +10,12 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
-from step_paths import probe_env
+from step_paths import assert_same_steps, probe_env
 
 import modelicagym
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.instance import RUNGS
-
-
-def assert_same_steps(native: Any, python: Any, actions: list[Any], seed: int = 0) -> int:
-    """Step both envs with ``actions`` (resetting both after an episode ends); returns the episodes."""
-    assert np.array_equal(native.reset(seed=seed)[0], python.reset(seed=seed)[0])
-    episodes = 0
-    for step, action in enumerate(actions):
-        a, b = native.step(action), python.step(action)
-        assert np.array_equal(a[0], b[0]), f"observation differs at step {step}"
-        assert a[1:] == b[1:], f"reward/terminated/truncated/info differ at step {step}: {a[1:]} vs {b[1:]}"
-        assert native.unwrapped.elapsed_steps == python.unwrapped.elapsed_steps
-        assert native.unwrapped.fmu.time == python.unwrapped.fmu.time
-        if a[2] or a[3]:
-            episodes += 1
-            assert np.array_equal(native.reset()[0], python.reset()[0])
-    return episodes
 
 
 @pytest.mark.parametrize("reset_rung", RUNGS)

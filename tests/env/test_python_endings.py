@@ -7,25 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from python_endings import KINDS, batch_reward, config_cartpole, reward
+from step_paths import assert_same_steps
 
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.models.cartpole.env import CartPoleEnv
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
-
-
-def assert_same_steps(native: object, python: object, actions: list, seed: int = 0) -> int:
-    """Step both envs alike (resetting both after an episode ends); returns the episodes."""
-    assert np.array_equal(native.reset(seed=seed)[0], python.reset(seed=seed)[0])
-    episodes = 0
-    for step, action in enumerate(actions):
-        a, b = native.step(action), python.step(action)
-        assert np.array_equal(a[0], b[0]), f"observation differs at step {step}"
-        assert a[1:] == b[1:], f"reward/terminated/truncated/info differ at step {step}: {a[1:]} vs {b[1:]}"
-        if a[2] or a[3]:
-            episodes += 1
-            assert np.array_equal(native.reset()[0], python.reset()[0])
-    return episodes
 
 
 @pytest.mark.parametrize("kind", KINDS)
