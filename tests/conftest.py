@@ -26,7 +26,7 @@ from vector_leaks import Snapshot
 
 from modelicagym.models.cartpole import cartpole_fmu as build_cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.sync import machine_crowded
+from modelicagym.vector.wire.sync import machine_crowded
 
 
 @pytest.fixture(params=FMI_VERSIONS, ids=[f"fmi{v}" for v in FMI_VERSIONS])

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from modelicagym.errors import ConfigError
-from modelicagym.vector.plan import plan_workers
+from modelicagym.vector.parent.plan import plan_workers
 
 __all__ = ["ActorPlan", "plan_actors", "split_by_weight"]
 

@@ -28,11 +28,11 @@ from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
-from modelicagym.vector.action_writer import ActionWriter
-from modelicagym.vector.assembly import assemble
-from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.call_guard import check_idle, check_open, check_waiting, one_thread_at_a_time
-from modelicagym.vector.checks import (
+from modelicagym.vector.parent.action_writer import ActionWriter
+from modelicagym.vector.parent.assembly import assemble
+from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.parent.call_guard import check_idle, check_open, check_waiting, one_thread_at_a_time
+from modelicagym.vector.parent.checks import (
     check_async_vector_env_options,
     check_batch_size,
     check_env_fns,
@@ -45,15 +45,15 @@ from modelicagym.vector.checks import (
     values_per_env,
 )
 from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
-from modelicagym.vector.infos import Entries, add_final_infos, merge_infos
-from modelicagym.vector.partial_batches import PartialBatches
-from modelicagym.vector.party import Outcome
-from modelicagym.vector.placement import LayoutState
-from modelicagym.vector.plan import default_start_method, plan_layout
-from modelicagym.vector.protocol import StepPath, WorkerConfig
-from modelicagym.vector.recovery import RESTART_INFO_KEY, Recovery
+from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos
+from modelicagym.vector.parent.partial_batches import PartialBatches
+from modelicagym.vector.parent.party import Outcome
+from modelicagym.vector.parent.placement import LayoutState
+from modelicagym.vector.parent.plan import default_start_method, plan_layout
+from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
+from modelicagym.vector.parent.recovery import RESTART_INFO_KEY, Recovery
 from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
-from modelicagym.vector.sync import futex_library
+from modelicagym.vector.wire.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
 
 __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]

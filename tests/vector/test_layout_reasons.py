@@ -18,7 +18,7 @@ import modelicagym
 from modelicagym import FMUEnv
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.sync import futex_library
+from modelicagym.vector.wire.sync import futex_library
 
 pytestmark = [
     pytest.mark.timeout(120),

@@ -18,10 +18,11 @@ from step_paths import probe_env
 from vector_rollouts import assert_native_equals_python, assert_same, flipping, rollout, rollout_recording_layouts
 
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
-from modelicagym.vector import EnvError, PoolVectorEnv, placement
-from modelicagym.vector.buffers import BufferSpec, SharedBuffers
-from modelicagym.vector.env_slice import EnvSlice
-from modelicagym.vector.protocol import Kind
+from modelicagym.vector import EnvError, PoolVectorEnv
+from modelicagym.vector.parent import placement
+from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.slice.env_slice import EnvSlice
+from modelicagym.vector.wire.protocol import Kind
 
 pytestmark = pytest.mark.timeout(180)
 

@@ -22,9 +22,9 @@ from vector_envs import MadeElsewhere, SafeCountEnv, count_fns
 import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
-from modelicagym.vector.plan import usable_cores
-from modelicagym.vector.sync import futex_library
-from modelicagym.vector.worker_set import go_spin_time
+from modelicagym.vector.parent.plan import usable_cores
+from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.parent.worker_set import go_spin_time
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
 

@@ -17,10 +17,11 @@ from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_l
 
 import modelicagym
 from modelicagym.errors import ConfigError
-from modelicagym.vector import PoolVectorEnv, placement
-from modelicagym.vector.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
-from modelicagym.vector.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
-from modelicagym.vector.sync import futex_library
+from modelicagym.vector import PoolVectorEnv
+from modelicagym.vector.parent import placement
+from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
+from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
+from modelicagym.vector.wire.sync import futex_library
 
 pytestmark = [
     pytest.mark.timeout(180),

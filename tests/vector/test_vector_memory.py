@@ -12,7 +12,7 @@ from gymnasium import spaces
 from vector_leaks import Snapshot
 
 from modelicagym.vector import PoolMemoryError, PoolVectorEnv
-from modelicagym.vector.creation import FIRST_MEASURE, available_memory, create_envs
+from modelicagym.vector.slice.creation import FIRST_MEASURE, available_memory, create_envs
 
 pytestmark = [
     pytest.mark.timeout(120),

@@ -15,7 +15,7 @@ from vector_rollouts import assert_same, rollout
 
 import modelicagym.vector.pool
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.sync import FutexSignal, futex_library
+from modelicagym.vector.wire.sync import FutexSignal, futex_library
 
 pytestmark = pytest.mark.timeout(60)
 

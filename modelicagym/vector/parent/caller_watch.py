@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from modelicagym.vector.env_contract import fault_label
-from modelicagym.vector.sync import futex_library
+from modelicagym.vector.wire.sync import futex_library
 
 __all__ = ["CallerWatch"]
 

@@ -25,7 +25,7 @@ from gymnasium.vector.utils import batch_space, iterate
 from modelicagym.action_checks import CHECKED_SPACES, action_checker, check_action
 from modelicagym.errors import ActionError, ActionTypeError
 from modelicagym.native.abi import RESET_THEN_REPORT
-from modelicagym.vector.buffers import PickledBatch, SharedBatch
+from modelicagym.vector.wire.buffers import PickledBatch, SharedBatch
 
 __all__ = ["ActionWriter"]
 

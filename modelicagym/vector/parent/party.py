@@ -15,11 +15,11 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.caller_watch import CallerWatch
-from modelicagym.vector.env_slice import EnvSlice
+from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.parent.caller_watch import CallerWatch
+from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.errors import PoolError
-from modelicagym.vector.protocol import Command, Message, Reply
+from modelicagym.vector.wire.protocol import Command, Message, Reply
 
 __all__ = ["CallerParty", "Outcome", "Party", "PendingCommand"]
 

@@ -31,13 +31,13 @@ import gymnasium as gym
 from gymnasium.vector.utils import CloudpickleWrapper
 
 from modelicagym.native.abi import SERVE_PYTHON_STEP, SERVE_TIMEOUT
-from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.creation import EnvCreator, close_envs
-from modelicagym.vector.env_slice import EnvSlice, describe_envs
+from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.slice.creation import EnvCreator, close_envs
+from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.errors import PoolMemoryError, RemoteError
-from modelicagym.vector.native_slice import NativeServer
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
-from modelicagym.vector.sync import FutexSignal, SemaphoreSignal, futex_library
+from modelicagym.vector.slice.native_slice import NativeServer
+from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
+from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal, futex_library
 
 __all__ = ["run_worker"]
 

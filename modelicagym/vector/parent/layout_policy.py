@@ -14,7 +14,7 @@ import statistics
 import time
 from collections.abc import Callable
 
-from modelicagym.vector.cost_balance import PartyTimes, balance_shift
+from modelicagym.vector.parent.cost_balance import PartyTimes, balance_shift
 
 __all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
 

@@ -17,9 +17,9 @@ import numpy as np
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, Reply, WorkerConfig
-from modelicagym.vector.sync import FutexSignal, SemaphoreSignal
-from modelicagym.vector.worker_process import run_worker
+from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, Reply, WorkerConfig
+from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal
+from modelicagym.vector.worker.worker_process import run_worker
 
 __all__ = ["WaitStatus", "WorkerHandle"]
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.vector.buffers import PickledBatch, SharedBatch
+from modelicagym.vector.wire.buffers import PickledBatch, SharedBatch
 
 __all__ = ["Entries", "add_final_infos", "merge_infos"]
 

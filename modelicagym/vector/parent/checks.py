@@ -15,7 +15,7 @@ import numpy as np
 from gymnasium import Space
 
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError, ConfigTypeError
-from modelicagym.vector.space_checks import OBSERVATION_MODES
+from modelicagym.vector.slice.space_checks import OBSERVATION_MODES
 
 __all__ = ["check_async_vector_env_options", "check_env_fns", "check_pool_options", "check_reset_mask", "seeds_per_env", "values_per_env"]
 

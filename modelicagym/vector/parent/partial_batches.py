@@ -34,12 +34,12 @@ from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import concatenate, create_empty_array
 
 from modelicagym.errors import ArgumentError
-from modelicagym.vector.action_writer import ActionWriter
-from modelicagym.vector.buffers import SharedBuffers
-from modelicagym.vector.checks import check_env_ids
-from modelicagym.vector.protocol import LIVENESS_INTERVAL, Command, Kind
-from modelicagym.vector.sync import machine_crowded
-from modelicagym.vector.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.parent.action_writer import ActionWriter
+from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.parent.checks import check_env_ids
+from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind
+from modelicagym.vector.wire.sync import machine_crowded
+from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
 
 __all__ = ["PartialBatches"]
 
