@@ -28,9 +28,9 @@ from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.errors import ArgumentError, ConfigError
+from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
 from modelicagym.vector.parent.action_writer import ActionWriter
 from modelicagym.vector.parent.assembly import assemble
-from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.parent.call_guard import check_idle, check_open, check_waiting, one_thread_at_a_time
 from modelicagym.vector.parent.checks import (
     check_async_vector_env_options,
@@ -44,17 +44,17 @@ from modelicagym.vector.parent.checks import (
     select_infos,
     values_per_env,
 )
-from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
 from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos
 from modelicagym.vector.parent.partial_batches import PartialBatches
 from modelicagym.vector.parent.party import Outcome
 from modelicagym.vector.parent.placement import LayoutState
 from modelicagym.vector.parent.plan import default_start_method, plan_layout
-from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
 from modelicagym.vector.parent.recovery import RESTART_INFO_KEY, Recovery
 from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
-from modelicagym.vector.wire.sync import futex_library
 from modelicagym.vector.timing import StepTiming, TimingRecorder
+from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
+from modelicagym.vector.wire.sync import futex_library
 
 __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 

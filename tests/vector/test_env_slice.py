@@ -16,8 +16,8 @@ from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from vector_envs import CountEnv, FaultyEnv
 
 import modelicagym
-from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.slice.env_slice import EnvSlice
+from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.protocol import Kind
 
 MODES = [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP]

@@ -20,8 +20,8 @@ from vector_rollouts import assert_native_equals_python, assert_same, flipping, 
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
 from modelicagym.vector import EnvError, PoolVectorEnv
 from modelicagym.vector.parent import placement
-from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.slice.env_slice import EnvSlice
+from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.protocol import Kind
 
 pytestmark = pytest.mark.timeout(180)

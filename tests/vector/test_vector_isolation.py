@@ -23,8 +23,8 @@ import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 from modelicagym.vector.parent.plan import usable_cores
-from modelicagym.vector.wire.sync import futex_library
 from modelicagym.vector.parent.worker_set import go_spin_time
+from modelicagym.vector.wire.sync import futex_library
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
 

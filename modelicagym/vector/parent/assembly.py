@@ -18,14 +18,14 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 
-from modelicagym.vector.slice.creation import close_envs
-from modelicagym.vector.parent.dispatch import Dispatcher
 from modelicagym.vector.env_contract import fn_safe_in_caller
-from modelicagym.vector.slice.env_slice import EnvSlice
+from modelicagym.vector.parent.dispatch import Dispatcher
 from modelicagym.vector.parent.placement import Placement, place_envs, stand_in_fixed_reason
 from modelicagym.vector.parent.plan import Layout
-from modelicagym.vector.wire.protocol import EnvDescription, WorkerConfig
 from modelicagym.vector.parent.worker_set import WorkerSet
+from modelicagym.vector.slice.creation import close_envs
+from modelicagym.vector.slice.env_slice import EnvSlice
+from modelicagym.vector.wire.protocol import EnvDescription, WorkerConfig
 
 __all__ = ["PoolParts", "assemble"]
 

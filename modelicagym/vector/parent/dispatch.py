@@ -18,14 +18,14 @@ from typing import Any
 import numpy as np
 
 from modelicagym.native.abi import COLLECT_DONE, COLLECT_LOCAL_PYTHON, MgWaiter
-from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
+from modelicagym.vector.parent.worker_handle import WorkerHandle
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.slice.native_slice import NativeCollector
-from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message
 from modelicagym.vector.wire.sync import FutexSignal
-from modelicagym.vector.parent.worker_handle import WorkerHandle
 
 __all__ = ["Dispatcher"]
 

@@ -35,11 +35,11 @@ from gymnasium.vector.utils import concatenate, create_empty_array
 
 from modelicagym.errors import ArgumentError
 from modelicagym.vector.parent.action_writer import ActionWriter
-from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.parent.checks import check_env_ids
+from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind
 from modelicagym.vector.wire.sync import machine_crowded
-from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
 
 __all__ = ["PartialBatches"]
 

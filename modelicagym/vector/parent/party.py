@@ -15,10 +15,10 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.errors import PoolError
 from modelicagym.vector.parent.caller_watch import CallerWatch
 from modelicagym.vector.slice.env_slice import EnvSlice
-from modelicagym.vector.errors import PoolError
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Command, Message, Reply
 
 __all__ = ["CallerParty", "Outcome", "Party", "PendingCommand"]

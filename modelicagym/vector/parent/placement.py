@@ -42,16 +42,16 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
-from modelicagym.vector.wire.buffers import SharedBuffers
-from modelicagym.vector.parent.cost_balance import PartyTimes
-from modelicagym.vector.slice.creation import close_envs, create_envs
-from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
 from modelicagym.vector.errors import PoolMemoryError
+from modelicagym.vector.parent.cost_balance import PartyTimes
 from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.parent.plan import usable_cores
+from modelicagym.vector.parent.worker_set import WorkerSet
+from modelicagym.vector.slice.creation import close_envs, create_envs
+from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import EnvDescription
 from modelicagym.vector.wire.sync import futex_library
-from modelicagym.vector.parent.worker_set import WorkerSet
 
 __all__ = ["LayoutState", "Placement", "place_envs", "stand_in_fixed_reason"]
 

@@ -22,13 +22,13 @@ from typing import NoReturn
 
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.vector.parent.dispatch import Dispatcher
 from modelicagym.vector.errors import PoolError
+from modelicagym.vector.parent.dispatch import Dispatcher
 from modelicagym.vector.parent.infos import Entries
 from modelicagym.vector.parent.party import PendingCommand
-from modelicagym.vector.wire.protocol import Command
 from modelicagym.vector.parent.worker_handle import WorkerHandle
 from modelicagym.vector.parent.worker_set import WorkerSet
+from modelicagym.vector.wire.protocol import Command
 
 __all__ = ["RESTART_INFO_KEY", "Recovery"]
 

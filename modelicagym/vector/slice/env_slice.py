@@ -28,14 +28,14 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
-from modelicagym.vector.wire.buffers import SharedBuffers
-from modelicagym.vector.slice.creation import create_envs
 from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
+from modelicagym.vector.slice.creation import create_envs
 from modelicagym.vector.slice.native_slice import NativeBatch, batch_path_reason
-from modelicagym.vector.wire.protocol import Command, EnvDescription, Kind, Message, StepPath
 from modelicagym.vector.slice.slice_endings import SliceEndings, has_python_endings
 from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
+from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.wire.protocol import Command, EnvDescription, Kind, Message, StepPath
 
 __all__ = ["EnvSlice", "describe_envs"]
 

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.slice.native_slice import NativeBatch
+from modelicagym.vector.wire.buffers import SharedBuffers
 
 __all__ = ["SliceEndings", "has_python_endings"]
 

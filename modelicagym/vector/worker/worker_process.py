@@ -31,11 +31,11 @@ import gymnasium as gym
 from gymnasium.vector.utils import CloudpickleWrapper
 
 from modelicagym.native.abi import SERVE_PYTHON_STEP, SERVE_TIMEOUT
-from modelicagym.vector.wire.buffers import SharedBuffers
+from modelicagym.vector.errors import PoolMemoryError, RemoteError
 from modelicagym.vector.slice.creation import EnvCreator, close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
-from modelicagym.vector.errors import PoolMemoryError, RemoteError
 from modelicagym.vector.slice.native_slice import NativeServer
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
 from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal, futex_library
 
