@@ -17,7 +17,7 @@ candidate and times them interleaved over several rounds, random pushes; medians
 per second, and each candidate's rate over the native one's. The pool's layout differs by
 candidate (an env whose reward runs per env stays where it is; the others may move between the
 calling process and the worker), so each n also times a slice of n envs stepped in this process
-as a worker steps it (`~modelicagym.vector.env_slice.EnvSlice`, no processes): what computing the
+as a worker steps it (`~modelicagym.vector.slice.env_slice.EnvSlice`, no processes): what computing the
 rewards in Python costs a batch, the extra C call of the autoreset included.
 """
 

@@ -79,7 +79,7 @@ def plan_actors(
 def split_by_weight(num_envs: int, weights: Sequence[int]) -> list[range]:
     """Contiguous slices of ``num_envs`` envs in proportion to ``weights`` (largest remainders
     first, earlier slices on ties; each slice at least one env). Equal weights split as
-    `~modelicagym.vector.plan.plan_workers` does."""
+    `~modelicagym.vector.parent.plan.plan_workers` does."""
     if not 1 <= len(weights) <= num_envs:
         raise ConfigError(f"cannot split {num_envs} envs into {len(weights)} non-empty slices")
     total = sum(weights)

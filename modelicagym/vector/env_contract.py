@@ -7,18 +7,18 @@ env that offers more gets more, and the pool asks for it by these names only:
   time and the Python around it (every `~modelicagym.FMUEnv` does; so may a user's env);
 * a `NativeEnv` (an unwrapped `~modelicagym.FMUEnv` whose ``step_path`` is ``"native"``) is stepped by
   the C library through its ``native_step`` struct, a whole slice in one call
-  (`~modelicagym.vector.native_slice.NativeBatch`); what C leaves to Python it finishes with
+  (`~modelicagym.vector.slice.native_slice.NativeBatch`); what C leaves to Python it finishes with
   ``observation()`` and ``native_step_failure()``; where its reward or termination is written in
   Python, its ``native_endings`` (``None`` otherwise) computes them after C stepped the FMUs, for
   every env of the slice sharing its ``key`` in one ``finish(envs, observations, actions,
-  terminated)`` call (`~modelicagym.vector.slice_endings`);
+  terminated)`` call (`~modelicagym.vector.slice.slice_endings`);
 * a `StatefulEnv` gives its whole state as a value (``get_state()``), loads one (``set_state``)
   and says, changing nothing, whether it would (``check_state``, which raises what ``set_state``
   would): the pool's ``get_states`` / ``set_states``, which checks every env before loading any;
 * ``env.reset_is_deterministic`` (a reset without seed or options starts the same episode in any
   env the same env fn makes): with it, and the native step path, a pool whose layout it plans may
   move the env between the calling process and its worker at an episode boundary
-  (`~modelicagym.vector.placement`);
+  (`~modelicagym.vector.parent.placement`);
 * ``env.unwrapped.safe_in_caller is True`` says that the env runs no native code but ours (the
   bundled models, built from this project's sources, say so): the pool may then step it in the
   calling process by default (``caller_steps=None``), where a crash would be the caller's. Any env

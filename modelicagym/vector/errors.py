@@ -68,7 +68,7 @@ class PoolClosedError(ModelicaGymError, ClosedEnvironmentError):
 
 class PoolMemoryError(ModelicaGymError, MemoryError):
     """The envs of a pool would not fit in the memory the machine has available (measured as
-    they are created: `modelicagym.vector.creation`)."""
+    they are created: `modelicagym.vector.slice.creation`)."""
 
 
 class SpaceMismatchError(ModelicaGymError, RuntimeError):

@@ -1,11 +1,11 @@
 """``PoolVectorEnv``: a multi-process vector env, a drop-in for ``gymnasium.vector.AsyncVectorEnv``.
 
 This module is the public API only, each call a short composition of the parts (the path of one
-step through them is drawn in ``docs/design.md``, "The pool"): :mod:`~modelicagym.vector.assembly`
-starts it, :mod:`~modelicagym.vector.dispatch` talks to its parties
-(:mod:`~modelicagym.vector.party`), :mod:`~modelicagym.vector.recovery` handles failures,
-:mod:`~modelicagym.vector.placement` decides where envs run, :mod:`~modelicagym.vector.call_guard`
-checks each call, :mod:`~modelicagym.vector.infos` merges infos. It is longer than our other
+step through them is drawn in ``docs/design.md``, "The pool"): :mod:`~modelicagym.vector.parent.assembly`
+starts it, :mod:`~modelicagym.vector.parent.dispatch` talks to its parties
+(:mod:`~modelicagym.vector.parent.party`), :mod:`~modelicagym.vector.parent.recovery` handles failures,
+:mod:`~modelicagym.vector.parent.placement` decides where envs run, :mod:`~modelicagym.vector.parent.call_guard`
+checks each call, :mod:`~modelicagym.vector.parent.infos` merges infos. It is longer than our other
 modules because ``AsyncVectorEnv``'s API is wide (reset, step, call and set_attr in their sync,
 async and wait forms, partial batches, timing, close) and each call's docstring is the user's
 reference; the logic behind them lives in the modules named above.
@@ -60,7 +60,7 @@ __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 
 logger = logging.getLogger(__name__)
 
-#: seconds a waiting party spins before it blocks (see ``modelicagym.vector.sync``)
+#: seconds a waiting party spins before it blocks (see ``modelicagym.vector.wire.sync``)
 DEFAULT_SPIN_TIME = 100e-6
 
 #: values of the ``init`` option: each env initializes itself, or one does and the others start from its state
@@ -101,11 +101,11 @@ class PoolVectorEnv(VectorEnv):
     ``infos["final_info"]``; ``DISABLED`` leaves it to ``reset(options={"reset_mask": mask})``.
 
     With ``restart_dead_workers=True`` a failed worker is restarted and its envs report a
-    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.recovery`);
+    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.parent.recovery`);
     otherwise a failure stops the whole pool before the error is raised, and further calls raise
     ``ClosedEnvironmentError``. The default start method is ``forkserver``
-    (:func:`~modelicagym.vector.plan.default_start_method` says why); workers never re-run the
-    caller's script (:func:`~modelicagym.vector.worker_handle.main_module_hidden`), so scripts without a
+    (:func:`~modelicagym.vector.parent.plan.default_start_method` says why); workers never re-run the
+    caller's script (:func:`~modelicagym.vector.parent.worker_handle.main_module_hidden`), so scripts without a
     main guard, stdin and notebooks work; env fns must be picklable by ``cloudpickle``.
 
     Where it deliberately differs from ``AsyncVectorEnv`` (Gymnasium's own vector tests pass
@@ -191,7 +191,7 @@ class PoolVectorEnv(VectorEnv):
             caller_steps: the calling process steps the last slice of envs itself while the
                 workers step theirs, so that no more parties wait for each other than there are
                 cores (the caller's share runs without process isolation: a crash there is the
-                caller's; one line on stderr names the env and its FMU, `modelicagym.vector.caller_watch`).
+                caller's; one line on stderr names the env and its FMU, `modelicagym.vector.parent.caller_watch`).
                 ``None`` (default): when the pool plans its own layout and no fault handling is
                 asked for, i.e. ``num_workers``, ``max_envs_per_worker`` (or an env fn's
                 ``max_envs_per_process``), ``restart_dead_workers`` and ``step_timeout`` are unset,
@@ -205,11 +205,11 @@ class PoolVectorEnv(VectorEnv):
                 class is a one-word change: ``context`` is ``start_method``; the pool always uses
                 shared memory and daemon workers, and no custom ``worker`` (else a `ConfigError`).
             batch_size: how many envs :meth:`recv` returns, for EnvPool-style partial batches
-                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.partial_batches`);
+                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.parent.partial_batches`);
                 every env then lives in a worker. ``None``: ``num_envs``.
             adapt_layout: move envs between the workers and the calling process at episode
                 boundaries, measuring which layout is faster as the machine's load changes
-                (`modelicagym.vector.placement`; :attr:`layout` says what runs where and why).
+                (`modelicagym.vector.parent.placement`; :attr:`layout` says what runs where and why).
                 ``None`` (default): when the pool plans its own layout with the caller stepping
                 (``caller_steps``), every env is an FMU env on the native step path whose reset
                 is deterministic and every worker's env is safe in the calling process; ``True``
@@ -409,7 +409,7 @@ class PoolVectorEnv(VectorEnv):
     step = one_thread_at_a_time(_step)
 
     def _step_async(self, actions: Any) -> None:
-        """Check the actions (`modelicagym.vector.action_writer`: an `ActionError` naming the env leaves
+        """Check the actions (`modelicagym.vector.parent.action_writer`: an `ActionError` naming the env leaves
         the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
         self._assert_is_running()
         self._assert_idle("step_async")
@@ -493,14 +493,14 @@ class PoolVectorEnv(VectorEnv):
     def layout(self) -> LayoutState:
         """Where the envs run now and why: adaptive or fixed, envs in the calling process,
         workers stepping, and the measurement behind the last change (see
-        `modelicagym.vector.placement`)."""
+        `modelicagym.vector.parent.placement`)."""
         return self._placement.state()
 
     # ------------------------------------------------------------------ partial batches
 
     def _async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Reset every env and make their results the first to come back from :meth:`recv`
-        (EnvPool's ``async_reset``; see `modelicagym.vector.partial_batches`)."""
+        (EnvPool's ``async_reset``; see `modelicagym.vector.parent.partial_batches`)."""
         self._reset_async(seed=seed, options=options)
         entries = self._reset_entries(None)
         self._partial_batches(None).start(entries)

@@ -3,7 +3,7 @@
  * An FMUEnv on the native path may leave how its step ends to Python: an overridden reward or
  * termination, a callable in its config, or one written on arrays (modelicagym/env/endings.py).
  * Its FMU still steps in C; the pool's slice then takes three moves instead of mg_step_batch's one
- * (modelicagym/vector/slice_endings.py):
+ * (modelicagym/vector/slice/slice_endings.py):
  *
  *   1. mg_step_open: mg_step_batch without autoreset (in SAME_STEP the batch's mode is DISABLED,
  *      so that no env is reset before Python has seen how its step ended), and `open` marks the

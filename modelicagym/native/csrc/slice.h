@@ -1,7 +1,7 @@
 /* A slice of a pool's envs stepped in one call, with the pool's autoreset; a worker's command loop
  * and the parent's side of a pool step, in C while nothing needs Python.
  *
- * The pool's native path (modelicagym/vector/native_slice.py): mg_step_batch steps each env of the
+ * The pool's native path (modelicagym/vector/slice/native_slice.py): mg_step_batch steps each env of the
  * slice with mg_env_step (step.h) and writes its results into the pool's shared arrays; mg_serve
  * and mg_collect wait on the signals of signal.h.
  */
@@ -107,7 +107,7 @@ typedef struct {
     int64_t spin_ns, timeout_ns;
     mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
     /* out, summed over calls until Python clears them: calls, time stepping the local slice, then
-     * waiting for the workers (the adaptive layout's measurement, vector/placement.py) */
+     * waiting for the workers (the adaptive layout's measurement, vector/parent/placement.py) */
     int64_t calls, local_ns, wait_ns;
 } mg_collector;
 

@@ -7,7 +7,7 @@ By default the calling process steps a slice only of envs that are safe there
 one more worker starts, the stand-in, and creates a copy of every env; if they all say they are
 safe, that worker stops and the calling process creates its own; if not, the stand-in keeps them
 and does the caller's part instead: it steps the caller's slice, and on a crowded machine the
-adaptive layout consolidates every env there (`modelicagym.vector.placement`). So an env that does
+adaptive layout consolidates every env there (`modelicagym.vector.parent.placement`). So an env that does
 not say it is safe is never created in the calling process."""
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def assemble(
 ) -> PoolParts:
     """Start a worker per slice of the layout, create the caller's slice here (if it is safe
     there, with ``layout.caller_if_safe``: see the module docstring), share memory, place the envs
-    (`modelicagym.vector.placement`) and set up the dispatcher; on any failure release it all and
+    (`modelicagym.vector.parent.placement`) and set up the dispatcher; on any failure release it all and
     raise."""
     slices, local_slice = list(layout.worker_slices), layout.caller_slice
     ask = layout.caller_if_safe and not all(map(fn_safe_in_caller, env_fns[local_slice.start : local_slice.stop]))

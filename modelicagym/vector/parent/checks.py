@@ -120,7 +120,7 @@ def check_pool_options(
 
 
 def check_batch_size(batch_size: Any, num_envs: int, caller_steps: Any) -> int:
-    """``batch_size`` (envs per `recv`, see `modelicagym.vector.partial_batches`), ``num_envs`` if ``None``."""
+    """``batch_size`` (envs per `recv`, see `modelicagym.vector.parent.partial_batches`), ``num_envs`` if ``None``."""
     if batch_size is None:
         return num_envs
     if isinstance(batch_size, bool) or not isinstance(batch_size, Integral):

@@ -1,6 +1,6 @@
 """Balancing a pool's envs by their measured step cost: the workers against the stand-in worker.
 
-Where a worker stands in for the calling process (`modelicagym.vector.assembly`), it holds a copy
+Where a worker stands in for the calling process (`modelicagym.vector.parent.assembly`), it holds a copy
 of every env, so it can take any of the workers' envs at an episode boundary, and give them back.
 When the envs' step costs differ (a stiff phase, an event storm, a parameter that makes one env
 costlier than another), a synchronous step waits for the slowest party while the other's core

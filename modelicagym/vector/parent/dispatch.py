@@ -1,11 +1,11 @@
 """Sending commands to the pool's parties and gathering their answers over shared memory.
 
-A :class:`Dispatcher` is the parent's side of the protocol (see :mod:`~modelicagym.vector.protocol`):
-it posts command codes to every party (:mod:`~modelicagym.vector.party`: the worker processes, and
+A :class:`Dispatcher` is the parent's side of the protocol (see :mod:`~modelicagym.vector.wire.protocol`):
+it posts command codes to every party (:mod:`~modelicagym.vector.parent.party`: the worker processes, and
 the calling process's own slice when ``caller_steps``), sends the messages that go with rare
 commands, lets the calling process run its share while the workers run theirs, and waits for every
 party it woke. It knows which parties it is waiting for, but nothing of the Gymnasium API or of what
-a failure means for the pool: those are the pool's and :mod:`~modelicagym.vector.recovery`'s
+a failure means for the pool: those are the pool's and :mod:`~modelicagym.vector.parent.recovery`'s
 business.
 """
 
@@ -37,9 +37,9 @@ class Dispatcher:
         handles: the workers, indexed like the shared ``command`` slots.
         local: the slice of envs the calling process steps itself, or ``None``.
         buffers: the pool's shared memory.
-        spin_time: seconds a wait polls before it blocks (see :mod:`~modelicagym.vector.sync`).
+        spin_time: seconds a wait polls before it blocks (see :mod:`~modelicagym.vector.wire.sync`).
         step_timeout: default timeout of a gather; ``None`` waits as long as the workers live.
-        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.placement`);
+        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.parent.placement`);
             a step wakes only those. Call :meth:`stepping_changed` after it changes.
     """
 
@@ -71,7 +71,7 @@ class Dispatcher:
         self._replies = memoryview(buffers.reply)
         #: the adaptive state of the native collection's waits (see ``FutexSignal``)
         self.waiter = MgWaiter()
-        #: the calling process's native slice ends its steps in Python (`~modelicagym.vector.slice_endings`):
+        #: the calling process's native slice ends its steps in Python (`~modelicagym.vector.slice.slice_endings`):
         #: it steps before the native collection, which then only waits for the workers
         self._local_in_python = local is not None and local.endings is not None
         self._collector = self._native_collector()

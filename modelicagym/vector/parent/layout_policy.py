@@ -1,6 +1,6 @@
 """How many envs the calling process of an adaptive pool should step: measured, not assumed.
 
-`LayoutPolicy` is the decision half of the adaptive layout (`modelicagym.vector.placement` moves
+`LayoutPolicy` is the decision half of the adaptive layout (`modelicagym.vector.parent.placement` moves
 the envs): it takes in what batches cost, part by part, and says how many of the workers' envs
 the calling process should step. docs/design.md ("The adaptive layout") has the measurements
 behind it.
@@ -20,7 +20,7 @@ __all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
 
 logger = logging.getLogger(__name__)
 
-#: the policy decides on the median part (of `modelicagym.vector.placement.PART_BATCHES` batches)
+#: the policy decides on the median part (of `modelicagym.vector.parent.placement.PART_BATCHES` batches)
 #: of a window of at least this many parts and seconds (a median, so that one batch that met a
 #: page fault or a preemption cannot decide)
 WINDOW_PARTS = 5
@@ -154,7 +154,7 @@ class ConsolidationPolicy:
     other workers (spread), and in the spread layout how many of theirs it takes (balanced by cost).
 
     Where the calling process may not step a user's envs, a worker stands in for it
-    (`modelicagym.vector.assembly`), and its costs cannot be told apart from the other workers'
+    (`modelicagym.vector.parent.assembly`), and its costs cannot be told apart from the other workers'
     in the parent's measurement: so this policy compares the two layouts by what the parent
     measures, its wait for the workers per batch (the rest of a batch, the parent's own Python, is
     the same in both). After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
@@ -163,7 +163,7 @@ class ConsolidationPolicy:
     before the next try (0.5 s up to 30 s). ``target``: the workers' envs the stand-in steps,
     ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
 
-    In the spread layout, a window's party costs (`modelicagym.vector.cost_balance`: what the
+    In the spread layout, a window's party costs (`modelicagym.vector.parent.cost_balance`: what the
     busiest worker and the stand-in took to step their envs) move envs from the busier to the
     other (`balance_shift`), so that a synchronous step does not wait on one party while the
     other's core idles; the parent's comparison of the two layouts then sees the balanced one.

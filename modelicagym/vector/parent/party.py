@@ -2,7 +2,7 @@
 
 The dispatcher (and partial batches) talk to every party through one protocol, :class:`Party`:
 post a command, let the party run it, wait until it is done, take its answer. A worker
-(`~modelicagym.vector.worker_handle.WorkerHandle`) gets its command through its shared slot and
+(`~modelicagym.vector.parent.worker_handle.WorkerHandle`) gets its command through its shared slot and
 its ``go`` signal and runs it in its own process; the calling process's slice (:class:`CallerParty`)
 keeps the command and runs it when the dispatcher lets it, after waking the workers and before
 waiting for them, so the caller works while they do. Either answers the same way: the reply slot
@@ -90,7 +90,7 @@ class CallerParty:
         self.index = envs.index
         self.env_indices = envs.env_indices
         self._reply_slot = buffers.reply
-        #: names the env that ends this process, if one does (`modelicagym.vector.caller_watch`)
+        #: names the env that ends this process, if one does (`modelicagym.vector.parent.caller_watch`)
         self.watch = CallerWatch(buffers.current_env[envs.slot : envs.slot + 1], envs.envs, envs.first,
                                  len(buffers.in_caller))
         self._command: tuple[int, Message | None] | None = None

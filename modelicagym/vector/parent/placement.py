@@ -1,7 +1,7 @@
 """Where each env of a pool is stepped, and the adaptive layout that moves envs at episode boundaries.
 
 A pool that plans its own layout steps the last slice of envs in the calling process and the
-others in workers (`modelicagym.vector.plan`). On an idle machine that is the fastest layout. On a
+others in workers (`modelicagym.vector.parent.plan`). On an idle machine that is the fastest layout. On a
 crowded one (another busy process, a second training beside this one) a worker may not get a core
 when the batch needs it, and a light env's batch then waits tens of microseconds to milliseconds
 for a step that takes one: stepping every env in the calling process, in one C call, is faster.
@@ -22,7 +22,7 @@ is already set); in ``SAME_STEP`` mode the old copy has already reset, so the ne
 silently before its next step (`RESET_THEN_STEP`). ``DISABLED`` moves envs only at resets. Every
 env's trajectory is therefore exactly the one `SyncVectorEnv` gives it, whatever layout runs.
 
-**The policy** (`modelicagym.vector.layout_policy.LayoutPolicy`; docs/design.md, "The adaptive layout", has the measurements): while
+**The policy** (`modelicagym.vector.parent.layout_policy.LayoutPolicy`; docs/design.md, "The adaptive layout", has the measurements): while
 workers step, the parent measures each batch's time stepping its own slice and then waiting for the
 workers, in C. Over a window of batches, the time per env of its own slice predicts what stepping
 every env itself would cost; if the batches took more than that (by a margin), every env moves to
@@ -81,7 +81,7 @@ class LayoutState:
     #: the measurement behind the last change of target (empty before the first)
     last_decision: str
     #: envs the worker standing in for the calling process steps now (where the calling process may
-    #: not step the envs: `modelicagym.vector.assembly`), of ``num_envs``
+    #: not step the envs: `modelicagym.vector.parent.assembly`), of ``num_envs``
     envs_in_stand_in: int = 0
     #: that worker, for messages ("" without one)
     stand_in: str = ""
@@ -105,10 +105,10 @@ class Placement:
         policy: the adaptive layout's policy, or ``None`` (a fixed layout).
         reason: why the layout adapts or why it does not.
         stand_in: the envs marked ``in_caller`` are stepped by one more worker, after those of
-            ``worker_slices``, that holds a copy of every env (`modelicagym.vector.assembly`),
+            ``worker_slices``, that holds a copy of every env (`modelicagym.vector.parent.assembly`),
             rather than by the calling process.
         env_ns: with a stand-in, the pool's ``timing[:, ENV_NS]``: the parties' stepping times are
-            sampled from it for the policy's balance (`modelicagym.vector.cost_balance`).
+            sampled from it for the policy's balance (`modelicagym.vector.parent.cost_balance`).
     """
 
     def __init__(

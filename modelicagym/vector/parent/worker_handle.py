@@ -39,7 +39,7 @@ class WaitStatus(enum.Enum):
 
 class WorkerHandle:
     """One worker process running the envs ``env_indices`` (a contiguous range); a
-    `~modelicagym.vector.party.Party` of the pool's commands.
+    `~modelicagym.vector.parent.party.Party` of the pool's commands.
 
     The handle outlives its process: :meth:`start` can be called again after :meth:`stop` to
     restart the worker with fresh envs, a fresh pipe and fresh signals.
@@ -59,7 +59,7 @@ class WorkerHandle:
         self.index = index
         self.env_indices = env_indices
         #: the worker stands in for the calling process: it holds a copy of every env and steps
-        #: those the shared ``in_caller`` array marks (`modelicagym.vector.placement`)
+        #: those the shared ``in_caller`` array marks (`modelicagym.vector.parent.placement`)
         self.in_caller = stand_in
         self._env_fns = CloudpickleWrapper(list(env_fns))
         self.ctx = ctx

@@ -1,16 +1,16 @@
 """A contiguous slice of a pool's envs, run against the shared buffers: the work of a step.
 
-An :class:`EnvSlice` is what a worker process runs (:mod:`~modelicagym.vector.worker_process`), and what
+An :class:`EnvSlice` is what a worker process runs (:mod:`~modelicagym.vector.worker.worker_process`), and what
 the calling process runs itself when it steps a slice of the envs (``caller_steps``): the envs,
 the autoreset of the pool's mode, and where the results go in shared memory. It knows nothing of
 processes, pipes or signals; each command returns the reply message the parent gets (``None`` when
 there is nothing to say).
 
 A slice of bare `FMUEnv` instances on the native step path steps in one C call
-(:class:`~modelicagym.vector.native_slice.NativeBatch`); whatever C leaves to Python (an FMU error, a
+(:class:`~modelicagym.vector.slice.native_slice.NativeBatch`); whatever C leaves to Python (an FMU error, a
 reset the reset ladder must do, an info to report) is finished here, on the Python path. Envs
 whose reward or termination is written in Python step natively too, their endings computed here
-between two C calls (:class:`~modelicagym.vector.slice_endings.SliceEndings`). The
+between two C calls (:class:`~modelicagym.vector.slice.slice_endings.SliceEndings`). The
 results are the same either way. ``step_path`` and ``step_path_reason`` say which path a slice takes.
 """
 
@@ -64,7 +64,7 @@ def native_reason(envs: list[PoolEnv]) -> str:
 
 def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
     """What the parent needs to know about the envs; raises if they disagree on their spaces
-    (under ``observation_mode``, see `modelicagym.vector.space_checks`)."""
+    (under ``observation_mode``, see `modelicagym.vector.slice.space_checks`)."""
     first = envs[0]
     observation_spaces = [env.observation_space for env in envs]
     indices = range(first_env, first_env + len(envs))
@@ -95,7 +95,7 @@ class EnvSlice:
         caller: the calling process runs the slice: a step steps its envs marked in the shared
             ``in_caller`` array (a worker's slice steps those not marked). Resets, calls and
             attributes reach every env of the slice, stepped here or not, so that two copies of
-            an env stay interchangeable (see `modelicagym.vector.placement`).
+            an env stay interchangeable (see `modelicagym.vector.parent.placement`).
     """
 
     def __init__(

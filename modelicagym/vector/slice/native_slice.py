@@ -7,7 +7,7 @@ truncations and timing where the parent reads them. What C leaves to Python (an 
 the reset ladder must do, an info to report, an action outside the space) is in the per-env
 ``flags``; the caller finishes those envs on the Python path. A slice whose envs end their steps in
 Python (``python_endings``: a reward or termination written in Python) steps in two C calls with
-Python's endings between them (`modelicagym.vector.slice_endings`, ``csrc/endings.h``).
+Python's endings between them (`modelicagym.vector.slice.slice_endings`, ``csrc/endings.h``).
 
 `NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
 steps without returning to Python at all. `NativeCollector` is ``mg_collect``, the parent's side:

@@ -16,7 +16,7 @@ Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nest
 (the common case) is a plain ``view[i] = value``. Other spaces (``Text``, ``OneOf``) go through
 Gymnasium's ``read_from_shared_memory``/``write_to_shared_memory`` on every access. A space with no
 shared-memory layout at all (a custom ``Space`` subclass, ``Graph``, ``Sequence``) is a :class:`PickledBatch`: its values
-live in each process and travel pickled on the workers' pipes (see `modelicagym.vector.protocol`).
+live in each process and travel pickled on the workers' pipes (see `modelicagym.vector.wire.protocol`).
 """
 
 from __future__ import annotations
@@ -304,10 +304,10 @@ class SharedBuffers:
         self.terminations = allocator.array(np.bool_, (n,))
         self.truncations = allocator.array(np.bool_, (n,))
         self.reset_mask = allocator.array(np.bool_, (n,))
-        #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.partial_batches`)
+        #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.parent.partial_batches`)
         self.step_mask = allocator.array(np.uint8, (n,))
         #: 1 where the calling process steps the env, 0 where its worker does (the placement; an
-        #: adaptive pool moves envs at episode boundaries: `modelicagym.vector.placement`)
+        #: adaptive pool moves envs at episode boundaries: `modelicagym.vector.parent.placement`)
         self.in_caller = allocator.array(np.uint8, (n,))
         #: per env, written only by the process that steps it: ``native.batch.RESET_THEN_REPORT``
         #: (it ended; its next step is its reset) or ``RESET_THEN_STEP`` (it moved at a boundary)

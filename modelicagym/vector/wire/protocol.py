@@ -118,7 +118,7 @@ class EnvDescription:
     #: every env of the slice says it is safe in the calling process (`env_contract.safe_in_caller`)
     safe_in_caller: bool = False
     #: why the envs cannot move between processes at an episode boundary, ``None`` if they can
-    #: (`modelicagym.vector.env_slice.movable_reason`)
+    #: (`modelicagym.vector.slice.env_slice.movable_reason`)
     movable_reason: str | None = "not described"
 
 
@@ -129,16 +129,16 @@ class WorkerConfig:
     autoreset_mode: AutoresetMode
     #: seconds a waiting party spins before it blocks
     spin_time: float
-    #: the signals live in shared memory (:class:`~modelicagym.vector.sync.FutexSignal`), else
+    #: the signals live in shared memory (:class:`~modelicagym.vector.wire.sync.FutexSignal`), else
     #: they are semaphores handed to the worker process when it starts
     shared_signals: bool = False
     #: the pool's limits, named in timeout messages (seconds; ``None``: none)
     step_timeout: float | None = None
     startup_timeout: float | None = None
-    #: ``"same"`` or ``"different"`` (`modelicagym.vector.space_checks`)
+    #: ``"same"`` or ``"different"`` (`modelicagym.vector.slice.space_checks`)
     observation_mode: str = "same"
     #: the pool's envs, created at once by its parties: each may take its part of the memory
-    #: the machine has available (`modelicagym.vector.creation`); 0: unchecked
+    #: the machine has available (`modelicagym.vector.slice.creation`); 0: unchecked
     num_envs: int = 0
 
 

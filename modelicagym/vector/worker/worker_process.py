@@ -8,7 +8,7 @@ Life of a worker:
 2. receive the layout of the shared memory and its file descriptor, map it, answer ``ok``;
 3. loop: wait for ``go``, run the command (step / reset / a message), write results into shared
    memory, post ``done`` and send a reply on the pipe only if there is one (see ``protocol``).
-   A worker whose envs step natively waits and steps in C (:class:`~modelicagym.vector.native_slice.NativeServer`)
+   A worker whose envs step natively waits and steps in C (:class:`~modelicagym.vector.slice.native_slice.NativeServer`)
    and comes back to Python only for what Python must do.
 
 SIGINT is ignored: on Ctrl-C the parent, not every worker, decides what happens (it stops the pool).
