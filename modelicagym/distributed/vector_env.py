@@ -30,7 +30,7 @@ from modelicagym.distributed.host import EnvHost, Policy, Rollout, env_info
 from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
 from modelicagym.vector.errors import PoolClosedError
-from modelicagym.vector.parent.checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.parent.argument_checks import check_reset_mask, seeds_per_env, values_per_env
 from modelicagym.vector.pool import INIT_MODES
 from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
 

@@ -4,7 +4,7 @@ This module is the public API only, each call a short composition of the parts (
 step through them is drawn in ``docs/design.md``, "The pool"): :mod:`~modelicagym.vector.parent.assembly`
 starts it, :mod:`~modelicagym.vector.parent.dispatch` talks to its parties
 (:mod:`~modelicagym.vector.parent.party`), :mod:`~modelicagym.vector.parent.recovery` handles failures,
-:mod:`~modelicagym.vector.parent.placement` decides where envs run, :mod:`~modelicagym.vector.parent.call_guard`
+:mod:`~modelicagym.vector.parent.placement` decides where envs run, :mod:`~modelicagym.vector.parent.call_state_checks`
 checks each call, :mod:`~modelicagym.vector.parent.infos` merges infos. It is longer than our other
 modules because ``AsyncVectorEnv``'s API is wide (reset, step, call and set_attr in their sync,
 async and wait forms, partial batches, timing, close) and each call's docstring is the user's
@@ -30,19 +30,21 @@ from gymnasium.vector.utils import batch_differing_spaces, batch_space
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
 from modelicagym.vector.parent.action_writer import ActionWriter
-from modelicagym.vector.parent.assembly import assemble
-from modelicagym.vector.parent.call_guard import check_idle, check_open, check_waiting, one_thread_at_a_time
-from modelicagym.vector.parent.checks import (
-    check_async_vector_env_options,
-    check_batch_size,
-    check_env_fns,
+from modelicagym.vector.parent.argument_checks import (
     check_env_ids,
-    check_pool_options,
     check_reset_mask,
     check_reset_options,
     seeds_per_env,
     select_infos,
     values_per_env,
+)
+from modelicagym.vector.parent.assembly import assemble
+from modelicagym.vector.parent.call_state_checks import check_idle, check_open, check_waiting, one_thread_at_a_time
+from modelicagym.vector.parent.config_checks import (
+    check_async_vector_env_options,
+    check_batch_size,
+    check_env_fns,
+    check_pool_options,
 )
 from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos
 from modelicagym.vector.parent.partial_batches import PartialBatches

@@ -35,7 +35,7 @@ from gymnasium.vector.utils import concatenate, create_empty_array
 
 from modelicagym.errors import ArgumentError
 from modelicagym.vector.parent.action_writer import ActionWriter
-from modelicagym.vector.parent.checks import check_env_ids
+from modelicagym.vector.parent.argument_checks import check_env_ids
 from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind
