@@ -1,0 +1,75 @@
+"""The pool's folders say which process runs a line, so what a module may import follows its folder.
+
+``vector/wire/`` (what both sides share) imports no side; ``vector/slice/`` (stepping envs, in a
+worker or in the calling process) imports the wire; ``vector/worker/`` a slice and the wire;
+``vector/parent/`` (the calling process only) any of them. The public API's values at the top
+(``errors``, ``env_contract``, ``timing``, ``saved_states``) import no side, and only ``pool.py`` and
+``__init__.py`` stand above the sides. Nothing in ``vector/`` imports ``fmu/``, ``env/`` or ``models/``.
+The imports are read from the source (docs/design.md, "The pool's layout"); nothing is run.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import modelicagym.vector
+
+VECTOR = Path(modelicagym.vector.__file__).parent
+SIDES = ("wire", "slice", "worker", "parent")
+#: what each side may import besides itself and the top's public values
+MAY_IMPORT = {"wire": set(), "slice": {"wire"}, "worker": {"slice", "wire"}, "parent": {"worker", "slice", "wire"}}
+API = {"pool", "__init__"}
+
+
+def where(module: str) -> str:
+    """``modelicagym.vector.parent.dispatch`` -> ``parent``; a top-level module -> ``top:<name>``."""
+    parts = module.split(".")[2:]
+    if parts and parts[0] in SIDES:
+        return parts[0]
+    return "top:" + (parts[0] if parts else "__init__")
+
+
+def modules() -> list[tuple[str, Path]]:
+    found = []
+    for path in sorted(VECTOR.rglob("*.py")):
+        dotted = ".".join(path.relative_to(VECTOR.parents[1]).with_suffix("").parts)
+        found.append((dotted.removesuffix(".__init__"), path))
+    return found
+
+
+def imported(path: Path) -> set[str]:
+    """The modules of the package that ``path`` imports (``from X import name`` counted as X)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+        elif isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+    return {name for name in names if name.startswith("modelicagym")}
+
+
+def test_every_module_of_the_pool_is_in_a_side_or_the_public_api() -> None:
+    top = {where(module) for module, path in modules() if path.parent == VECTOR}
+    assert top == {f"top:{name}" for name in ("__init__", "pool", "errors", "env_contract", "timing", "saved_states")}
+
+
+@pytest.mark.parametrize("module,path", modules(), ids=[module for module, _ in modules()])
+def test_a_module_imports_only_what_its_side_may(module: str, path: Path) -> None:
+    side = where(module)
+    wrong = []
+    for target in imported(path):
+        if target.split(".")[1:2] in (["fmu"], ["env"], ["models"]):
+            wrong.append(target)
+        if not target.startswith("modelicagym.vector"):
+            continue
+        to = where(target)
+        if to == side or side.removeprefix("top:") in API:
+            continue
+        if to.startswith("top:") and to.removeprefix("top:") not in API:
+            continue  # the public values every side may use
+        if side.startswith("top:") or to not in MAY_IMPORT[side]:
+            wrong.append(target)
+    assert not wrong, f"{module} ({side}) imports {sorted(wrong)}"
