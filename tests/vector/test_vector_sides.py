@@ -5,7 +5,7 @@ worker or in the calling process) imports the wire; ``vector/worker/`` a slice a
 ``vector/parent/`` (the calling process only) any of them. The public API's values at the top
 (``errors``, ``env_contract``, ``timing``, ``saved_states``) import no side, and only ``pool.py`` and
 ``__init__.py`` stand above the sides. Nothing in ``vector/`` imports ``fmu/``, ``env/`` or ``models/``.
-The imports are read from the source (docs/design.md, "The pool's layout"); nothing is run.
+The imports are read from the source (docs/design.md, "The pool's folders"); nothing is run.
 """
 
 from __future__ import annotations
