@@ -194,3 +194,17 @@ def test_build_of_a_model_folder_refuses_bad_input_in_one_line(tmp_path):
         result = run("-m", "modelicagym.cli", "build", *args, cwd=tmp_path, ok=False)
         assert result.returncode == 1 and result.stderr.startswith("error: ") and message in result.stderr, result.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+@needs_sb3
+def test_ppo_trains_on_the_same_task_file(tmp_path, family_fmu):
+    (tmp_path / "heater.fmu").write_bytes(family_fmu("own_heater", 2).read_bytes())
+    out = run(str(EXAMPLES / "train_own_fmu.py"), str(TASK), "--out", "run", "--algo", "ppo", "--steps", "1024",
+              "--envs", "2", "--eval-episodes", "1", cwd=tmp_path).stdout
+    assert "PPO on 2 envs" in out and "trained 1024 steps" in out
+    from stable_baselines3 import PPO
+
+    policy = PPO.load(tmp_path / "run" / "policy.zip", device="cpu")
+    summary = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert summary["algorithm"] == "ppo" and summary["env_steps"] == 1024 and len(summary["evaluation_returns"]) == 1
+    assert policy.action_space.shape == (1,)
