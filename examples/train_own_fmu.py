@@ -36,6 +36,7 @@ import sys
 import time
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import torch
 from PIL import Image
@@ -69,7 +70,18 @@ def load_task(path):
     if not isinstance(config, dict):
         raise ConfigError(f"{path}: a task file defines config = {{...}}, the FMUEnv config "
                           "`modelicagym info MY.fmu` prints (plus the task's reward and termination)")
+    if not config.get("max_episode_steps"):
+        raise ConfigError(f"{path}: the config sets no max_episode_steps: an episode would never end")
     return config
+
+
+def make_model(algorithm, envs, seed, settings):
+    """``algorithm`` (SAC or PPO) on ``envs``, with the policy their spaces need."""
+    if algorithm is SAC and not isinstance(envs.action_space, gym.spaces.Box):
+        raise ConfigError(f"SAC acts on float inputs (a Box action space); this FMU's actions are "
+                          f"{envs.action_space}: train it with --algo ppo")
+    policy = "MultiInputPolicy" if isinstance(envs.observation_space, gym.spaces.Dict) else "MlpPolicy"
+    return algorithm(policy, envs, seed=seed, device="cpu", **settings)
 
 
 class EpisodeLog(BaseCallback):
@@ -130,9 +142,9 @@ def train(args):
     pool = modelicagym.make_vec(config, n=args.envs, autoreset_mode="SameStep")
     envs = VecNormalize(VecMonitor(SB3VecEnv(pool)), norm_reward=False)
     print(f"{Path(config['fmu']).name}: {args.algo.upper()} on {args.envs} envs in the pool, {args.steps} steps")
-    model = algorithm("MlpPolicy", envs, seed=args.seed, device="cpu", **settings)
-    log = EpisodeLog()
     try:
+        model = make_model(algorithm, envs, args.seed, settings)
+        log = EpisodeLog()
         model.learn(args.steps, callback=log)
     finally:
         envs.close()
@@ -198,7 +210,10 @@ def main():
     parser.add_argument("--fps", type=float, default=10.0, help="frames a second of the GIF (default: 10)")
     parser.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     add_debug_flag(parser)
-    return run_command(train, parser.parse_args())
+    args = parser.parse_args()
+    if args.eval_episodes < 1 or args.envs < 1 or args.steps < 1 or args.fps <= 0:
+        parser.error("--steps, --envs and --eval-episodes take at least 1, --fps more than 0")
+    return run_command(train, args)
 
 
 if __name__ == "__main__":

@@ -35,7 +35,8 @@ needs_sb3 = pytest.mark.skipif(
 
 def run(*command: str, cwd: Path, ok: bool = True) -> subprocess.CompletedProcess:
     """Run ``command`` (``python`` is this interpreter) in ``cwd``; it must exit 0 when ``ok``."""
-    result = subprocess.run([sys.executable, *command], cwd=cwd, capture_output=True, text=True, timeout=300)
+    result = subprocess.run([sys.executable, *command], cwd=cwd, capture_output=True, text=True, timeout=300,
+                            check=False)
     if ok:
         assert result.returncode == 0, f"{command} failed:\n{result.stdout}\n{result.stderr}"
     return result
@@ -173,6 +174,8 @@ def test_the_pool_ends_the_task_s_steps_as_a_single_env_does(family_fmu):
     ("bad_variable.py", "no output named 'Temp'. This FMU's outputs: T, P"),
     ("bad_path.py", "FMU not found: heatr.fmu"),
     ("no_config.py", "a task file defines config = {...}"),
+    ("endless.py", "the config sets no max_episode_steps"),
+    ("discrete.py", "SAC acts on float inputs (a Box action space); this FMU's actions are Discrete(2)"),
 ])
 def test_bad_input_is_one_line_and_leaves_no_files(tmp_path, family_fmu, task, message):
     fmu = family_fmu("own_heater", 2)
@@ -180,6 +183,8 @@ def test_bad_input_is_one_line_and_leaves_no_files(tmp_path, family_fmu, task, m
     (tmp_path / "bad_variable.py").write_text(text.replace("'outputs': ['T', 'P']", "'outputs': ['Temp', 'P']"))
     (tmp_path / "bad_path.py").write_text(TASK.read_text().replace("'heater.fmu'", "'heatr.fmu'"))
     (tmp_path / "no_config.py").write_text("settings = {}\n")
+    (tmp_path / "endless.py").write_text(text.replace("'max_episode_steps': 60", "'max_episode_steps': None"))
+    (tmp_path / "discrete.py").write_text(text + "config['action_table'] = [[0.0], [1.0]]\n")
     result = run(str(EXAMPLES / "train_own_fmu.py"), task, "--out", "run", "--steps", "100", cwd=tmp_path, ok=False)
     assert result.returncode == 1
     assert result.stderr.startswith("error: ") and result.stderr.count("\n") == 1 and message in result.stderr
