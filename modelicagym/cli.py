@@ -8,6 +8,7 @@ import sys
 from collections.abc import Sequence
 
 from modelicagym.console import add_debug_flag, run_command
+from modelicagym.errors import ArgumentError
 
 logger = logging.getLogger("modelicagym")
 
@@ -32,8 +33,13 @@ def _try(args: argparse.Namespace) -> int:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from modelicagym.fmu.build import build_all_models
+    from modelicagym.fmu.build import build_all_models, build_model_folder
 
+    if args.folder is not None:
+        print(build_model_folder(args.folder, args.fmi_version, out=args.out))
+        return 0
+    if args.out is not None:
+        raise ArgumentError("--out needs a model folder to build (modelicagym build FOLDER --out MY.fmu)")
     for path in build_all_models(fmi_versions=args.fmi_version):
         print(path)
     return 0
@@ -72,7 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
 
-    build = commands.add_parser("build", help="build the bundled model FMUs from their C sources")
+    build = commands.add_parser("build", help="build the bundled model FMUs, or a model folder, from their C sources")
+    build.add_argument("folder", nargs="?", help="a model folder written with our C framework (e.g. "
+                       "tests/fmus/own_heater; modelicagym/models/csrc/model.h); default: the bundled models")
+    build.add_argument("--out", help="with a folder: copy the built FMU here (default: print its cache path)")
     build.add_argument("--fmi-version", type=int, nargs="+", choices=FMI_VERSIONS, metavar="N",
                        help=f"FMI versions to build ({', '.join(map(str, FMI_VERSIONS))}; default: all; "
                             "FMI 1.0 builds a co-simulation and a model-exchange FMU)")

@@ -129,6 +129,8 @@ VARIANTS: dict[str, Variant] = {
     # a lag whose co-simulation step costs 100x more while x > threshold (tests/fmus/moody): a pool's
     # load balance under step costs that vary with the state
     "moody": Variant(FMUS_DIR / "moody"),
+    # a room heater, the README's "Train on your own FMU" (tests/fmus/own_heater, examples/heater_task.py)
+    "own_heater": Variant(FMUS_DIR / "own_heater"),
 }
 
 

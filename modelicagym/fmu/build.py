@@ -38,7 +38,7 @@ from xml.etree import ElementTree
 import fmpy
 
 from modelicagym.cache import cache_dir, ensure, write_manifest
-from modelicagym.disk import build_ran_out_of_room, disk_full
+from modelicagym.disk import atomic_write, build_ran_out_of_room, disk_full
 from modelicagym.errors import ArgumentError, BuildError, NotFoundError
 from modelicagym.fmu.errors import FMUError
 
@@ -48,6 +48,7 @@ __all__ = [
     "FRAMEWORK_DIR",
     "MODELS_DIR",
     "build_all_models",
+    "build_model_folder",
     "build_source_fmu",
     "bundled_fmus",
     "cache_dir",
@@ -110,6 +111,25 @@ def build_source_fmu(
     job = _BuildJob.create(Path(model_dir), fmi_version, mode, model_description, defines or {})
     target = job.target(cache)
     return ensure(target, lambda: job.build(target), f"the built FMU {target.name}")
+
+
+def build_model_folder(folder: str | os.PathLike, fmi_versions: Sequence[int] | None = None, *,
+                       out: str | os.PathLike | None = None) -> Path:
+    """``modelicagym build FOLDER [--out MY.fmu]``: build one model folder (a test FMU of
+    ``tests/fmus``, or a model of your own written with our C framework) for one FMI version
+    (default 2.0), and copy the ``.fmu`` to ``out`` when given (else return its cache path)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise NotFoundError(f"model folder not found: {folder}")
+    versions = list(fmi_versions or [2])
+    if len(versions) != 1:
+        raise ArgumentError(f"a model folder is built for one FMI version at a time, not {versions} (--fmi-version N)")
+    built = build_source_fmu(folder, versions[0])
+    if out is None:
+        return built
+    with open(built, "rb") as source, atomic_write(out, "wb", elsewhere="choose another --out") as target:
+        shutil.copyfileobj(source, target)
+    return Path(out)
 
 
 def build_all_models(cache: str | os.PathLike | None = None,
