@@ -45,6 +45,7 @@ from gymnasium.vector.utils import (
 )
 
 from modelicagym.errors import ArgumentError
+from modelicagym.vector.autoreset import same_step_info
 
 __all__ = ["BufferSpec", "PickledBatch", "SharedBatch", "SharedBuffers", "has_shared_layout"]
 
@@ -335,7 +336,7 @@ class SharedBuffers:
     def final_info(self, index: int) -> dict[str, Any]:
         """The info ``SyncVectorEnv`` reports for env ``index`` reset in a ``SAME_STEP`` step by
         the native step (`take_final_ready`): its final observation and its (empty) final info."""
-        return {"final_obs": self.final_observations.read_observation(index), "final_info": {}}
+        return same_step_info(self.final_observations.read_observation(index), {}, {})
 
     def signal_address(self, slot: int, which: int) -> int:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""
