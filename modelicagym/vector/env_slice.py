@@ -167,8 +167,8 @@ class EnvSlice:
         self.autoreset = Autoreset(self.autoreset_mode, self.needs_reset)
         if self.step_path == "native":
             python_endings = has_python_endings(self.envs)
-            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot),
-                                      self.caller, python_endings)
+            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers, self.slot, self.caller,
+                                      python_endings)
             if python_endings:
                 self.endings = SliceEndings(self.envs, self.native, buffers, self.first, self.slot)
 
