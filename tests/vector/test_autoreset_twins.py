@@ -6,45 +6,27 @@ included), in every autoreset mode the pool supports, whichever way the native p
 
 from __future__ import annotations
 
-import os
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager, ExitStack
+from collections.abc import Callable
+from contextlib import ExitStack
 from functools import partial
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import pytest
+from env_slices import env_slice
 from gymnasium.vector import AutoresetMode
 from python_endings import endings_fns
 from step_paths import cartpole_fns, probe_env
 from vector_rollouts import assert_same
 
 from modelicagym.native.abi import Flags
-from modelicagym.vector.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.env_slice import EnvSlice
 from modelicagym.vector.infos import add_final_infos, merge_infos
 from modelicagym.vector.protocol import Kind
 
 pytestmark = pytest.mark.timeout(180)
-
-
-@contextmanager
-def env_slice(fns: list[Callable[[], gym.Env]], mode: AutoresetMode) -> Iterator[tuple[EnvSlice, SharedBuffers]]:
-    """The envs of ``fns`` as a worker's slice 0 on freshly made buffers."""
-    envs = [fn() for fn in fns]
-    spec = BufferSpec(envs[0].observation_space, envs[0].action_space, len(envs), 1)
-    buffers, fd = SharedBuffers.create(spec)
-    part = EnvSlice(envs, first_env=0, slot=0, autoreset_mode=mode)
-    try:
-        part.attach(buffers, needs_reset=True)
-        yield part, buffers
-    finally:
-        part.detach()
-        os.close(fd)
-        for env in envs:
-            env.close()
 
 
 def infos_of(reply: Any, buffers: SharedBuffers) -> dict[str, Any]:
