@@ -17,7 +17,6 @@ it steps the calling process's own native slice and waits for every worker in on
 from __future__ import annotations
 
 import ctypes
-import functools
 from collections.abc import Sequence
 from typing import Any
 
@@ -109,11 +108,6 @@ def check_batch_contract(fields: Sequence[SharedField] = SHARED_FIELDS) -> None:
                              + "; ".join(problems))
 
 
-@functools.cache
-def _contract_checked() -> None:
-    check_batch_contract()
-
-
 def _row_address(array: np.ndarray, row: int) -> int:
     return array.ctypes.data + row * array.strides[0]
 
@@ -142,6 +136,8 @@ class NativeBatch:
             worker's those not marked).
         python_endings: Python decides how the envs' steps end: :meth:`step_open`, then
             :meth:`end_steps` (in ``SAME_STEP`` the C step then resets nothing itself).
+        fields: the declaration ``buffers`` was allocated from; checked to fill every field of
+            ``mg_batch`` before any is filled (`check_batch_contract`).
     """
 
     def __init__(
@@ -153,8 +149,9 @@ class NativeBatch:
         slot: int,
         caller: bool,
         python_endings: bool = False,
+        fields: Sequence[SharedField] = SHARED_FIELDS,
     ) -> None:
-        _contract_checked()
+        check_batch_contract(fields)
         self.library = load_library()
         self.python_endings = python_endings
         self.first_env = first_env
@@ -165,8 +162,13 @@ class NativeBatch:
         self._autoreset_code = _AUTORESET_CODES[autoreset_mode]
         same_step = autoreset_mode is AutoresetMode.SAME_STEP
         self.state = batch = MgBatch()
-        for field in SHARED_FIELDS:
-            for name, value in self._shared_values(field, buffers, slot).items():
+        space_values = {
+            Values.ACTION: self._action_values(buffers.actions.read_batch(copy_out=False)),
+            Values.OBSERVATION: self._observation_values(buffers.observations.read_batch(copy_out=False),
+                                                         buffers.final_observations.read_batch(copy_out=False)),
+        }
+        for field in fields:
+            for name, value in self._shared_values(field, buffers, slot, space_values).items():
                 setattr(batch, name, value)
         batch.envs = ctypes.addressof(self._env_pointers)
         batch.n = n
@@ -181,23 +183,20 @@ class NativeBatch:
         self._open_ptr = ctypes.c_void_p(self.open.ctypes.data)
         self._step_open, self._end_steps = self.library.mg_step_open, self.library.mg_end_steps
 
-    def _shared_values(self, field: SharedField, buffers: SharedBuffers, slot: int) -> dict[str, Any]:
-        """The ``mg_batch`` fields ``field`` fills (its ``c_fields``, every one of them), by name."""
-        if not field.c_fields:
-            return {}
-        value = getattr(buffers, field.name)
-        if field.dtype is Values.ACTION:
-            values = self._action_values(value.read_batch(copy_out=False))
-        elif field.dtype is Values.OBSERVATION:
-            final = field.name == "final_observations"
-            observations = buffers.observations.read_batch(copy_out=False)
-            finals = buffers.final_observations.read_batch(copy_out=False)
-            values = self._observation_values(observations, finals, final)
+    def _shared_values(self, field: SharedField, buffers: SharedBuffers, slot: int,
+                       space_values: dict[Values, dict[str, Any]]) -> dict[str, Any]:
+        """The ``mg_batch`` fields ``field`` fills (its ``c_fields``, every one of them), by name:
+        a row's address, or for a field of a space's values what its layout sets (``space_values``)."""
+        if isinstance(field.dtype, Values):
+            offered = space_values[field.dtype]
+            values = {name: offered[name] for name in field.c_fields if name in offered}
+        elif field.c_fields:
+            values = {field.c_fields[0]: _row_address(getattr(buffers, field.name), field.rows.row(self.first_env, slot))}
         else:
-            values = {field.c_fields[0]: _row_address(value, field.rows.row(self.first_env, slot))}
+            values = {}
         if values.keys() != set(field.c_fields):
             raise NativeABIError(f"shared field {field.name!r} declares mg_batch fields {sorted(field.c_fields)} "
-                                 f"but NativeBatch fills {sorted(values)}")
+                                 f"but NativeBatch fills {sorted(values)} from it")
         return values
 
     def _action_values(self, actions: np.ndarray | dict[str, np.ndarray]) -> dict[str, Any]:
@@ -213,24 +212,20 @@ class NativeBatch:
                 "n_action_parts": len(layout), "scratch": self._scratch.ctypes.data}
 
     def _observation_values(self, observations: np.ndarray | dict[str, np.ndarray],
-                            finals: np.ndarray | dict[str, np.ndarray], final: bool) -> dict[str, Any]:
-        """The observations' fields (``final``: the final observations'): a row per env, or a Dict
-        observation's entries scattered from the row (an entry's final array beside it, in its part)."""
+                            finals: np.ndarray | dict[str, np.ndarray]) -> dict[str, Any]:
+        """The observations' and final observations' fields: a row per env, or a Dict observation's
+        entries scattered from the row (each entry's final array beside it, in its part)."""
         first_env = self.first_env
         if isinstance(observations, dict):
-            if final:
-                return {"final_obs": None}
             layout = [(offset, size, observations[name], finals[name])
                       for name, (offset, size) in self.natives[0].observation_layout.items()]
             self._obs_parts = _parts(layout, first_env)
             return {"observations": None, "obs_stride": 0, "obs_parts": ctypes.addressof(self._obs_parts),
-                    "n_obs_parts": len(layout)}
+                    "n_obs_parts": len(layout), "final_obs": None}
         if finals.strides[0] != observations.strides[0]:
             raise ArgumentError("final observations must have the stride of the shared observations")
-        if final:
-            return {"final_obs": _row_address(finals, first_env)}
         return {"observations": _row_address(observations, first_env), "obs_stride": observations.strides[0],
-                "obs_parts": None, "n_obs_parts": 0}
+                "obs_parts": None, "n_obs_parts": 0, "final_obs": _row_address(finals, first_env)}
 
     def step(self) -> int:
         """Step every env; returns how many need Python to finish (see ``flags``)."""

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -47,11 +49,34 @@ def test_a_declaration_filling_a_field_c_lacks_or_one_twice_is_refused_naming_it
         check_batch_contract(twice)
 
 
-def test_the_buffers_are_allocated_and_the_c_struct_filled_from_the_declaration() -> None:
+@contextmanager
+def cartpole_buffers() -> Iterator[tuple[list, SharedBuffers]]:
+    """Three cart-poles, and a pool's buffers for four envs in three slots."""
     envs = [modelicagym.make("cartpole") for _ in range(3)]
     spec = BufferSpec(envs[0].observation_space, envs[0].action_space, num_envs=4, num_workers=3)
     buffers, fd = SharedBuffers.create(spec)
     try:
+        yield envs, buffers
+    finally:
+        os.close(fd)
+        for env in envs:
+            env.close()
+
+
+def test_a_native_slice_is_not_built_from_a_declaration_that_leaves_a_c_field_unfilled() -> None:
+    with cartpole_buffers() as (envs, buffers):
+        with pytest.raises(ModelicaGymError, match=r"mg_batch\.needs_reset is filled from no shared field"):
+            NativeBatch(envs, 1, AutoresetMode.NEXT_STEP, buffers, slot=2, caller=False, fields=without("needs_reset"))
+        # each C field once, but one under a field that cannot fill it: named at the fill
+        moved = tuple(dataclasses.replace(field, c_fields=(*field.c_fields, "scratch")) if field.name == "rewards"
+                      else field for field in without("scratch"))
+        with pytest.raises(ModelicaGymError, match="shared field 'rewards' declares mg_batch fields"):
+            NativeBatch(envs, 1, AutoresetMode.NEXT_STEP, buffers, slot=2, caller=False, fields=moved)
+
+
+def test_the_buffers_are_allocated_and_the_c_struct_filled_from_the_declaration() -> None:
+    with cartpole_buffers() as (envs, buffers):
+        spec = buffers.spec
         for field in SHARED_FIELDS:
             value = getattr(buffers, field.name)
             if isinstance(field.dtype, Values):
@@ -70,8 +95,3 @@ def test_the_buffers_are_allocated_and_the_c_struct_filled_from_the_declaration(
         assert batch.state.obs_stride == observations.strides[0]
         assert batch.state.final_obs == buffers.final_observations.read_batch(copy_out=False)[1:].ctypes.data
         assert batch.state.actions == buffers.actions.read_batch(copy_out=False)[1:].ctypes.data
-        del batch
-    finally:
-        os.close(fd)
-        for env in envs:
-            env.close()
