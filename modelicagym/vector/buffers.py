@@ -6,7 +6,7 @@ to each worker over its pipe. It has no name anywhere (``memfd_create``, or an u
 file where that is missing), so nothing can leak in ``/dev/shm``: the memory is freed when the last
 process that maps it exits, however it exits.
 
-Fields are declared once, in `modelicagym.vector.shared_fields` (``SHARED_FIELDS``: name, dtype,
+Fields are declared once, in `modelicagym.vector.wire.shared_fields` (``SHARED_FIELDS``: name, dtype,
 shape, the C field a native slice fills from it): observations and actions (any space Gymnasium's
 shared-memory helpers support), rewards, terminations, truncations, the masks, and per worker a
 command slot, a reply slot, the index of the env being run (to name it when the worker dies),
@@ -46,8 +46,8 @@ from gymnasium.vector.utils import (
 )
 
 from modelicagym.errors import ArgumentError
-from modelicagym.vector.autoreset import same_step_info
-from modelicagym.vector.shared_fields import CACHE_LINE, SHARED_FIELDS, Values
+from modelicagym.vector.protocol import same_step_info
+from modelicagym.vector.wire.shared_fields import CACHE_LINE, SHARED_FIELDS, Values
 
 __all__ = ["BufferSpec", "PickledBatch", "SharedBatch", "SharedBuffers", "has_shared_layout"]
 
@@ -286,7 +286,7 @@ class BufferSpec:
 
 class SharedBuffers:
     """All shared arrays of a pool, laid out in one mapping (see the module docstring): one
-    attribute per field of `SHARED_FIELDS` (`modelicagym.vector.shared_fields`), allocated in its
+    attribute per field of `SHARED_FIELDS` (`modelicagym.vector.wire.shared_fields`), allocated in its
     order; a field of array values is a numpy array, one of observations or actions a
     :class:`SharedBatch` (or :class:`PickledBatch`)."""
 

@@ -28,13 +28,13 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import RESET_THEN_STEP, Flags
-from modelicagym.vector.autoreset import Autoreset, same_step_info
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.creation import create_envs
 from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.native_slice import NativeBatch, batch_path_reason
-from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath
+from modelicagym.vector.protocol import Command, EnvDescription, Kind, Message, StepPath, same_step_info
+from modelicagym.vector.slice.autoreset import Autoreset
 from modelicagym.vector.slice_endings import SliceEndings, has_python_endings
 from modelicagym.vector.space_checks import check_action_spaces, check_observation_spaces
 

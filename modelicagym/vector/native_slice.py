@@ -39,9 +39,16 @@ from modelicagym.native.abi import (
 from modelicagym.native.library import load_library
 from modelicagym.vector.buffers import SharedBuffers
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
-from modelicagym.vector.shared_fields import SHARED_FIELDS, SharedField, Values
+from modelicagym.vector.wire.shared_fields import SHARED_FIELDS, SharedField, Values
 
-__all__ = ["SLICE_FIELDS", "NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason", "check_batch_contract"]
+__all__ = [
+    "SLICE_FIELDS",
+    "NativeBatch",
+    "NativeCollector",
+    "NativeServer",
+    "batch_path_reason",
+    "check_batch_contract",
+]
 
 #: the spaces whose values are one row of the pool's shared memory per env
 _ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
@@ -103,7 +110,7 @@ def check_batch_contract(fields: Sequence[SharedField] = SHARED_FIELDS) -> None:
     problems += [f"mg_batch.{name} is filled {filled.count(name)} times" for name in dict.fromkeys(filled)
                  if filled.count(name) > 1]
     if problems:
-        raise NativeABIError("the shared-memory declaration (vector/shared_fields.py SHARED_FIELDS, "
+        raise NativeABIError("the shared-memory declaration (vector/wire/shared_fields.py SHARED_FIELDS, "
                              "native_slice.SLICE_FIELDS) does not fill mg_batch (native/csrc/slice.h): "
                              + "; ".join(problems))
 
@@ -191,7 +198,8 @@ class NativeBatch:
             offered = space_values[field.dtype]
             values = {name: offered[name] for name in field.c_fields if name in offered}
         elif field.c_fields:
-            values = {field.c_fields[0]: _row_address(getattr(buffers, field.name), field.rows.row(self.first_env, slot))}
+            row = field.rows.row(self.first_env, slot)
+            values = {field.c_fields[0]: _row_address(getattr(buffers, field.name), row)}
         else:
             values = {}
         if values.keys() != set(field.c_fields):

@@ -1,4 +1,4 @@
-"""The pool's autoreset is written twice: in Python (`modelicagym.vector.autoreset.Autoreset`) and
+"""The pool's autoreset is written twice: in Python (`modelicagym.vector.slice.autoreset.Autoreset`) and
 in C (``step_batch`` in ``native/csrc/slice.c``, ``end_steps`` in ``csrc/endings.c``). The same
 envs, seeds and actions through a slice on the Python path and a slice on the native path give the
 same observations, rewards, terminations, truncations and infos (``final_obs`` / ``final_info``

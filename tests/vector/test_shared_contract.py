@@ -18,7 +18,7 @@ from modelicagym.errors import ModelicaGymError
 from modelicagym.native.abi import MgBatch
 from modelicagym.vector.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.native_slice import SLICE_FIELDS, NativeBatch, check_batch_contract
-from modelicagym.vector.shared_fields import SHARED_FIELDS, Values
+from modelicagym.vector.wire.shared_fields import SHARED_FIELDS, Values
 
 
 def without(c_field: str) -> tuple:

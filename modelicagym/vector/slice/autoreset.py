@@ -4,7 +4,8 @@ of Gymnasium's autoreset modes.
 - ``NEXT_STEP``: an env whose step ended (terminated or truncated) is marked; its next step is its
   reset, reported as ``(observation, 0.0, False, False, reset info)`` and its action ignored.
 - ``SAME_STEP``: an env whose step ended is reset at once; the step reports the reset observation,
-  and the ended step's observation and info as ``final_obs`` / ``final_info`` (`same_step_info`).
+  and the ended step's observation and info as ``final_obs`` / ``final_info``
+  (`modelicagym.vector.protocol.same_step_info`).
 - ``DISABLED``: nothing; the user resets ended envs.
 
 Besides the modes, an env that moved to this process at an episode boundary (``RESET_THEN_STEP``,
@@ -29,14 +30,9 @@ from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP
 from modelicagym.vector.env_contract import PoolEnv, StepResult
+from modelicagym.vector.protocol import same_step_info
 
-__all__ = ["Autoreset", "same_step_info"]
-
-
-def same_step_info(final_observation: Any, final_info: dict[str, Any], reset_info: dict[str, Any]) -> dict[str, Any]:
-    """The info of a ``SAME_STEP`` step that ended an episode and reset the env: the ended step's
-    observation and info as ``final_obs`` / ``final_info``, beside the reset's own info."""
-    return {"final_obs": final_observation, "final_info": final_info, **reset_info}
+__all__ = ["Autoreset"]
 
 
 class Autoreset:
