@@ -31,6 +31,7 @@ from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
 from modelicagym.vector.errors import PoolClosedError
 from modelicagym.vector.parent.argument_checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.parent.infos import add_info
 from modelicagym.vector.pool import INIT_MODES
 from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
 
@@ -372,7 +373,7 @@ class RayVectorEnv(VectorEnv):
             for j, index in enumerate(envs):
                 info = env_info(part, j)
                 if info:
-                    infos = self._add_info(infos, info, index)
+                    infos = add_info(infos, info, index, self.num_envs)
         return infos
 
     def _check_open(self) -> None:

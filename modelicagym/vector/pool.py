@@ -826,4 +826,4 @@ class PoolVectorEnv(VectorEnv):
         check_waiting(self._state, state, call, prior)
 
     def _merge_infos(self, entries: Entries) -> dict[str, Any]:
-        return merge_infos(self._add_info, entries)
+        return merge_infos(entries, self.num_envs)

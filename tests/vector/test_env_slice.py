@@ -4,40 +4,22 @@ mode, on the Python path and on the native one, and an env's failure is a reply 
 
 from __future__ import annotations
 
-import os
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from env_slices import env_slice
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from vector_envs import CountEnv, FaultyEnv
 
 import modelicagym
 from modelicagym.vector.slice.env_slice import EnvSlice
-from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Kind
 
 MODES = [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP]
-
-
-@contextmanager
-def env_slice(fns: list[Callable[[], gym.Env]], mode: AutoresetMode) -> Iterator[tuple[EnvSlice, SharedBuffers]]:
-    """The envs of ``fns`` as a worker's slice 0 on freshly made buffers."""
-    envs = [fn() for fn in fns]
-    spec = BufferSpec(envs[0].observation_space, envs[0].action_space, len(envs), 1)
-    buffers, fd = SharedBuffers.create(spec)
-    part = EnvSlice(envs, first_env=0, slot=0, autoreset_mode=mode)
-    try:
-        part.attach(buffers, needs_reset=True)
-        yield part, buffers
-    finally:
-        part.detach()
-        os.close(fd)
-        for env in envs:
-            env.close()
 
 
 def reset(part: EnvSlice, buffers: SharedBuffers, seeds: list[int]) -> tuple[np.ndarray, Any]:

@@ -27,6 +27,8 @@ int64_t mg_step_open(mg_batch *b, uint8_t *open) {
     return count;
 }
 
+/* The pool's autoreset after Python ended the steps: as step_batch (slice.c) applies it, and as its
+ * Python twin Autoreset (modelicagym/vector/slice/autoreset.py) does; change all three together. */
 static int64_t end_steps(mg_batch *b, int32_t mode, const uint8_t *open, int64_t *fmu_ns) {
     int64_t for_python = 0;
     bool same_step = mode == MG_AUTORESET_SAME_STEP;

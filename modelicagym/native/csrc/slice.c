@@ -42,6 +42,9 @@ int64_t mg_step_batch(mg_batch *b) {
     return for_python;
 }
 
+/* The pool's autoreset in C. Its Python twin is Autoreset in modelicagym/vector/slice/autoreset.py
+ * (the Python path, and what C leaves to Python: MG_PYTHON_RESET); change both together.
+ * tests/vector/test_autoreset_twins.py steps the same envs both ways in every mode. */
 static int64_t step_batch(mg_batch *b) {
     int64_t for_python = 0, env_ns = 0, fmu_ns = 0;
     bool timed = *b->timing_enabled;

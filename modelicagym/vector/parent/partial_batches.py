@@ -30,12 +30,12 @@ from collections import deque
 from typing import Any
 
 import numpy as np
-from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import concatenate, create_empty_array
 
 from modelicagym.errors import ArgumentError
 from modelicagym.vector.parent.action_writer import ActionWriter
 from modelicagym.vector.parent.argument_checks import check_env_ids
+from modelicagym.vector.parent.infos import add_info
 from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind
@@ -45,15 +45,6 @@ __all__ = ["PartialBatches"]
 
 #: how long ``recv`` blocks on one busy worker before it looks at the others again (seconds)
 _POLL_BLOCK = 0.0002
-
-
-class _InfoBatch:
-    """Gymnasium's info merging for a batch of ``num_envs`` results that are not the whole pool."""
-
-    _add_info = VectorEnv._add_info
-
-    def __init__(self, num_envs: int) -> None:
-        self.num_envs = num_envs
 
 
 class PartialBatches:
@@ -240,11 +231,10 @@ class PartialBatches:
             selected = concatenate(space, [observations.read(i) for i in ids.tolist()],
                                    create_empty_array(space, len(ids)))
         infos: dict[str, Any] = {}
-        merger = _InfoBatch(len(ids))
         for position, env in enumerate(ids.tolist()):
             info = self._infos.pop(env, None)
             if info:
-                infos = merger._add_info(infos, info, position)
+                infos = add_info(infos, info, position, len(ids))
         infos["env_id"] = ids.astype(np.int32)
         return (selected, buffers.rewards[ids].copy(), buffers.terminations[ids].copy(),
                 buffers.truncations[ids].copy(), infos)

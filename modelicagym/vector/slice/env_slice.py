@@ -27,15 +27,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
+from modelicagym.native.abi import RESET_THEN_STEP, Flags
 from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
+from modelicagym.vector.slice.autoreset import Autoreset
 from modelicagym.vector.slice.creation import create_envs
 from modelicagym.vector.slice.native_slice import NativeBatch, batch_path_reason
 from modelicagym.vector.slice.slice_endings import SliceEndings, has_python_endings
 from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import SharedBuffers
-from modelicagym.vector.wire.protocol import Command, EnvDescription, Kind, Message, StepPath
+from modelicagym.vector.wire.protocol import Command, EnvDescription, Kind, Message, StepPath, same_step_info
 
 __all__ = ["EnvSlice", "describe_envs"]
 
@@ -109,11 +110,11 @@ class EnvSlice:
         self.env_indices = range(first_env, first_env + len(envs))
         self.buffers: SharedBuffers | None = None
         self.autoreset_mode = autoreset_mode
-        self._next_step = autoreset_mode is AutoresetMode.NEXT_STEP
-        self._same_step = autoreset_mode is AutoresetMode.SAME_STEP
         self.caller = caller
         #: per env of the slice, a view of the shared ``needs_reset`` once attached
         self.needs_reset = np.zeros(len(envs), dtype=np.uint8)
+        #: the pool's autoreset on the Python path (its C twin steps the native path)
+        self.autoreset = Autoreset(autoreset_mode, self.needs_reset)
         reason = batch_path_reason(envs)
         self.step_path = "python" if reason else "native"
         self.step_path_reason = reason or native_reason(envs)
@@ -163,10 +164,11 @@ class EnvSlice:
         self.buffers = buffers
         self.needs_reset = buffers.needs_reset[self.first : self.first + len(self.envs)]
         self.needs_reset[:] = needs_reset
+        self.autoreset = Autoreset(self.autoreset_mode, self.needs_reset)
         if self.step_path == "native":
             python_endings = has_python_endings(self.envs)
-            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers.arrays(self.slot),
-                                      self.caller, python_endings)
+            self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers, self.slot, self.caller,
+                                      python_endings)
             if python_endings:
                 self.endings = SliceEndings(self.envs, self.native, buffers, self.first, self.slot)
 
@@ -221,7 +223,7 @@ class EnvSlice:
                 fmu_start = 0 if fmu_env is None else fmu_env.fmu_time_ns
                 start_ns = perf_counter_ns()
             try:
-                observation, reward, terminated, truncated, info = self._step_env(offset, env, action)
+                observation, reward, terminated, truncated, info = self.autoreset.step(offset, env, action)
                 if timed:
                     env_ns += perf_counter_ns() - start_ns
                     if fmu_env is not None:
@@ -246,28 +248,6 @@ class EnvSlice:
             as_given = np.dtype(chr(given)).type
             action = as_given(action) if np.ndim(action) == 0 else action.astype(as_given)
         return action
-
-    def _step_env(self, offset: int, env: PoolEnv, action: Any) -> StepResult:
-        """One env's part of a vector step, with the autoreset of the pool's mode."""
-        if self.needs_reset[offset] == RESET_THEN_STEP:  # it moved here at an episode boundary
-            env.reset()
-            self.needs_reset[offset] = NO_RESET
-        if self._next_step and self.needs_reset[offset]:
-            observation, info = env.reset()
-            self.needs_reset[offset] = False
-            return observation, 0.0, False, False, info
-        return self._after_step(offset, env, env.step(action))
-
-    def _after_step(self, offset: int, env: PoolEnv, result: StepResult) -> StepResult:
-        """The autoreset of the pool's mode after an env's step."""
-        observation, reward, terminated, truncated, info = result
-        if self._next_step:
-            self.needs_reset[offset] = terminated or truncated
-        elif self._same_step and (terminated or truncated):
-            reset_observation, reset_info = env.reset()
-            info = {"final_obs": observation, "final_info": info, **reset_info}
-            observation = reset_observation
-        return observation, reward, terminated, truncated, info
 
     def finish_native_step(self) -> Message | None:
         """Finish, on the Python path, what the last native step left to Python (see ``Flags``)."""
@@ -295,24 +275,23 @@ class EnvSlice:
         return Message(Kind.INFOS, infos) if infos else None
 
     def _finish_env(self, offset: int, env: PoolEnv, flags: int, native: NativeBatch) -> StepResult:
-        """One env's result, from what C did (``flags``) and what is left to do."""
+        """One env's result, from what C did (``flags``) and what is left to do: the pool's
+        autoreset where C could not finish it (``Autoreset``, the Python twin of C's)."""
+        autoreset = self.autoreset
         if flags & Flags.FMU_ERROR:
-            return self._after_step(offset, env, env.native_step_failure())
+            return autoreset.after_step(offset, env, env.native_step_failure())
         if self.needs_reset[offset] == RESET_THEN_STEP:  # C could not reset it natively
-            return self._step_env(offset, env, self._action(self.first + offset))
-        if self._next_step and flags & Flags.PYTHON_RESET:
-            return self._step_env(offset, env, None)
+            return autoreset.step(offset, env, self._action(self.first + offset))
+        if autoreset.next_step and flags & Flags.PYTHON_RESET:
+            return autoreset.step(offset, env, None)
         terminated, truncated, step_info = Flags.ending(flags)
-        observation = env.observation()
-        result = (observation, float(self.buffers.rewards[self.first + offset]), terminated, truncated)
-        if not (self._same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):
-            return (*result, step_info)
+        reward = float(self.buffers.rewards[self.first + offset])
+        if not (autoreset.same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):
+            return env.observation(), reward, terminated, truncated, step_info
         final_observation = self.buffers.final_observations.read_observation(self.first + offset)
-        reset_info: dict[str, Any] = {}
-        if flags & Flags.PYTHON_RESET:
-            observation, reset_info = env.reset()
-        info = {"final_obs": final_observation, "final_info": step_info, **reset_info}
-        return (observation, *result[1:], info)
+        if flags & Flags.PYTHON_RESET:  # the step ended; C kept its observation, Python resets
+            return autoreset.after_step(offset, env, (final_observation, reward, terminated, truncated, step_info))
+        return env.observation(), reward, terminated, truncated, same_step_info(final_observation, step_info, {})
 
     def reset(self, seeds: list[int | None] | None, options: dict[str, Any] | None) -> Message | None:
         """Reset the envs selected by the shared reset mask."""

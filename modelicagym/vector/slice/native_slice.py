@@ -17,6 +17,7 @@ it steps the calling process's own native slice and waits for every worker in on
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -24,11 +25,30 @@ from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
-from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgCollector, MgEnv, MgPart, MgServer, MgWaiter
+from modelicagym.native.abi import (
+    AutoresetCode,
+    Flags,
+    MgBatch,
+    MgCollector,
+    MgEnv,
+    MgPart,
+    MgServer,
+    MgWaiter,
+    NativeABIError,
+)
 from modelicagym.native.library import load_library
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
+from modelicagym.vector.wire.shared_fields import SHARED_FIELDS, SharedField, Values
 
-__all__ = ["NativeBatch", "NativeCollector", "NativeServer", "batch_path_reason"]
+__all__ = [
+    "SLICE_FIELDS",
+    "NativeBatch",
+    "NativeCollector",
+    "NativeServer",
+    "batch_path_reason",
+    "check_batch_contract",
+]
 
 #: the spaces whose values are one row of the pool's shared memory per env
 _ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
@@ -66,6 +86,35 @@ def batch_path_reason(envs: list[PoolEnv]) -> str | None:
     return None
 
 
+#: the ``mg_batch`` fields filled from the slice itself, not from shared memory (those are declared
+#: in `SHARED_FIELDS`): what each holds
+SLICE_FIELDS: dict[str, str] = {
+    "envs": "the envs' mg_env structs",
+    "n": "how many envs the slice has",
+    "autoreset_mode": "the pool's autoreset (DISABLED in SAME_STEP when Python ends the steps)",
+    "caller": "the slice is the calling process's",
+    "flags": "per env, what its last step left to Python (this process's array)",
+    "first_env": "the pool index of the slice's first env",
+}
+
+
+def check_batch_contract(fields: Sequence[SharedField] = SHARED_FIELDS) -> None:
+    """Raise `NativeABIError` unless every field of ``mg_batch`` is filled exactly once: from one
+    of ``fields`` (their ``c_fields``) or from the slice (`SLICE_FIELDS`)."""
+    filled = [name for field in fields for name in field.c_fields] + list(SLICE_FIELDS)
+    struct = [name for name, _ in MgBatch._fields_]
+    problems = [f"mg_batch.{name} is filled from no shared field nor from the slice"
+                for name in struct if name not in filled]
+    problems += [f"{name!r} is filled but mg_batch has no such field" for name in dict.fromkeys(filled)
+                 if name not in struct]
+    problems += [f"mg_batch.{name} is filled {filled.count(name)} times" for name in dict.fromkeys(filled)
+                 if filled.count(name) > 1]
+    if problems:
+        raise NativeABIError("the shared-memory declaration (vector/wire/shared_fields.py SHARED_FIELDS, "
+                             "native_slice.SLICE_FIELDS) does not fill mg_batch (native/csrc/slice.h): "
+                             + "; ".join(problems))
+
+
 def _row_address(array: np.ndarray, row: int) -> int:
     return array.ctypes.data + row * array.strides[0]
 
@@ -87,13 +136,15 @@ class NativeBatch:
         envs: the envs of the slice.
         first_env: the pool index of ``envs[0]``: the row of the shared arrays it uses.
         autoreset_mode: the pool's autoreset mode.
-        arrays: the pool's shared arrays by name: ``actions``, ``observations``, ``rewards``,
-            ``terminations``, ``truncations``, ``step_mask``, ``in_caller``, ``needs_reset`` (all envs),
-            ``current_env`` and ``timing`` (this slice's slot), ``timing_enabled``.
+        buffers: the pool's shared memory; ``mg_batch`` is filled from its fields as
+            `SHARED_FIELDS` declares (array spaces only), the rest from the slice (`SLICE_FIELDS`).
+        slot: the slice's slot (its row of the per-slot fields: ``current_env``, ``timing``).
         caller: the slice is the calling process's: it steps the envs marked ``in_caller`` (a
             worker's those not marked).
         python_endings: Python decides how the envs' steps end: :meth:`step_open`, then
             :meth:`end_steps` (in ``SAME_STEP`` the C step then resets nothing itself).
+        fields: the declaration ``buffers`` was allocated from; checked to fill every field of
+            ``mg_batch`` before any is filled (`check_batch_contract`).
     """
 
     def __init__(
@@ -101,61 +152,88 @@ class NativeBatch:
         envs: list[NativeEnv],
         first_env: int,
         autoreset_mode: AutoresetMode,
-        arrays: dict[str, np.ndarray],
+        buffers: SharedBuffers,
+        slot: int,
         caller: bool,
         python_endings: bool = False,
+        fields: Sequence[SharedField] = SHARED_FIELDS,
     ) -> None:
+        check_batch_contract(fields)
         self.library = load_library()
         self.python_endings = python_endings
+        self.first_env = first_env
         n = len(envs)
         self.natives = [env.native_step for env in envs]
-        observations, final_observations = arrays["observations"], arrays["final_observations"]
         self.flags = np.zeros(n, dtype=np.int32)
         self._env_pointers = (ctypes.POINTER(MgEnv) * n)(*(ctypes.pointer(native.state) for native in self.natives))
-        self.state = batch = MgBatch()
-        batch.envs = ctypes.addressof(self._env_pointers)
-        batch.n = n
         self._autoreset_code = _AUTORESET_CODES[autoreset_mode]
         same_step = autoreset_mode is AutoresetMode.SAME_STEP
+        self.state = batch = MgBatch()
+        space_values = {
+            Values.ACTION: self._action_values(buffers.actions.read_batch(copy_out=False)),
+            Values.OBSERVATION: self._observation_values(buffers.observations.read_batch(copy_out=False),
+                                                         buffers.final_observations.read_batch(copy_out=False)),
+        }
+        for field in fields:
+            for name, value in self._shared_values(field, buffers, slot, space_values).items():
+                setattr(batch, name, value)
+        batch.envs = ctypes.addressof(self._env_pointers)
+        batch.n = n
         batch.autoreset_mode = AutoresetCode.DISABLED if python_endings and same_step else self._autoreset_code
-        actions = arrays["actions"]
-        if isinstance(actions, dict):  # a Dict action: its entries gathered into a row per step
-            layout = [(offset, size, actions[name], None) for name, offset, size, _ in self.natives[0].action_layout]
-            self._scratch = np.zeros(self.natives[0].action_row_bytes, dtype=np.uint8)
-            batch.scratch = self._scratch.ctypes.data
-            self._action_parts = _parts(layout, first_env)
-            batch.action_parts, batch.n_action_parts = ctypes.addressof(self._action_parts), len(layout)
-        else:
-            batch.actions, batch.action_stride = _row_address(actions, first_env), actions.strides[0]
-        if isinstance(observations, dict):  # a Dict observation: its entries scattered from the row
-            layout = [(offset, size, observations[name], final_observations[name])
-                      for name, (offset, size) in self.natives[0].observation_layout.items()]
-            self._obs_parts = _parts(layout, first_env)
-            batch.obs_parts, batch.n_obs_parts = ctypes.addressof(self._obs_parts), len(layout)
-        else:
-            batch.observations, batch.obs_stride = _row_address(observations, first_env), observations.strides[0]
-            if final_observations.strides[0] != observations.strides[0]:
-                raise ArgumentError("final observations must have the stride of the shared observations")
-            batch.final_obs = _row_address(final_observations, first_env)
-        batch.final_ready = _row_address(arrays["final_ready"], first_env)
-        batch.rewards = _row_address(arrays["rewards"], first_env)
-        batch.terminations = _row_address(arrays["terminations"], first_env)
-        batch.truncations = _row_address(arrays["truncations"], first_env)
-        batch.needs_reset = _row_address(arrays["needs_reset"], first_env)
-        batch.active = _row_address(arrays["step_mask"], first_env)
-        batch.in_caller = _row_address(arrays["in_caller"], first_env)
         batch.caller = int(caller)
         batch.flags = self.flags.ctypes.data
-        batch.current_env = arrays["current_env"].ctypes.data
         batch.first_env = first_env
-        batch.timing_enabled = arrays["timing_enabled"].ctypes.data
-        batch.timing = arrays["timing"].ctypes.data
         self._step = self.library.mg_step_batch
         self.ref = ctypes.byref(batch)
         #: per env, after :meth:`step_open`: 1 where Python must end the env's step
         self.open = np.zeros(n, dtype=np.uint8)
         self._open_ptr = ctypes.c_void_p(self.open.ctypes.data)
         self._step_open, self._end_steps = self.library.mg_step_open, self.library.mg_end_steps
+
+    def _shared_values(self, field: SharedField, buffers: SharedBuffers, slot: int,
+                       space_values: dict[Values, dict[str, Any]]) -> dict[str, Any]:
+        """The ``mg_batch`` fields ``field`` fills (its ``c_fields``, every one of them), by name:
+        a row's address, or for a field of a space's values what its layout sets (``space_values``)."""
+        if isinstance(field.dtype, Values):
+            offered = space_values[field.dtype]
+            values = {name: offered[name] for name in field.c_fields if name in offered}
+        elif field.c_fields:
+            row = field.rows.row(self.first_env, slot)
+            values = {field.c_fields[0]: _row_address(getattr(buffers, field.name), row)}
+        else:
+            values = {}
+        if values.keys() != set(field.c_fields):
+            raise NativeABIError(f"shared field {field.name!r} declares mg_batch fields {sorted(field.c_fields)} "
+                                 f"but NativeBatch fills {sorted(values)} from it")
+        return values
+
+    def _action_values(self, actions: np.ndarray | dict[str, np.ndarray]) -> dict[str, Any]:
+        """A row of the shared actions per env, or a Dict action's entries gathered into a row per step."""
+        first_env = self.first_env
+        if not isinstance(actions, dict):
+            return {"actions": _row_address(actions, first_env), "action_stride": actions.strides[0],
+                    "action_parts": None, "n_action_parts": 0, "scratch": None}
+        layout = [(offset, size, actions[name], None) for name, offset, size, _ in self.natives[0].action_layout]
+        self._scratch = np.zeros(self.natives[0].action_row_bytes, dtype=np.uint8)
+        self._action_parts = _parts(layout, first_env)
+        return {"actions": None, "action_stride": 0, "action_parts": ctypes.addressof(self._action_parts),
+                "n_action_parts": len(layout), "scratch": self._scratch.ctypes.data}
+
+    def _observation_values(self, observations: np.ndarray | dict[str, np.ndarray],
+                            finals: np.ndarray | dict[str, np.ndarray]) -> dict[str, Any]:
+        """The observations' and final observations' fields: a row per env, or a Dict observation's
+        entries scattered from the row (each entry's final array beside it, in its part)."""
+        first_env = self.first_env
+        if isinstance(observations, dict):
+            layout = [(offset, size, observations[name], finals[name])
+                      for name, (offset, size) in self.natives[0].observation_layout.items()]
+            self._obs_parts = _parts(layout, first_env)
+            return {"observations": None, "obs_stride": 0, "obs_parts": ctypes.addressof(self._obs_parts),
+                    "n_obs_parts": len(layout), "final_obs": None}
+        if finals.strides[0] != observations.strides[0]:
+            raise ArgumentError("final observations must have the stride of the shared observations")
+        return {"observations": _row_address(observations, first_env), "obs_stride": observations.strides[0],
+                "obs_parts": None, "n_obs_parts": 0, "final_obs": _row_address(finals, first_env)}
 
     def step(self) -> int:
         """Step every env; returns how many need Python to finish (see ``flags``)."""

@@ -48,9 +48,9 @@ class SliceEndings:
         self.slot = slot
         #: the pool index of the env whose endings are being computed (to name it if they raise)
         self.current_env = first
-        arrays = buffers.arrays(slot)
-        self._observations, self._actions = arrays["observations"], arrays["actions"]
-        self._rewards, self._terminations = arrays["rewards"], arrays["terminations"]
+        self._observations = buffers.observations.read_batch(copy_out=False)
+        self._actions = buffers.actions.read_batch(copy_out=False)
+        self._rewards, self._terminations = buffers.rewards, buffers.terminations
         self._action_dtype = buffers.action_dtype
         self._timing, self._timing_enabled = buffers.timing[slot], buffers.timing_enabled
         self._current = buffers.current_env

@@ -6,10 +6,11 @@ to each worker over its pipe. It has no name anywhere (``memfd_create``, or an u
 file where that is missing), so nothing can leak in ``/dev/shm``: the memory is freed when the last
 process that maps it exits, however it exits.
 
-Fields: observations and actions (any space Gymnasium's shared-memory helpers support), rewards,
-terminations, truncations, the reset mask, and per worker a command slot, a reply slot, the index
-of the env being run (to name it when the worker dies), timing counters and its two signals. Each field starts on a
-cache line of its own.
+Fields are declared once, in `modelicagym.vector.wire.shared_fields` (``SHARED_FIELDS``: name, dtype,
+shape, the C field a native slice fills from it): observations and actions (any space Gymnasium's
+shared-memory helpers support), rewards, terminations, truncations, the masks, and per worker a
+command slot, a reply slot, the index of the env being run (to name it when the worker dies),
+timing counters and its two signals. Each field starts on a cache line of its own.
 
 Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nested in
 ``Dict``/``Tuple``) are read and written through numpy views made once; a top-level array space
@@ -45,10 +46,12 @@ from gymnasium.vector.utils import (
 )
 
 from modelicagym.errors import ArgumentError
+from modelicagym.vector.wire.protocol import same_step_info
+from modelicagym.vector.wire.shared_fields import CACHE_LINE, SHARED_FIELDS, Values
 
 __all__ = ["BufferSpec", "PickledBatch", "SharedBatch", "SharedBuffers", "has_shared_layout"]
 
-_ALIGNMENT = 64
+_ALIGNMENT = CACHE_LINE
 _ARRAY_SPACES = (Box, Discrete, MultiDiscrete, MultiBinary)
 
 
@@ -282,7 +285,10 @@ class BufferSpec:
 
 
 class SharedBuffers:
-    """All shared arrays of a pool, laid out in one mapping (see the module docstring)."""
+    """All shared arrays of a pool, laid out in one mapping (see the module docstring): one
+    attribute per field of `SHARED_FIELDS` (`modelicagym.vector.wire.shared_fields`), allocated in its
+    order; a field of array values is a numpy array, one of observations or actions a
+    :class:`SharedBatch` (or :class:`PickledBatch`)."""
 
     #: timing counters per worker: env time and FMU time of the last step, in nanoseconds
     ENV_NS, FMU_NS = 0, 1
@@ -291,34 +297,12 @@ class SharedBuffers:
         n, w = spec.num_envs, spec.num_workers
         allocator = _Allocator(buffer)
         self.spec = spec
-        self.observations = _batch(spec.observation_space, n, allocator)
-        #: ``SAME_STEP``: the last observation of an env the native step reset, where
-        #: ``final_ready`` marks it (the pool builds its ``final_obs`` info from them)
-        self.final_observations = _batch(spec.observation_space, n, allocator)
-        self.final_ready = allocator.array(np.uint8, (n,))
-        self.actions = _batch(action_storage_space(spec.action_space), n, allocator)
-        #: the dtype (its ``char``) of the batch of actions last given, in which each env gets its
-        #: action back as ``SyncVectorEnv`` would hand it; 0: as stored
-        self.action_dtype = allocator.array(np.uint8, (1,))
-        self.rewards = allocator.array(np.float64, (n,))
-        self.terminations = allocator.array(np.bool_, (n,))
-        self.truncations = allocator.array(np.bool_, (n,))
-        self.reset_mask = allocator.array(np.bool_, (n,))
-        #: which envs a ``STEP`` steps (all, except for a partial batch: `modelicagym.vector.parent.partial_batches`)
-        self.step_mask = allocator.array(np.uint8, (n,))
-        #: 1 where the calling process steps the env, 0 where its worker does (the placement; an
-        #: adaptive pool moves envs at episode boundaries: `modelicagym.vector.parent.placement`)
-        self.in_caller = allocator.array(np.uint8, (n,))
-        #: per env, written only by the process that steps it: ``native.batch.RESET_THEN_REPORT``
-        #: (it ended; its next step is its reset) or ``RESET_THEN_STEP`` (it moved at a boundary)
-        self.needs_reset = allocator.array(np.uint8, (n,))
-        self.command = allocator.array(np.int32, (w,))
-        self.reply = allocator.array(np.int32, (w,))
-        self.current_env = allocator.array(np.int64, (w,))
-        self.timing = allocator.array(np.int64, (w, 2))
-        self.timing_enabled = allocator.array(np.bool_, (1,))
-        #: per slot, the ``go`` and ``done`` signals (``native/csrc/signal.h``), a cache line each
-        self.signals = allocator.array(np.uint32, (w, 2, _ALIGNMENT // 4))
+        spaces = {Values.OBSERVATION: spec.observation_space, Values.ACTION: action_storage_space(spec.action_space)}
+        for field in SHARED_FIELDS:
+            if isinstance(field.dtype, Values):
+                setattr(self, field.name, _batch(spaces[field.dtype], n, allocator))
+            else:
+                setattr(self, field.name, allocator.array(field.dtype, field.shape(n, w)))
         self.nbytes = allocator.size
 
     GO, DONE = 0, 1
@@ -335,29 +319,11 @@ class SharedBuffers:
     def final_info(self, index: int) -> dict[str, Any]:
         """The info ``SyncVectorEnv`` reports for env ``index`` reset in a ``SAME_STEP`` step by
         the native step (`take_final_ready`): its final observation and its (empty) final info."""
-        return {"final_obs": self.final_observations.read_observation(index), "final_info": {}}
+        return same_step_info(self.final_observations.read_observation(index), {}, {})
 
     def signal_address(self, slot: int, which: int) -> int:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""
         return self.signals.ctypes.data + self.signals[slot, which].nbytes * (2 * slot + which)
-
-    def arrays(self, slot: int) -> dict[str, np.ndarray]:
-        """The arrays a native slice in ``slot`` writes to (array spaces only), by name."""
-        return {
-            "actions": self.actions.read_batch(copy_out=False),
-            "observations": self.observations.read_batch(copy_out=False),
-            "final_observations": self.final_observations.read_batch(copy_out=False),
-            "final_ready": self.final_ready,
-            "rewards": self.rewards,
-            "terminations": self.terminations,
-            "truncations": self.truncations,
-            "step_mask": self.step_mask,
-            "in_caller": self.in_caller,
-            "needs_reset": self.needs_reset,
-            "current_env": self.current_env[slot : slot + 1],
-            "timing": self.timing[slot],
-            "timing_enabled": self.timing_enabled,
-        }
 
     @staticmethod
     def size_of(spec: BufferSpec) -> int:

@@ -145,3 +145,10 @@ class WorkerConfig:
 #: what a worker is doing before it serves commands (named in messages; ``startup_timeout`` applies)
 CREATION, START_UP = "creation", "start-up"
 STARTUP_STAGES = (CREATION, START_UP)
+
+
+def same_step_info(final_observation: Any, final_info: dict[str, Any], reset_info: dict[str, Any]) -> dict[str, Any]:
+    """The info an env reports for a ``SAME_STEP`` step that ended its episode and reset it: the
+    ended step's observation and info as ``final_obs`` / ``final_info``, beside the reset's own
+    info (`modelicagym.vector.slice.autoreset`; the parent builds it for envs the native step reset)."""
+    return {"final_obs": final_observation, "final_info": final_info, **reset_info}
