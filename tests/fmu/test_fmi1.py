@@ -139,6 +139,7 @@ def test_fmu_errors_carry_the_fmus_message(fmu_mode, caplog):
     assert any("invalid parameters" in r.getMessage() for r in caplog.records)
 
 
+@pytest.mark.processes
 def test_the_pool_runs_fmi1_and_matches_sync_vector_env(no_leaks):
     with modelicagym.make_vec("cartpole", n=2, fmi_version=1) as pool:
         assert [path for path, _ in pool.step_paths] == ["native", "native"]

@@ -224,6 +224,7 @@ int main(int argc, char **argv) {
 """
 
 
+@pytest.mark.processes
 @pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler for the host program")
 def test_binary_loads_in_a_c_host_without_libm(fmu_path: Path, fmi_version: int, tmp_path: Path) -> None:
     """The binary links what it uses: a plain C master that never loaded libm can dlopen it."""
@@ -340,6 +341,7 @@ sys.stdout.write(json.dumps(str(cartpole_fmu(int(sys.argv[1])))))
 """
 
 
+@pytest.mark.processes
 def test_concurrent_builds_with_empty_cache(tmp_path: Path) -> None:
     env = {**os.environ, "MODELICAGYM_CACHE": str(tmp_path / "cache")}
     procs = [subprocess.Popen([sys.executable, "-c", _BUILD_SCRIPT, "3"], env=env,
