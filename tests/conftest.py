@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import platform
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -44,6 +45,7 @@ GUARD = ProcessGuard()
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    platform.processor()  # Python runs `uname -p` for it once per process: here, not in whichever test asks first
     GUARD.install()
 
 

@@ -66,7 +66,7 @@ class ProcessGuard:
     def _watched(self, function: Callable[..., Any], name: str) -> Callable[..., Any]:
         def watched(*args: Any, **kwargs: Any) -> Any:
             if self.test is not None and not (_building() and _mentions(args, self.cache)):
-                self.starts.append(f"{name}, from {_test_frame()}")
+                self.starts.append(f"{name}{_command(args)}, from {_test_frame()}")
             return function(*args, **kwargs)
 
         watched.__wrapped__ = function  # type: ignore[attr-defined]
@@ -92,6 +92,14 @@ def _mentions(args: tuple[Any, ...], folder: str) -> bool:
             if path is not None and path.is_absolute() and path.resolve().is_relative_to(inside):
                 return True
     return False
+
+
+def _command(args: tuple[Any, ...]) -> str:
+    """`` (cmake -S ...)``: the start of the command among ``args``, if one is there."""
+    for arg in args:
+        if isinstance(arg, (list, tuple)) and arg and all(isinstance(a, (str, os.PathLike)) for a in arg):
+            return f" ({' '.join(map(str, arg))[:80]})"
+    return ""
 
 
 def _test_frame() -> str:

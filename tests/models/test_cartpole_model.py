@@ -312,6 +312,7 @@ def test_the_internal_step_size_sets_the_accuracy(cartpole_fmu: Callable[[int], 
 # ------------------------------------------------------------ builder
 
 
+@pytest.mark.processes
 def test_compile_error_is_reported_with_compiler_output(tmp_path: Path) -> None:
     model = tmp_path / "broken"
     model.mkdir()
@@ -323,6 +324,7 @@ def test_compile_error_is_reported_with_compiler_output(tmp_path: Path) -> None:
     assert not list((tmp_path / "cache").rglob("*.fmu"))
 
 
+@pytest.mark.processes
 def test_cache_key_follows_inputs(tmp_path: Path) -> None:
     cache = tmp_path / "cache"
     first = build_source_fmu(MODEL_DIR, 2, cache=cache)
