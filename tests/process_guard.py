@@ -9,10 +9,11 @@ new test lands in the right subset without anyone deciding it, or its run says w
 
 Filling the developer's cache is not counted: the test FMUs and the native step library are
 compiled on first use into the content-hashed cache (``modelicagym.fmu.build``,
-``modelicagym.native.library``), once per machine, whichever test gets there first. A test that
-compiles into a cache of its own does it every run, and is counted. A test FMU's first-load trial
-(a child process, `modelicagym.fmu.trial`) is counted too: with a cold cache, the first run of the
-fast subset fails on it (and then passes: the verdict is kept); the full suite fills the cache.
+``modelicagym.native.library``), and a test FMU's binary is tried in a child process on its first
+load (`modelicagym.fmu.trial`, its verdict kept there), once per machine, whichever test gets there
+first. So the first run on a machine starts those; later runs of the fast subset start nothing. A
+test that compiles or tries an FMU outside that cache (a cache of its own) does it every run, and
+is counted.
 """
 
 from __future__ import annotations
@@ -30,8 +31,8 @@ from typing import Any, Callable
 from modelicagym.cache import cache_dir
 
 MARKER = "processes"
-#: modules whose process starts fill the build cache (a compiler, CMake), not the test's own work
-CACHE_BUILDERS = ("modelicagym.fmu.build", "modelicagym.native.library")
+#: modules whose process starts fill the cache (a compiler, CMake, a first-load trial), not the test's own work
+CACHE_BUILDERS = ("modelicagym.fmu.build", "modelicagym.native.library", "modelicagym.fmu.trial")
 #: (owner, attribute) of every function through which this process starts another
 STARTS: tuple[tuple[Any, str], ...] = (
     *((os, name) for name in ("fork", "forkpty", "posix_spawn", "posix_spawnp", "system") if hasattr(os, name)),
@@ -74,7 +75,7 @@ class ProcessGuard:
 
 
 def _building() -> bool:
-    """Whether the call comes from a cache build (a compiler, CMake)."""
+    """Whether the call comes from a module of `CACHE_BUILDERS`."""
     frame = sys._getframe(2)
     while frame is not None:
         if frame.f_globals.get("__name__") in CACHE_BUILDERS:
