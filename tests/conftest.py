@@ -52,8 +52,8 @@ def pytest_configure(config: pytest.Config) -> None:
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Mark ``processes`` every test of `PROCESS_FOLDERS` and every one using `PROCESS_FIXTURES`."""
     for item in items:
-        fixtures = set(getattr(item, "fixturenames", ()))
-        if item.path.relative_to(TESTS).parts[0] in PROCESS_FOLDERS or fixtures & PROCESS_FIXTURES:
+        folder = item.path.relative_to(TESTS).parts[0] if item.path.is_relative_to(TESTS) else None
+        if folder in PROCESS_FOLDERS or set(getattr(item, "fixturenames", ())) & PROCESS_FIXTURES:
             item.add_marker(MARKER)
 
 

@@ -1,6 +1,6 @@
 """Which tests start processes: the ``processes`` marker, and the guard that keeps it true.
 
-The fast subset (``pytest -m "not processes"``, README "Tests") is every test that starts no
+The fast subset (``pytest -m "not processes"``, README's Quickstart) is every test that starts no
 process: no pool worker, fork server or resource tracker, no Ray, no load trial in a child, no
 subprocess. The guard watches every way a process starts (``os.fork``/``posix_spawn``/``system``,
 ``subprocess.Popen``, ``multiprocessing``'s ``Process.start`` and its fork-server/resource-tracker
@@ -51,10 +51,10 @@ class ProcessGuard:
     #: the developer's cache, where a build is a cache fill (as the session starts: tests may point elsewhere)
     cache: str = field(default_factory=lambda: str(cache_dir()))
 
-    def install(self) -> None:
-        """Wrap every function of `STARTS` (for the whole session)."""
+    def install(self, assign: Callable[[Any, str, Any], None] = setattr) -> None:
+        """Wrap every function of `STARTS` (for the whole session; ``assign``: how, e.g. ``monkeypatch.setattr``)."""
         for owner, name in STARTS:
-            setattr(owner, name, self._watched(getattr(owner, name), f"{getattr(owner, '__name__', owner)}.{name}"))
+            assign(owner, name, self._watched(getattr(owner, name), f"{getattr(owner, '__name__', owner)}.{name}"))
 
     def begin(self, test: str) -> None:
         self.test, self.starts = test, []
@@ -106,9 +106,9 @@ def _command(args: tuple[Any, ...]) -> str:
 def _test_frame() -> str:
     """The innermost line of the call stack in the tests folder (``file:line``), else the innermost line."""
     tests = os.path.dirname(os.path.abspath(__file__))
-    stack = traceback.extract_stack()[:-3]
+    stack = [frame for frame in traceback.extract_stack() if frame.filename != os.path.abspath(__file__)]
     for frame in reversed(stack):
-        if frame.filename.startswith(tests + os.sep) and not frame.filename.endswith(os.sep + "process_guard.py"):
+        if frame.filename.startswith(tests + os.sep):
             return f"{os.path.relpath(frame.filename, tests)}:{frame.lineno}"
     return f"{stack[-1].filename}:{stack[-1].lineno}" if stack else "?"
 
