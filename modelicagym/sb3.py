@@ -18,11 +18,13 @@ Needs the ``rl`` extra (``pip install torch==2.13.0`` for a CPU-only torch first
 Example::
 
     import modelicagym
-    from modelicagym.sb3 import SB3VecEnv
+    from modelicagym.sb3 import SB3VecEnv, folderless_logger
     from stable_baselines3 import PPO
 
     envs = SB3VecEnv(modelicagym.make_vec("cartpole", n=8, max_episode_steps=500, autoreset_mode="SameStep"))
-    model = PPO("MlpPolicy", envs).learn(20_000)
+    model = PPO("MlpPolicy", envs)
+    model.set_logger(folderless_logger(model.verbose))  # else every learn() makes a /tmp/SB3-<date> folder
+    model.learn(20_000)
     envs.close()
 """
 
