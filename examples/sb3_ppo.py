@@ -22,7 +22,7 @@ from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
 import modelicagym
 from modelicagym.experiments.plots import plot_learning_curve
-from modelicagym.sb3 import SB3VecEnv
+from modelicagym.sb3 import SB3VecEnv, folderless_logger
 
 #: per env: the PPO settings that learn it, the step budget, the episode length, and when it counts
 #: as solved: the mean episode length or return of the last 20 episodes reaching a target
@@ -102,6 +102,7 @@ def main():
     envs = VecNormalize(VecMonitor(SB3VecEnv(pool)), norm_reward=False)
     print(f"{args.env}: {args.envs} envs, {pool.layout}")
     model = PPO("MlpPolicy", envs, seed=args.seed, device="cpu", **preset["ppo"])
+    model.set_logger(folderless_logger(model.verbose))  # SB3's default logger makes a /tmp/SB3-<date> folder
     progress = Progress(preset["target"], every=max(1, 2048 // (args.envs * preset["ppo"]["n_steps"])))
     try:
         model.learn(args.steps or preset["steps"], callback=progress)

@@ -18,11 +18,13 @@ Needs the ``rl`` extra (``pip install torch==2.13.0`` for a CPU-only torch first
 Example::
 
     import modelicagym
-    from modelicagym.sb3 import SB3VecEnv
+    from modelicagym.sb3 import SB3VecEnv, folderless_logger
     from stable_baselines3 import PPO
 
     envs = SB3VecEnv(modelicagym.make_vec("cartpole", n=8, max_episode_steps=500, autoreset_mode="SameStep"))
-    model = PPO("MlpPolicy", envs).learn(20_000)
+    model = PPO("MlpPolicy", envs)
+    model.set_logger(folderless_logger(model.verbose))  # else every learn() makes a /tmp/SB3-<date> folder
+    model.learn(20_000)
     envs.close()
 """
 
@@ -39,6 +41,7 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ArgumentError
 
 try:
+    from stable_baselines3.common.logger import Logger, make_output_format
     from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 except ImportError as error:  # pragma: no cover - the extra's tests skip without it
     raise ImportError(
@@ -46,10 +49,17 @@ except ImportError as error:  # pragma: no cover - the extra's tests skip withou
         'pip install "modelicagym[rl]"'
     ) from error
 
-__all__ = ["SB3VecEnv", "env_infos"]
+__all__ = ["SB3VecEnv", "env_infos", "folderless_logger"]
 
 #: the keys a same-step vector env adds for an env that ended
 _FINAL_KEYS = ("final_obs", "_final_obs", "final_info", "_final_info")
+
+
+def folderless_logger(verbose: int = 0) -> Logger:
+    """SB3's logger as its own default gives it (stdout when ``verbose``, else silent) but without a
+    folder: SB3's default makes a ``/tmp/SB3-<date and time>`` folder at every ``learn()``, empty when
+    nothing is logged to files. Set it with ``model.set_logger(folderless_logger(model.verbose))``."""
+    return Logger(folder=None, output_formats=[make_output_format("stdout", "")] if verbose else [])
 
 
 def env_infos(infos: dict[str, Any], index: int) -> dict[str, Any]:

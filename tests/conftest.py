@@ -9,24 +9,68 @@ modules at the top). The helpers they share sit here beside this file (pytest pu
 ``vector_envs`` and ``vector_rollouts`` (envs and comparisons for the pool), ``vector_leaks``
 (processes, /dev/shm entries and fds), ``toy_envs`` (tiny envs for the agent and the experiments),
 ``reference_cartpole`` (independent cart-pole physics), ``ray_cluster`` and ``sweep_checks`` (a local
-Ray, and sweeps compared with a local run).
+Ray, and sweeps compared with a local run), ``extras`` (skipping what needs an optional extra that
+is not installed), ``process_guard`` (the ``processes`` marker kept true).
+
+Tests that start processes are marked ``processes``: every test of the folders in
+`PROCESS_FOLDERS` or using a fixture of `PROCESS_FIXTURES`, and elsewhere by hand; the guard fails
+a test that starts one unmarked. The rest is the fast subset, ``pytest -m "not processes"``.
 """
 
 from __future__ import annotations
 
 import functools
 import gc
+import platform
 from pathlib import Path
 from typing import Callable, Iterator
 
 import pytest
 from fmu_family import FMI_VERSIONS, build
+from process_guard import MARKER, ProcessGuard, failure_message
 from vector_envs import CountEnv
 from vector_leaks import Snapshot
 
 from modelicagym.models.cartpole import cartpole_fmu as build_cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.wire.sync import machine_crowded
+
+TESTS = Path(__file__).resolve().parent
+#: folders (of ``tests/``) whose every test starts processes: the pool's, Ray's, the examples' and
+#: the benchmarks' (scripts run in subprocesses)
+PROCESS_FOLDERS = ("vector", "distributed", "examples", "bench")
+#: fixtures whose setup starts processes (the fork server, the resource tracker)
+PROCESS_FIXTURES = {"pool_services", "no_leaks"}
+GUARD = ProcessGuard()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    platform.processor()  # Python runs `uname -p` for it once per process: here, not in whichever test asks first
+    GUARD.install()
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Mark ``processes`` every test of `PROCESS_FOLDERS` and every one using `PROCESS_FIXTURES`."""
+    for item in items:
+        folder = item.path.relative_to(TESTS).parts[0] if item.path.is_relative_to(TESTS) else None
+        if folder in PROCESS_FOLDERS or set(getattr(item, "fixturenames", ())) & PROCESS_FIXTURES:
+            item.add_marker(MARKER)
+
+
+@pytest.hookimpl(wrapper=True, tryfirst=True)
+def pytest_runtest_setup(item: pytest.Item) -> Iterator[None]:
+    GUARD.begin(item.nodeid)
+    return (yield)
+
+
+@pytest.hookimpl(wrapper=True, trylast=True)
+def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """Fail a test not marked ``processes`` that started one (in its setup, body or teardown)."""
+    result = yield
+    starts = GUARD.end()
+    if starts and item.get_closest_marker(MARKER) is None:
+        pytest.fail(failure_message(item.nodeid, starts), pytrace=False)
+    return result
 
 
 @pytest.fixture(params=FMI_VERSIONS, ids=[f"fmi{v}" for v in FMI_VERSIONS])

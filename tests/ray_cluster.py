@@ -19,13 +19,14 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 import pytest
+from extras import imported
 
 os.environ.setdefault("RAY_AUTH_MODE", "token")
 os.environ.setdefault("RAY_AUTH_TOKEN", secrets.token_hex(32))
 os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 
-ray = pytest.importorskip("ray", reason="Ray is not installed: pip install 'modelicagym[ray]'")
+ray = imported("ray")
 psutil = pytest.importorskip("psutil")
 
 #: what the processes of a Ray instance are called (or run)

@@ -53,6 +53,7 @@ def _cut_short(path: Path) -> None:
     os.truncate(path, path.stat().st_size // 3)
 
 
+@pytest.mark.processes
 def test_a_truncated_native_library_is_rebuilt_not_mapped(warm_cache: Path) -> None:
     [library] = (warm_cache / "native").glob("*/*.so")
     _cut_short(library)
@@ -63,6 +64,7 @@ def test_a_truncated_native_library_is_rebuilt_not_mapped(warm_cache: Path) -> N
     assert damage(library) is None
 
 
+@pytest.mark.processes
 def test_a_truncated_extracted_fmu_binary_is_extracted_again(warm_cache: Path) -> None:
     [binary] = (warm_cache / "extracted").glob("*/binaries/*/*.so")
     _cut_short(binary)
@@ -71,6 +73,7 @@ def test_a_truncated_extracted_fmu_binary_is_extracted_again(warm_cache: Path) -
     assert "damaged" in result.stderr and binary.name in result.stderr
 
 
+@pytest.mark.processes
 def test_a_truncated_built_fmu_is_built_again(warm_cache: Path) -> None:
     fmus = list((warm_cache / "fmus").glob("*.fmu"))
     for fmu in fmus:
@@ -108,6 +111,7 @@ def read_only(folder: Path) -> Iterator[Path]:
         subprocess.run(["umount", str(view)], check=True)
 
 
+@pytest.mark.processes
 def test_a_read_only_cache_serves_what_it_holds_and_names_what_it_cannot_repair(warm_cache: Path) -> None:
     [binary] = (warm_cache / "extracted").glob("*/binaries/*/*.so")
     with read_only(warm_cache) as cache:

@@ -57,6 +57,7 @@ def _entries(cache: Path, pattern: str) -> set[str]:
     return {p.relative_to(cache).as_posix() for p in cache.glob(pattern)}
 
 
+@pytest.mark.processes
 def test_a_full_disk_under_the_cache_is_one_line_naming_the_entry(tmp_path: Path) -> None:
     """Each entry is removed from a warm cache, the disk filled to leave too little room for it
     and ``reproduce`` run; then again with room, which makes the entry."""

@@ -64,6 +64,7 @@ def test_real_mistakes_raise_the_right_class(tmp_path: Path) -> None:
         modelicagym.make_vec("cartpole", n=0)
 
 
+@pytest.mark.processes
 def test_a_native_build_without_a_working_compiler_is_a_build_error(tmp_path: Path) -> None:
     code = (
         "from modelicagym.errors import BuildError\n"
@@ -79,6 +80,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "modelicagym.cli", *args], capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.processes
 def test_the_cli_prints_an_error_as_one_line_and_exits_1(tmp_path: Path) -> None:
     result = _cli("info", str(tmp_path / "missing.fmu"))
     assert result.returncode == 1
@@ -87,12 +89,14 @@ def test_the_cli_prints_an_error_as_one_line_and_exits_1(tmp_path: Path) -> None
     assert len(lines) == 1 and lines[0].startswith("error: ") and "missing.fmu" in lines[0]
 
 
+@pytest.mark.processes
 def test_the_cli_shows_the_traceback_with_debug(tmp_path: Path) -> None:
     result = _cli("--debug", "info", str(tmp_path / "missing.fmu"))
     assert result.returncode == 1
     assert "Traceback" in result.stderr and "FMUNotFoundError" in result.stderr
 
 
+@pytest.mark.processes
 def test_errors_of_the_pool_keep_gymnasiums_types() -> None:
     from gymnasium.error import ClosedEnvironmentError
 

@@ -161,6 +161,7 @@ def test_unbounded_input_gets_inferred_bounds_that_keep_the_model_working(capsys
     unbounded.close()
 
 
+@pytest.mark.processes
 @pytest.mark.usefixtures("no_leaks")
 @pytest.mark.parametrize("n", [2, 8])
 def test_a_pool_of_pasted_configs_steps_random_actions(capsys, family_fmu, n):

@@ -4,24 +4,27 @@ and SB3's wrappers and evaluation run on it."""
 
 from __future__ import annotations
 
+import tempfile
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from extras import imported
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from vector_envs import count_fns
 
 import modelicagym
 from modelicagym.vector import PoolVectorEnv
 
-pytest.importorskip("stable_baselines3", reason="the rl extra (stable-baselines3, torch) is not installed")
+imported("stable_baselines3")
 from stable_baselines3 import PPO  # noqa: E402
 from stable_baselines3.common.evaluation import evaluate_policy  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize  # noqa: E402
 
-from modelicagym.sb3 import SB3VecEnv  # noqa: E402
+from modelicagym.sb3 import SB3VecEnv, folderless_logger  # noqa: E402
 
 pytestmark = [pytest.mark.timeout(300), pytest.mark.usefixtures("pool_services")]
 
@@ -107,13 +110,16 @@ def test_attributes_and_methods_of_selected_envs(vector: str) -> None:
         ours.close()
 
 
-def test_sb3_wrappers_training_and_evaluation_run_on_the_pool() -> None:
+def test_sb3_wrappers_training_and_evaluation_run_on_the_pool(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """PPO learns for a few hundred steps through VecMonitor and VecNormalize on the pool; the
-    monitor's episodes and evaluate_policy's returns are those of whole episodes."""
+    monitor's episodes and evaluate_policy's returns are those of whole episodes. With
+    `folderless_logger`, SB3 leaves no ``SB3-<date>`` folder in the temporary folder."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     envs = SB3VecEnv(modelicagym.make_vec("cartpole", n=4, max_episode_steps=50, autoreset_mode="SameStep"))
     try:
         monitored = VecNormalize(VecMonitor(envs), norm_reward=False)
         model = PPO("MlpPolicy", monitored, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
+        model.set_logger(folderless_logger(model.verbose))
         model.learn(256)
         lengths = [episode["l"] for episode in model.ep_info_buffer]
         assert lengths and all(1 <= length <= 50 for length in lengths)
@@ -122,6 +128,7 @@ def test_sb3_wrappers_training_and_evaluation_run_on_the_pool() -> None:
         assert len(returns) == 4 and all(1 <= length <= 50 for length in episode_lengths)
     finally:
         envs.close()
+    assert not list(tmp_path.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
 
 
 def test_a_gymnasium_env_is_refused() -> None:

@@ -9,13 +9,17 @@ import sys
 import textwrap
 from pathlib import Path
 
-import matplotlib.image
 import numpy as np
 import pytest
+from extras import imported, requires
 
 from modelicagym.cli import main
 
 pytestmark = pytest.mark.timeout(300)
+
+
+def read_png(path: Path) -> np.ndarray:
+    return imported("matplotlib.image").imread(path)
 
 
 def run_try(capsys: pytest.CaptureFixture, *args: str) -> tuple[int, list[str], str]:
@@ -24,6 +28,7 @@ def run_try(capsys: pytest.CaptureFixture, *args: str) -> tuple[int, list[str], 
     return status, out.splitlines(), err
 
 
+@requires("plots")
 @pytest.mark.parametrize("fmu", ["probe-fmi2", "probe-fmi3", "cartpole"])
 def test_try_plots_an_episode_of_random_actions(fmu, family_fmu, cartpole_fmu, tmp_path, capsys, monkeypatch):
     path = cartpole_fmu(2) if fmu == "cartpole" else family_fmu("probe", int(fmu[-1]))
@@ -35,20 +40,22 @@ def test_try_plots_an_episode_of_random_actions(fmu, family_fmu, cartpole_fmu, t
     assert lines[0].endswith(f"30 steps of random actions (seed 0), t = 0 s to {end}")
     assert lines[1] == "the episode ended: truncated after 30 steps (max_episode_steps)"
     assert lines[2].startswith("plot of ") and lines[2].endswith(f"over time: {plot.name}")
-    image = matplotlib.image.imread(plot)
+    image = read_png(plot)
     assert image.ndim == 3 and image.shape[0] > 100 and image.shape[1] > 100
     assert image.std() > 0.05  # lines and labels, not a blank page
 
 
+@requires("plots")
 def test_the_same_seed_gives_the_same_plot_and_another_seed_another(family_fmu, tmp_path, capsys):
     fmu = str(family_fmu("probe", 2))
     for name, seed in (("a", "1"), ("b", "1"), ("c", "2")):
         assert run_try(capsys, fmu, "--steps", "20", "--seed", seed, "--out", str(tmp_path / f"{name}.png"))[0] == 0
-    a, b, c = (matplotlib.image.imread(tmp_path / f"{name}.png") for name in "abc")
+    a, b, c = (read_png(tmp_path / f"{name}.png") for name in "abc")
     np.testing.assert_array_equal(a, b)
     assert a.shape == c.shape and not np.array_equal(a, c)
 
 
+@requires("plots")
 def test_config_file_and_settings_change_the_suggested_config(family_fmu, tmp_path, capsys):
     config = tmp_path / "probe.json"
     config.write_text(json.dumps({"max_episode_steps": 12, "inputs": ["force"], "outputs": ["position", "speed"]}))
@@ -59,6 +66,7 @@ def test_config_file_and_settings_change_the_suggested_config(family_fmu, tmp_pa
     assert lines[2].startswith("plot of 1 action and 2 observations over time: ")
 
 
+@requires("plots")
 def test_an_fmu_error_is_reported_and_the_episode_still_plotted(family_fmu, tmp_path, capsys):
     out = tmp_path / "fault.png"
     status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--set", "parameters.fault=2",
@@ -66,9 +74,10 @@ def test_an_fmu_error_is_reported_and_the_episode_still_plotted(family_fmu, tmp_
     assert status == 1
     assert lines[1] == "the episode ended: truncated: the FMU reported an error"
     assert lines[2].startswith("FMU error at t = 0.5 s: ") and "injected fault" in lines[2]
-    assert matplotlib.image.imread(out).ndim == 3
+    assert read_png(out).ndim == 3
 
 
+@requires("plots")
 def test_a_model_that_ends_the_simulation_is_said_so(family_fmu, tmp_path, capsys):
     status, lines, _ = run_try(capsys, str(family_fmu("probe", 2)), "--set", "parameters.fault=1",
                                "--set", "parameters.fault_after=5", "--out", str(tmp_path / "end.png"))
@@ -98,6 +107,7 @@ def test_bad_input_is_one_line_and_status_1(args, message, family_fmu, tmp_path,
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.processes
 def test_without_matplotlib_try_says_which_extra_to_install(family_fmu, tmp_path):
     code = textwrap.dedent(f"""
         import sys

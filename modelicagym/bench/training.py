@@ -130,9 +130,12 @@ def _trainer(candidate: str, model: str, n: int, steps: int) -> Callable[[], dic
     """A round: PPO trains ``steps`` more env steps on the candidate; returns its rate and split."""
     from stable_baselines3 import PPO
 
+    from modelicagym.sb3 import folderless_logger
+
     split = _Split()
     venv = split.wrap(make_candidate(candidate, model, n))
     ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **MODELS[model].ppo)
+    ppo.set_logger(folderless_logger(ppo.verbose))
 
     def run() -> dict[str, float]:
         split.env = split.rollout = 0.0
@@ -177,6 +180,8 @@ def time_to_solve(candidate: str, model: str, n: int, budget: int) -> float | No
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
+    from modelicagym.sb3 import folderless_logger
+
     spec = MODELS[model]
     key = {"length": "l", "return": "r"}[spec.measure]
     venv = VecNormalize(VecMonitor(make_candidate(candidate, model, n)), norm_reward=False)
@@ -188,6 +193,7 @@ def time_to_solve(candidate: str, model: str, n: int, budget: int) -> float | No
 
     try:
         ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **spec.ppo)
+        ppo.set_logger(folderless_logger(ppo.verbose))
         started = time.perf_counter()
         ppo.learn(budget, callback=Solved())
         elapsed = time.perf_counter() - started

@@ -228,6 +228,7 @@ def test_finished_envs_are_ignored_while_others_continue():
     np.testing.assert_allclose(agent.epsilon, 0.5 * 0.99 ** np.array([3, 15]))
 
 
+@pytest.mark.processes
 def test_a_pool_steps_only_unfinished_envs_and_the_episodes_stay_the_same():
     """On the pool (which can step a subset of its envs) finished envs cost nothing, and every
     env's episodes and Q-table are those of the SyncVectorEnv run, which steps every env."""

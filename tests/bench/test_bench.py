@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from extras import requires
 
 #: benchmark -> tiny arguments, and top-level keys its JSON must hold
 BENCHMARKS = {
@@ -31,9 +32,8 @@ BENCHMARKS = {
 }
 
 
+@requires("rl")
 def test_the_training_benchmark_trains_every_vector_env(tmp_path: Path) -> None:
-    pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
-                        "then pip install 'modelicagym[rl]'")
     args = ["--models", "cartpole", "pendulum", "--n", "2", "--threads", "1", "--repeats", "1", "--steps", "64"]
     out = run_bench("training", args, tmp_path / "result.json")
     for candidate in ("pool", "sync", "async", "dummy", "subproc"):

@@ -240,6 +240,7 @@ def test_error_truncates_with_the_fmu_message_and_reset_recovers(make_env, fmi_v
             np.testing.assert_array_equal(a[name], b[name])
 
 
+@pytest.mark.processes
 def test_segfault_kills_only_the_child_process(family_fmu, fmi_version):
     probe = family_fmu("probe", fmi_version)
     script = textwrap.dedent(

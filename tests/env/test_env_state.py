@@ -44,6 +44,7 @@ def factory_for(case: str, family_fmu: Callable[[str, int], Path]) -> Callable[[
     return partial(staircase_env, family_fmu("staircase", fmi_version), mode, step_path)
 
 
+@pytest.mark.processes
 @pytest.mark.parametrize("case", CASES)
 def test_a_state_goes_on_bit_for_bit_in_another_process(
     case: str, tmp_path: Path, family_fmu: Callable[[str, int], Path]

@@ -159,6 +159,7 @@ POOL_CASES = {
 }
 
 
+@pytest.mark.processes
 @pytest.mark.timeout(180)
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 def test_a_pool_of_typed_envs_steps_natively_as_sync_over_python(family_fmu: Callable[[str, int], Path],
@@ -185,6 +186,7 @@ def test_a_float_box_over_typed_inputs_is_cast_as_numpy_casts(family_fmu: Callab
     assert_same_episodes(*both_paths(make))
 
 
+@pytest.mark.processes
 def test_a_pool_with_a_float32_dict_entry_says_why_its_slices_step_in_python(
         family_fmu: Callable[[str, int], Path]) -> None:
     box = spaces.Dict({"force": spaces.Box(-10, 10, (), np.float32), "gear": spaces.Discrete(5)})

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from extras import requires
 from gymnasium.utils.env_checker import check_env
 from gymnasium.wrappers import RecordVideo
 
@@ -40,6 +41,7 @@ def run(env: FMUEnv, steps: int, seed: int = 0) -> list[tuple]:
     return [env.step(env.action_space.sample()) for _ in range(steps)]
 
 
+@requires("plots")
 def test_render_returns_an_image_that_follows_the_episode(config):
     env = FMUEnv(config, render_mode="rgb_array")
     run(env, 1)
@@ -53,6 +55,7 @@ def test_render_returns_an_image_that_follows_the_episode(config):
     assert (first != twentieth).any(axis=2).mean() > 0.01  # the lines grew: more than 1% of the pixels
 
 
+@requires("plots")
 def test_a_charting_env_passes_gymnasiums_checks_render_included(family_fmu):
     env = FMUEnv(suggest(open_fmu(family_fmu("probe", 2))).config, render_mode="rgb_array")
     with warnings.catch_warnings():
@@ -61,6 +64,7 @@ def test_a_charting_env_passes_gymnasiums_checks_render_included(family_fmu):
     env.close()
 
 
+@requires("plots")
 def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
     config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
     env = FMUEnv(config, render_mode="rgb_array")
@@ -81,6 +85,7 @@ def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
     env.close()
 
 
+@requires("plots")
 def test_recording_changes_no_result_and_costs_nothing_without_rendering(cartpole_fmu):
     config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
     plain, rendering = FMUEnv(config), FMUEnv(config, render_mode="rgb_array")
@@ -97,6 +102,7 @@ def test_recording_changes_no_result_and_costs_nothing_without_rendering(cartpol
     rendering.close()
 
 
+@requires("plots")
 def test_render_fps_is_real_time(family_fmu):
     env = FMUEnv(suggest(open_fmu(family_fmu("probe", 2))).config, time_step=0.25, render_mode="rgb_array")
     assert env.metadata["render_fps"] == 4.0
@@ -114,6 +120,7 @@ def test_the_cartpole_keeps_its_own_picture():
     env.close()
 
 
+@requires("plots")
 def test_many_variables_are_grouped_by_role_unit_and_kind(family_fmu):
     env = FMUEnv(suggest(open_fmu(family_fmu("probe", 3))).config, render_mode="rgb_array")
     series = env.strip_chart.series
@@ -129,6 +136,8 @@ def test_many_variables_are_grouped_by_role_unit_and_kind(family_fmu):
     env.close()
 
 
+@requires("plots")
+@pytest.mark.processes
 def test_a_pool_of_charting_envs_draws_what_a_single_env_draws(cartpole_fmu):
     # the cart-pole's config would step natively, a whole slice in one C call, skipping the recording
     config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
@@ -149,6 +158,7 @@ def test_a_pool_of_charting_envs_draws_what_a_single_env_draws(cartpole_fmu):
     single.close()
 
 
+@requires("plots")
 def test_record_video_writes_a_video_of_any_fmu(family_fmu, tmp_path: Path):
     moviepy = pytest.importorskip("moviepy", reason="RecordVideo needs moviepy (pip install moviepy)")
     config = {**suggest(open_fmu(family_fmu("probe", 2))).config, "max_episode_steps": 20}
@@ -164,6 +174,7 @@ def test_record_video_writes_a_video_of_any_fmu(family_fmu, tmp_path: Path):
         assert tuple(clip.size) == (frame.shape[1], frame.shape[0])
 
 
+@pytest.mark.processes
 def test_without_matplotlib_rendering_is_one_line_naming_the_extra(family_fmu):
     fmu = family_fmu("probe", 2)
     code = textwrap.dedent(f"""

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from extras import imported, requires
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -42,7 +43,9 @@ def test_a_trained_agent_drives_the_batch_rollout(tmp_path):
 
 
 def test_ray_rollouts_sample_on_a_local_ray():
-    ray_cluster = pytest.importorskip("ray_cluster", reason="Ray is not installed: pip install 'modelicagym[ray]'")
+    imported("ray")
+    import ray_cluster
+
     before = ray_cluster.ray_processes()
     # the environment ray_cluster set up: a session token, Ray on 127.0.0.1
     out = run_example("ray_rollouts.py", "--envs", "3", "--steps", "40", "--rounds", "3", "--max-steps", "30",
@@ -54,21 +57,23 @@ def test_ray_rollouts_sample_on_a_local_ray():
     assert not left, f"Ray processes left behind: {left}"
 
 
+@requires("rl", "plots")
 @pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous", "pendulum"])
 def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
-    pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
-                        "then pip install 'modelicagym[rl]'")
-    plot = tmp_path / "curve.png"
+    plot, tmp = tmp_path / "curve.png", tmp_path / "tmp"
+    tmp.mkdir()
     out = run_example("sb3_ppo.py", "--env", env, "--envs", "4", "--steps", "4096", "--max-episode-steps", "100",
-                      "--eval-episodes", "2", "--plot", str(plot))
+                      "--eval-episodes", "2", "--plot", str(plot), env={**os.environ, "TMPDIR": str(tmp)})
+    assert not list(tmp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
     assert re.search(r"^\s+\d+ steps .* steps/s\s+mean return .* mean length", out, re.MULTILINE), out
     assert "evaluation: 2 episodes" in out
     assert plot.stat().st_size > 0
 
 
+@requires("plots")
 @pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous", "pendulum"])
 def test_one_file_ppo_trains_and_plots(tmp_path, env):
-    pytest.importorskip("torch", reason="torch is not installed: pip install torch==2.13.0")
+    imported("torch")
     plot = tmp_path / "curve.png"
     out = run_example("ppo.py", "--env", env, "--num-envs", "4", "--total-steps", "4096", "--max-episode-steps", "100",
                       "--plot", str(plot))
@@ -78,7 +83,7 @@ def test_one_file_ppo_trains_and_plots(tmp_path, env):
 
 
 def test_one_file_ppo_resumed_from_its_checkpoint_ends_as_an_uninterrupted_run(tmp_path):
-    pytest.importorskip("torch", reason="torch is not installed: pip install torch==2.13.0")
+    imported("torch")
     common = ("ppo.py", "--num-envs", "4", "--total-steps", "3072", "--max-episode-steps", "60",
               "--plot", str(tmp_path / "curve.png"))
     checkpoint = str(tmp_path / "run.pt")

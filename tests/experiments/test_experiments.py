@@ -15,6 +15,7 @@ from dataclasses import replace
 import gymnasium as gym
 import numpy as np
 import pytest
+from extras import requires
 from toy_envs import counter, drift
 
 import modelicagym
@@ -277,6 +278,8 @@ def test_ordering_findings_count_the_repeats_that_agree():
 # --- runs, files, resume -----------------------------------------------------------------------------
 
 
+@requires("plots")
+@pytest.mark.processes
 def test_tiny_sweep_end_to_end(tmp_path):
     make_vec = Recorder()
     [result] = run_sweeps([tiny()], tmp_path, make_vec=make_vec, make=make_standin, progress=False, bounds_budget=5000)
@@ -429,6 +432,7 @@ def test_missing_optional_packages_only_warn(tmp_path, monkeypatch, caplog):
 # --- report and CLI ------------------------------------------------------------------------------
 
 
+@requires("plots")
 def test_report_from_results(tmp_path):
     force = PAPER_SWEEPS["force"].scaled(0.1)
     other = tiny("mine")
@@ -476,6 +480,7 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
 SMALLEST = ["--sweeps", "force,reward", "--episodes-scale", "0.03", "--no-progress", "--bounds-budget", "0"]
 
 
+@requires("plots")
 @pytest.mark.parametrize("damage", ["cut short", "garbled", "deleted", "plot deleted"])
 def test_resume_leaves_the_combined_table_and_the_plots_whole(tmp_path, monkeypatch, damage):
     """``reproduce --resume`` after the combined table (or a plot) was damaged, with every sweep
@@ -507,6 +512,7 @@ def test_resume_leaves_the_combined_table_and_the_plots_whole(tmp_path, monkeypa
     assert not list(out.rglob("*.tmp"))
 
 
+@pytest.mark.processes
 def test_tiny_sweep_on_the_real_cartpole_pool(tmp_path):
     """The default ``make_vec`` (the FMU env in the multi-process pool), end to end."""
     config = tiny(settings=(Setting("0.05 s", {}), Setting("0.5 s", {"time_step": 0.5})), episodes=2)

@@ -12,9 +12,13 @@ import re
 import sys
 from pathlib import Path
 
+import pytest
+from extras import requires
 from small_filesystem import FILL, run_with_small_filesystem
 
 from modelicagym.experiments.results import completed_sweeps
+
+pytestmark = [pytest.mark.processes, requires("plots")]  # the real commands; the report's figures
 
 #: the smallest run of the paper's sweeps: 3 and 6 episodes per (setting, repeat)
 SMALL = "--episodes-scale 0.03 --bounds-budget 0 --no-progress"

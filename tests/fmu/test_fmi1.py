@@ -139,6 +139,7 @@ def test_fmu_errors_carry_the_fmus_message(fmu_mode, caplog):
     assert any("invalid parameters" in r.getMessage() for r in caplog.records)
 
 
+@pytest.mark.processes
 def test_the_pool_runs_fmi1_and_matches_sync_vector_env(no_leaks):
     with modelicagym.make_vec("cartpole", n=2, fmi_version=1) as pool:
         assert [path for path, _ in pool.step_paths] == ["native", "native"]
@@ -194,6 +195,7 @@ def dahlquist_fmu(tmp_path_factory):
     return path
 
 
+@pytest.mark.processes
 def test_a_third_party_fmi1_slave_loads_and_runs(dahlquist_fmu):
     k, u, dt = 2.0, 0.5, 0.1
     with FMUInstance(dahlquist_fmu, inputs=["u"], outputs=["x", "steps", "positive"]) as fmu:
@@ -212,6 +214,7 @@ def test_a_third_party_fmi1_slave_loads_and_runs(dahlquist_fmu):
             fmu.reset({"k": -1.0})
 
 
+@pytest.mark.processes
 def test_a_third_party_fmi1_slave_as_an_env(dahlquist_fmu):
     env = modelicagym.FMUEnv(fmu=dahlquist_fmu, inputs=["u"], outputs=["x"], parameters={"k": 1.0},
                              time_step=0.5, max_episode_steps=4, termination={"x": (-10.0, 10.0)})

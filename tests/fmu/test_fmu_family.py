@@ -31,6 +31,7 @@ def test_every_member_is_a_valid_fmu_with_a_binary(family_fmu, name, fmi_version
     assert description.has_sources
 
 
+@pytest.mark.processes
 @pytest.mark.parametrize("name", ["cartpole", *sorted(VARIANTS)])
 def test_sources_compile_without_warnings(name: str, tmp_path: Path) -> None:
     """The framework (both adapters) and the model, with the variant's definitions (hooks included):

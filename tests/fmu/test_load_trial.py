@@ -32,7 +32,7 @@ from modelicagym.fmu.build import bundled_fmus
 from modelicagym.fmu.trial import TIMEOUT_VARIABLE
 from modelicagym.models.cartpole import cartpole_fmu
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.timeout(120), pytest.mark.processes]  # trials run in child processes
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -193,6 +193,7 @@ def test_the_balls_bounce_times_are_the_same_on_both_step_paths(family_fmu, fmi_
     assert len({t_bounce for _, _, t_bounce in native}) >= 5  # four bounces and the start: real event times
 
 
+@pytest.mark.processes
 @pytest.mark.parametrize("solver", ["cvode", "euler", "rk4"])
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 def test_the_pool_steps_and_resets_model_exchange_natively_like_sync(family_fmu, mode, solver):

@@ -224,6 +224,7 @@ int main(int argc, char **argv) {
 """
 
 
+@pytest.mark.processes
 @pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler for the host program")
 def test_binary_loads_in_a_c_host_without_libm(fmu_path: Path, fmi_version: int, tmp_path: Path) -> None:
     """The binary links what it uses: a plain C master that never loaded libm can dlopen it."""
@@ -311,6 +312,7 @@ def test_the_internal_step_size_sets_the_accuracy(cartpole_fmu: Callable[[int], 
 # ------------------------------------------------------------ builder
 
 
+@pytest.mark.processes
 def test_compile_error_is_reported_with_compiler_output(tmp_path: Path) -> None:
     model = tmp_path / "broken"
     model.mkdir()
@@ -322,6 +324,7 @@ def test_compile_error_is_reported_with_compiler_output(tmp_path: Path) -> None:
     assert not list((tmp_path / "cache").rglob("*.fmu"))
 
 
+@pytest.mark.processes
 def test_cache_key_follows_inputs(tmp_path: Path) -> None:
     cache = tmp_path / "cache"
     first = build_source_fmu(MODEL_DIR, 2, cache=cache)
@@ -340,6 +343,7 @@ sys.stdout.write(json.dumps(str(cartpole_fmu(int(sys.argv[1])))))
 """
 
 
+@pytest.mark.processes
 def test_concurrent_builds_with_empty_cache(tmp_path: Path) -> None:
     env = {**os.environ, "MODELICAGYM_CACHE": str(tmp_path / "cache")}
     procs = [subprocess.Popen([sys.executable, "-c", _BUILD_SCRIPT, "3"], env=env,

@@ -100,6 +100,7 @@ def test_invalid_model_parameters_are_a_clear_error():
     env.close()
 
 
+@pytest.mark.processes
 def test_registered_with_gymnasium_and_steps_in_the_pool():
     wrapped = gym.make("ModelicaGym/PendulumSwingUp-v0")
     assert wrapped.reset(seed=0)[0].shape == (3,)

@@ -33,6 +33,7 @@ def _build_abi_table(tmp_path, edit) -> ctypes.CDLL:
     return table
 
 
+@pytest.mark.processes
 def test_a_header_changed_without_its_mirror_is_a_clear_error(tmp_path):
     def add_a_field(sources):
         header = sources / "step.h"
@@ -48,6 +49,7 @@ def test_a_header_changed_without_its_mirror_is_a_clear_error(tmp_path):
     assert "mg_batch" not in message  # only what changed
 
 
+@pytest.mark.processes
 def test_a_changed_constant_is_named(tmp_path):
     def renumber(sources):
         header = sources / "step.h"

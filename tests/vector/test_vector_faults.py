@@ -12,7 +12,7 @@ import threading
 import time
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 import pytest
@@ -204,36 +204,88 @@ def test_garbage_collected_pool_releases_everything() -> None:
     del pool
 
 
-@pytest.mark.usefixtures("no_leaks")
-def test_keyboard_interrupt_while_waiting_stops_the_pool(tmp_path: Path) -> None:
-    """Ctrl-C comes once a worker is inside a step that would last an hour: the step cannot have
-    finished, so the interrupt was taken while waiting."""
+@pytest.fixture
+def ctrl_c_raises() -> Iterator[None]:
+    """Python's own Ctrl-C handler, as in a terminal (a shell starts background jobs with SIGINT ignored)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.usefixtures("no_leaks", "ctrl_c_raises")
+def test_keyboard_interrupt_while_waiting_stops_the_pool(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C comes once the calling process blocks waiting for a worker inside a step that would
+    last an hour: the step cannot have finished, so the interrupt was taken while waiting."""
     marker = tmp_path / "struck"
     pool = PoolVectorEnv([partial(FaultyEnv, "hang", at_step=1, marker=str(marker))] * 2, num_workers=2)
-    pool.reset(seed=0)
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
-    stop = threading.Event()
-    interrupter = threading.Thread(target=interrupt_when_created, args=(marker, stop), daemon=True)
-    interrupter.start()
     try:
-        with pytest.raises(KeyboardInterrupt):
-            pool.step(np.zeros(2, dtype=np.int64))
+        pool.reset(seed=0)
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler, "the pool changed the SIGINT handler"
+        assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])
+        ctrl_c = CtrlC(monkeypatch)
+        interrupter = threading.Thread(target=ctrl_c.press_when_waiting, args=(marker,), daemon=True)
+        interrupter.start()
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                pool.step(np.zeros(2, dtype=np.int64))
+        finally:
+            ctrl_c.done.set()
+            interrupter.join(10)
+        assert ctrl_c.problem is None, ctrl_c.problem
+        assert pool.closed
     finally:
-        stop.set()
-        interrupter.join()
-    assert pool.closed
+        pool.close()
 
 
-def interrupt_when_created(path: Path, stop: threading.Event) -> None:
-    """Send this process a SIGINT (a Ctrl-C) as soon as ``path`` exists, and again every second
-    until ``stop`` is set, as a user would: CPython drops a KeyboardInterrupt that happens to be
-    raised inside a finalizer run by the garbage collector."""
-    while not path.exists():
-        time.sleep(0.01)
-    while not stop.is_set():
-        signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
-        stop.wait(1.0)
+class CtrlC:
+    """A Ctrl-C (SIGINT to the main thread) pressed once, when the main thread blocks in the pool's
+    wait; pressed again only if CPython dropped it (a KeyboardInterrupt raised inside a finalizer
+    run by the garbage collector is printed as unraisable and lost). So no second one can strike
+    while the first is being handled, however slowly a loaded machine stops the pool."""
+
+    #: seconds the main thread may take to block in the pool's wait
+    PATIENCE = 30.0
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        self.done, self.dropped = threading.Event(), threading.Event()
+        self.problem: str | None = None
+        self._main = threading.main_thread().ident
+        hook = sys.unraisablehook
+
+        def unraisable(info: Any) -> None:
+            if info.exc_type is not None and issubclass(info.exc_type, KeyboardInterrupt):
+                self.dropped.set()
+            else:
+                hook(info)
+
+        monkeypatch.setattr(sys, "unraisablehook", unraisable)
+
+    def press_when_waiting(self, marker: Path) -> None:
+        """Once ``marker`` exists: press when the main thread waits, again after each dropped press,
+        until ``done``."""
+        while self._wait_until_blocked(marker):
+            self.dropped.clear()
+            signal.pthread_kill(self._main, signal.SIGINT)
+            while not (self.done.is_set() or self.dropped.is_set()):
+                time.sleep(0.001)
+
+    def _wait_until_blocked(self, marker: Path) -> bool:
+        """Wait until the main thread blocks in the pool's wait; ``False`` if ``done`` came first."""
+        deadline = time.monotonic() + self.PATIENCE
+        while not (marker.exists() and self._blocked_in_wait()):
+            if self.done.is_set():
+                return False
+            if time.monotonic() > deadline:  # press anyway, so that the test ends; it fails on `problem`
+                self.problem = f"the main thread did not block in the pool's wait within {self.PATIENCE} s"
+                return True
+            time.sleep(0.001)
+        return not self.done.is_set()
+
+    def _blocked_in_wait(self) -> bool:
+        """Whether the main thread's innermost frame is a ``wait`` of the pool's (a signal's)."""
+        frame = sys._current_frames().get(self._main)
+        return (frame is not None and frame.f_code.co_name == "wait"
+                and frame.f_globals.get("__name__", "").startswith("modelicagym.vector"))
 
 
 def test_workers_ignore_sigint() -> None:

@@ -9,6 +9,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from extras import imported
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -72,8 +73,7 @@ def test_the_pool_runs_however_the_script_is_run(tmp_path: Path, how: str, start
 
 
 def test_the_pool_runs_in_a_jupyter_notebook(tmp_path: Path) -> None:
-    nbformat = pytest.importorskip("nbformat", reason="the notebook test needs the 'notebook' extra")
-    nbclient = pytest.importorskip("nbclient", reason="the notebook test needs the 'notebook' extra")
+    nbformat, nbclient = imported("nbformat"), imported("nbclient")
     cell = SCRIPT.replace("{guard}", "if True:").replace("{start_method}", "forkserver")
     notebook = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(cell)])
     nbclient.NotebookClient(notebook, timeout=150, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
