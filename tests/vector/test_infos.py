@@ -1,4 +1,4 @@
-"""The pool's infos are merged by one function of ours (`modelicagym.vector.infos`); they equal
+"""The pool's infos are merged by one function of ours (`modelicagym.vector.parent.infos`); they equal
 ``AsyncVectorEnv``'s for the same run, in every autoreset mode: each key's column and its ``_key``
 mask, nested dicts, and ``final_obs`` / ``final_info`` whether an env's step ran in Python, or
 natively with the reset done in C (the pool's bulk merge) or left to Python."""

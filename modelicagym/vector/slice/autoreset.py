@@ -5,11 +5,11 @@ of Gymnasium's autoreset modes.
   reset, reported as ``(observation, 0.0, False, False, reset info)`` and its action ignored.
 - ``SAME_STEP``: an env whose step ended is reset at once; the step reports the reset observation,
   and the ended step's observation and info as ``final_obs`` / ``final_info``
-  (`modelicagym.vector.protocol.same_step_info`).
+  (`modelicagym.vector.wire.protocol.same_step_info`).
 - ``DISABLED``: nothing; the user resets ended envs.
 
 Besides the modes, an env that moved to this process at an episode boundary (``RESET_THEN_STEP``,
-`modelicagym.vector.placement`) is reset silently before its step.
+`modelicagym.vector.parent.placement`) is reset silently before its step.
 
 **Its C twin** is ``step_batch`` in ``modelicagym/native/csrc/slice.c`` (and ``end_steps`` in
 ``csrc/endings.c`` for a slice whose steps end in Python): the native path runs the same rules

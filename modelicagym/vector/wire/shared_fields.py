@@ -1,7 +1,7 @@
 """The pool's shared memory, declared once: each field's name, dtype, shape and the C field it fills.
 
-`SharedBuffers` (`modelicagym.vector.buffers`) allocates one array per entry of `SHARED_FIELDS`,
-in this order, as its attribute of the same name; `NativeBatch` (`modelicagym.vector.native_slice`)
+`SharedBuffers` (`modelicagym.vector.wire.buffers`) allocates one array per entry of `SHARED_FIELDS`,
+in this order, as its attribute of the same name; `NativeBatch` (`modelicagym.vector.slice.native_slice`)
 fills each ``mg_batch`` field (``native/csrc/slice.h``) named in ``c_fields`` from that array,
 and checks when it is built that every field of ``mg_batch`` is filled exactly once: from a field
 here, or from the slice itself (``native_slice.SLICE_FIELDS``). A field added to the C struct and
