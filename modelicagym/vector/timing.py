@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from modelicagym.vector.buffers import SharedBuffers
+
 __all__ = ["StepTiming", "TimingRecorder"]
 
 
@@ -53,11 +55,17 @@ class TimingRecorder:
         self._steps = 0
         self._sums = [0] * 6
 
-    def add(self, wall_ns: int, env_ns: np.ndarray, fmu_ns: np.ndarray) -> None:
-        """Record one batch: its wall time and each worker's env and FMU time (nanoseconds).
+    def add(self, wall_ns: int, rows: np.ndarray, woken: np.ndarray) -> None:
+        """Record one batch: its wall time and each party's env and FMU time (nanoseconds), from
+        the pool's shared ``timing`` rows (a row per party, the calling process's last). ``woken``
+        says, per worker, whether it stepped in this batch: one not woken left its last step's
+        times in its row, which count as zero here (the rows are the parties', never written here).
 
         Plain Python integers: a handful of numpy calls would cost more than a light batch step."""
-        envs, fmus = env_ns.tolist(), fmu_ns.tolist()
+        envs, fmus = rows[:, SharedBuffers.ENV_NS].tolist(), rows[:, SharedBuffers.FMU_NS].tolist()
+        if not woken.all():
+            for k in np.flatnonzero(woken == 0).tolist():
+                envs[k] = fmus[k] = 0
         critical = envs.index(max(envs))
         env_total, fmu_total = sum(envs), sum(fmus)
         critical_env, critical_fmu = envs[critical], fmus[critical]
