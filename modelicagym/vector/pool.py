@@ -20,7 +20,8 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import gymnasium as gym
@@ -269,6 +270,8 @@ class PoolVectorEnv(VectorEnv):
         )
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
+        #: a command is being sent (`_sending`)
+        self._sending_now = False
         self._timing = TimingRecorder()
         self._timing_enabled = False
         self._step_started_ns = 0
@@ -356,11 +359,12 @@ class PoolVectorEnv(VectorEnv):
         if options is not None and "reset_mask" in options:
             options = dict(options)
             mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
-        if self._init_once and mask.any():
-            self._init_once = False
-            options = self._initialized_once(seeds, options, mask)
-        self._dispatcher.reset(seeds, options, mask)
-        self._state = AsyncState.WAITING_RESET
+        with self._sending():
+            if self._init_once and mask.any():
+                self._init_once = False
+                options = self._initialized_once(seeds, options, mask)
+            self._dispatcher.reset(seeds, options, mask)
+            self._state = AsyncState.WAITING_RESET
 
     def _initialized_once(self, seeds: list[int | None], options: dict[str, Any] | None,
                           mask: np.ndarray) -> dict[str, Any] | None:
@@ -464,10 +468,10 @@ class PoolVectorEnv(VectorEnv):
             self._actions.write(actions)
         else:
             self._actions.write_rows(np.asarray(actions), ids)
+        self._state = AsyncState.WAITING_STEP  # from here on a Ctrl-C stops the pool (`_interrupted`)
         if self._placement.pending and self._placement.move_pending():
             self._dispatcher.stepping_changed()
         self._dispatcher.send_step()
-        self._state = AsyncState.WAITING_STEP
 
     def _recv_step(self, timeout: float | None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The results of the step sent: a failed worker's envs as :mod:`~modelicagym.vector.recovery`
@@ -747,12 +751,28 @@ class PoolVectorEnv(VectorEnv):
 
     def _interrupted(self) -> None:
         """The interrupt policy, for a ``KeyboardInterrupt`` or ``SystemExit`` in any public call
-        (`modelicagym.vector.call_guard.public_call`): if a command was sent and not all its answers
-        received (half-sent, running, or half-collected, partial batches included), the pool is stopped
-        (``close()`` is then immediate): such a command cannot be resumed. Before anything was sent,
-        or once everything was received, the pool is left as it was and stays usable."""
-        if not self.closed and self._dispatcher.in_flight:
+        (`modelicagym.vector.call_guard.public_call`): if a command is being sent (the call state
+        says one is pending, or :meth:`_sending` is under way), or was sent and not all its answers
+        received (running, or half-collected, partial batches included), the pool is stopped
+        (``close()`` is then immediate): such a command cannot be resumed. Before anything was
+        sent, or once everything was received, the pool is left as it was and stays usable."""
+        out = self._sending_now or self._state is not AsyncState.DEFAULT or self._dispatcher.in_flight
+        if out and not self.closed:
             self._abort()
+
+    @contextmanager
+    def _sending(self) -> Iterator[None]:
+        """Marks where a command is being sent with what prepares it (``init="once"``'s first
+        reset), for :meth:`_interrupted`; an error that is not an interrupt leaves the pool usable."""
+        self._sending_now = True
+        try:
+            yield
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except BaseException:
+            self._sending_now = False
+            raise
+        self._sending_now = False
 
     def _abort(self) -> None:
         """Stop every worker and free everything, without waiting for the envs to close.
@@ -761,6 +781,7 @@ class PoolVectorEnv(VectorEnv):
         unless the caller still holds observations returned with ``copy=False``.
         """
         self._state = AsyncState.DEFAULT
+        self._sending_now = False
         self._workers.release()
         self._dispatcher.release()
         self._buffers = self._actions = None
