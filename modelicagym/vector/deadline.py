@@ -19,7 +19,7 @@ class Deadline(NamedTuple):
     @classmethod
     def after(cls, timeout: float | None) -> Deadline:
         """The deadline ``timeout`` seconds from now (``None``: never)."""
-        return cls(timeout, None if timeout is None else time.monotonic() + timeout)
+        return NEVER if timeout is None else cls(timeout, time.monotonic() + timeout)
 
     def remaining(self) -> float | None:
         """Seconds left (never negative), ``None`` if there is no deadline."""
@@ -28,3 +28,7 @@ class Deadline(NamedTuple):
     def passed(self) -> bool:
         """Whether the deadline has passed (never, without one)."""
         return self.at is not None and time.monotonic() > self.at
+
+
+#: no deadline (a ``timeout`` of ``None``), made once: the hot path of a step makes none
+NEVER = Deadline(None, None)

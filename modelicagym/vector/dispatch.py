@@ -101,11 +101,22 @@ class Dispatcher:
         #: the adaptive state of the native collection's waits (see ``FutexSignal``)
         self.waiter = MgWaiter()
         self._collector = self._native_collector()
+        #: how the calling process's slice runs a step: in one C call if it is native with no endings
+        #: of its own in Python (`CallerParty.run_native_step`), else as any command
+        self._own_step = None if self.caller is None else (
+            self.caller.run_native_step if local.native is not None and local.endings is None else self.caller.run)
+        #: nanoseconds the calling process stepped its slice, and steps that woke no worker (so no
+        #: native collection), since the last `take_collect_times`
+        self._own_ns = self._own_calls = 0
 
     def _native_collector(self) -> NativeCollector | None:
         """The native wait for a step's workers (``mg_collect``) when their signals live in shared
-        memory; else ``None`` (the Python waits)."""
-        if not self.handles or not all(isinstance(handle.done, FutexSignal) for handle in self.handles):
+        memory (with no workers: when the calling process's slice is native, so the library is
+        loaded; the wait is then one call that finds nothing to wait for); else ``None`` (the Python
+        waits)."""
+        if not all(isinstance(handle.done, FutexSignal) for handle in self.handles):
+            return None
+        if not self.handles and (self.local is None or self.local.native is None):
             return None
         timeout = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         return NativeCollector(
@@ -118,6 +129,8 @@ class Dispatcher:
         calling process, which always takes part)."""
         self._stepping_parties = [party for party in self._parties if party.in_caller or self.stepping[party.index]]
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
+        #: a step wakes at least one worker
+        self._workers_step = any(party is not self.caller for party in self._stepping_parties)
 
     @property
     def in_flight(self) -> bool:
@@ -125,9 +138,13 @@ class Dispatcher:
         return bool(self.pending)
 
     def take_collect_times(self) -> tuple[int, int, int] | None:
-        """Native collections since the last take, and their nanoseconds on the local slice, then
-        waiting for the workers; ``None`` on the Python path."""
-        return None if self._collector is None else self._collector.take_times()
+        """Native collections since the last take, and their nanoseconds on the local slice (in
+        :meth:`run_own_slice`), then waiting for the workers; ``None`` on the Python path."""
+        if self._collector is None:
+            return None
+        calls, local_ns, wait_ns = self._collector.take_times()
+        own_ns, own_calls, self._own_ns, self._own_calls = self._own_ns, self._own_calls, 0, 0
+        return calls + own_calls, local_ns + own_ns, wait_ns
 
     def release(self) -> None:
         """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""
@@ -266,12 +283,14 @@ class Dispatcher:
         caller = self.caller
         if caller is None:
             return
-        if self._collector is None:
+        if self.pending is not self._step_all:
             caller.run()
-            return
-        started = time.perf_counter_ns()
-        caller.run()
-        self._collector.add_local_time(time.perf_counter_ns() - started)
+        elif self._collector is None:
+            self._own_step()
+        else:  # a step the native collection accounts (`take_collect_times`)
+            started = time.perf_counter_ns()
+            self._own_step()
+            self._own_ns += time.perf_counter_ns() - started
 
     # ------------------------------------------------------------------ recv
 
@@ -283,10 +302,10 @@ class Dispatcher:
         names what the parties were asked to do, for error messages. A party whose env failed
         (an ``ERROR`` reply) has that failure as an :class:`~modelicagym.vector.errors.EnvError`.
         """
-        deadline = Deadline.after(self.step_timeout if timeout is None else timeout)
         if self._step_sent and timeout is None and not self._held and self._done_quietly():
             self.pending = []
             return []
+        deadline = Deadline.after(self.step_timeout if timeout is None else timeout)
         outcomes = []
         buffers = self.buffers
         for command in list(self.pending):
@@ -305,10 +324,14 @@ class Dispatcher:
         to the slow path, which sees them done at once and handles replies, deaths and timeouts."""
         self._step_sent = False
         pending, caller = self.pending, self.caller
-        if self._collector is not None and pending is self._step_all:
+        if pending is self._step_all:
             if caller is not None and self._replies[caller.index]:
                 return False
-            return self._collector.collect() == COLLECT_DONE
+            if not self._workers_step:  # every env is the calling process's: no one to wait for
+                self._own_calls += 1
+                return True
+            if self._collector is not None:
+                return self._collector.collect() == COLLECT_DONE
         block = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         spin_time = self.spin_time
         for k, command in enumerate(pending):

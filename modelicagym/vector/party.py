@@ -123,6 +123,18 @@ class CallerParty:
             finally:
                 self.watch.leave()
 
+    def run_native_step(self) -> None:
+        """Run the posted ``STEP`` of a slice on the native path without endings of its own in
+        Python (`EnvSlice.step`'s hot path): one C call, which points the last word at this slice
+        itself; Python then finishes only what C left to it."""
+        self._command = None
+        if self.envs.native.step():
+            self.watch.enter()
+            try:
+                self.hold(self.envs.finish_native_step())
+            finally:
+                self.watch.leave()
+
     def hold(self, reply: Message | None) -> None:
         """Keep ``reply`` for :meth:`answer` (e.g. what Python finished of a native step)."""
         self._reply = reply
