@@ -9,8 +9,8 @@ from contextlib import contextmanager
 import gymnasium as gym
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.slice.env_slice import EnvSlice
+from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 
 
 @contextmanager

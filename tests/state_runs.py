@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-
 _CHILD = """
 import pickle, sys
 from state_runs import run

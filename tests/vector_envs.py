@@ -331,3 +331,48 @@ class GatedEnv(CountEnv):
         while not os.path.exists(self.gate):
             time.sleep(0.001)
         return super().step(action)
+
+
+class ConcurrencyProbe(CountEnv):
+    """A `CountEnv` that counts, across processes, how many envs are inside ``reset`` or ``step``
+    at once: a counter file under an ``fcntl`` lock holds ``(inside now, most ever inside)``.
+    Each call stays inside for ``hold`` seconds (asleep), so that calls the pool lets run together
+    do overlap."""
+
+    def __init__(self, counter: str, hold: float = 0.02, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.counter = counter
+        self.hold = hold
+
+    @staticmethod
+    def most_inside(counter: str) -> int:
+        """The most envs ever inside ``reset``/``step`` at once."""
+        with open(counter) as file:
+            return int(file.read().split()[1])
+
+    def _inside(self, change: int) -> None:
+        import fcntl
+
+        with open(self.counter, "r+") as file:
+            fcntl.flock(file, fcntl.LOCK_EX)
+            now, most = (int(x) for x in (file.read().split() or ["0", "0"]))
+            now += change
+            file.seek(0)
+            file.truncate()
+            file.write(f"{now} {max(now, most)}")
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
+        self._inside(+1)
+        try:
+            time.sleep(self.hold)
+            return super().reset(seed=seed, options=options)
+        finally:
+            self._inside(-1)
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        self._inside(+1)
+        try:
+            time.sleep(self.hold)
+            return super().step(action)
+        finally:
+            self._inside(-1)

@@ -58,9 +58,9 @@ from modelicagym.env.endings import (
     termination_of_one,
 )
 from modelicagym.env.native_step import NativeStep, python_path_reason
+from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
-from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
 from modelicagym.fmu.logs import RateLimitedLog

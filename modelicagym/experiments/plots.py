@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from modelicagym.experiments.analysis import WINDOW, moving_average
 from modelicagym.disk import atomic_write
+from modelicagym.experiments.analysis import WINDOW, moving_average
 from modelicagym.experiments.results import SweepResult
 
 __all__ = ["plot_learning_curve", "plot_sweep"]

@@ -18,12 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from modelicagym.disk import atomic_write
 from modelicagym.errors import NotFoundError
 from modelicagym.experiments.analysis import LEARNING_RATIO, WINDOW, SettingSummary, summarize
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.paper import FINDINGS, PAPER_NUMBERS, PAPER_SECONDS_PER_STEP, PAPER_SWEEPS, PaperNumbers
 from modelicagym.experiments.plots import plot_sweep
-from modelicagym.disk import atomic_write
 from modelicagym.experiments.results import SweepResult, completed_sweeps, read_sweep
 
 __all__ = ["TITLES", "read_notes", "render_report"]

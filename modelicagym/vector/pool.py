@@ -1,11 +1,15 @@
 """``PoolVectorEnv``: a multi-process vector env, a drop-in for ``gymnasium.vector.AsyncVectorEnv``.
 
-This module is the public API only, each call a short composition of the parts (the path of one
-step through them is drawn in ``docs/design.md``, "The pool"): :mod:`~modelicagym.vector.parent.assembly`
-starts it, :mod:`~modelicagym.vector.parent.dispatch` talks to its parties
-(:mod:`~modelicagym.vector.parent.party`), :mod:`~modelicagym.vector.parent.recovery` handles failures,
+This module is the public API only, each call a plain ``def`` and a short composition of the parts
+(the path of one step through them is drawn in ``docs/design.md``, "Where a step is computed"):
+:mod:`~modelicagym.vector.parent.assembly` starts it; every call is a send and a receive through the one
+:mod:`~modelicagym.vector.parent.dispatch` (``step`` = ``_send_step`` + ``_recv_step``, ``reset``,
+``call`` alike; ``send``/``recv`` for partial batches), which talks to the parties
+(:mod:`~modelicagym.vector.parent.party`); :mod:`~modelicagym.vector.parent.recovery` handles failures,
 :mod:`~modelicagym.vector.parent.placement` decides where envs run, :mod:`~modelicagym.vector.parent.call_state_checks`
-checks each call, :mod:`~modelicagym.vector.parent.infos` merges infos. It is longer than our other
+checks each call (its decorator, ``public_call``, also applies the interrupt policy,
+``_interrupted``), :mod:`~modelicagym.vector.parent.infos` merges infos, :mod:`~modelicagym.vector.timing`
+keeps the timing. It is longer than our other
 modules because ``AsyncVectorEnv``'s API is wide (reset, step, call and set_attr in their sync,
 async and wait forms, partial batches, timing, close) and each call's docstring is the user's
 reference; the logic behind them lives in the modules named above.
@@ -39,21 +43,24 @@ from modelicagym.vector.parent.argument_checks import (
     values_per_env,
 )
 from modelicagym.vector.parent.assembly import assemble
-from modelicagym.vector.parent.call_state_checks import check_idle, check_open, check_waiting, one_thread_at_a_time
+from modelicagym.vector.parent.call_state_checks import check_idle, check_open, check_waiting, public_call
 from modelicagym.vector.parent.config_checks import (
     check_async_vector_env_options,
     check_batch_size,
     check_env_fns,
+    check_max_concurrency,
     check_pool_options,
 )
+from modelicagym.vector.parent.deadline import Deadline
 from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos
 from modelicagym.vector.parent.partial_batches import PartialBatches
 from modelicagym.vector.parent.party import Outcome
 from modelicagym.vector.parent.placement import LayoutState
 from modelicagym.vector.parent.plan import default_start_method, plan_layout
 from modelicagym.vector.parent.recovery import RESTART_INFO_KEY, Recovery
+from modelicagym.vector.parent.timing_recorder import TimingRecorder
 from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
-from modelicagym.vector.timing import StepTiming, TimingRecorder
+from modelicagym.vector.timing import StepTiming
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
 from modelicagym.vector.wire.sync import futex_library
@@ -78,7 +85,7 @@ _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 POOL_OPTIONS = (
     "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
-    "observation_mode", "worker", "batch_size", "adapt_layout", "init",
+    "observation_mode", "worker", "batch_size", "adapt_layout", "init", "max_concurrency",
 )
 
 
@@ -166,6 +173,7 @@ class PoolVectorEnv(VectorEnv):
         batch_size: int | None = None,
         adapt_layout: bool | None = None,
         init: str = "each",
+        max_concurrency: int | None = None,
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -224,12 +232,18 @@ class PoolVectorEnv(VectorEnv):
                 FMU whose initialization is slow pays it once (`modelicagym.vector.saved_states`);
                 an env whose state would differ (parameters of its own) initializes itself, and
                 if the first env cannot give its state every env does.
+            max_concurrency: ``AsyncVectorEnv``'s: at most this many envs run ``reset`` or ``step``
+                at once (``None``: no limit); calls and attributes are not limited. A party (a
+                worker, or the calling process) runs its envs one after the other, so the pool's
+                dispatcher lets at most this many parties run a step or reset at once and sends the
+                next as one finishes (`modelicagym.vector.parent.dispatch`).
         """
-        #: ``{"thread": ident}`` while a thread is inside a public call (`one_thread_at_a_time`)
+        #: ``{"thread": ident}`` while a thread is inside a public call (`public_call`)
         self._user: dict[str, int] = {}
         self.env_fns = list(env_fns)
         start_method = check_async_vector_env_options(start_method, context, daemon, observation_mode, worker)
         check_env_fns(self.env_fns)
+        self.max_concurrency = check_max_concurrency(max_concurrency)
         check_pool_options(
             num_workers, max_envs_per_worker, step_timeout, startup_timeout, spin_time, start_method,
             {"restart_dead_workers": restart_dead_workers, "measure_timing": measure_timing, "copy": copy,
@@ -259,6 +273,8 @@ class PoolVectorEnv(VectorEnv):
         )
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
+        #: a command is being sent (`_sending`)
+        self._sending_now = False
         self._timing = TimingRecorder()
         self._timing_enabled = False
         self._step_started_ns = 0
@@ -272,7 +288,7 @@ class PoolVectorEnv(VectorEnv):
             num_envs=self.num_envs,
         )
         try:
-            parts = assemble(self.env_fns, layout, self.start_method, config, adapt_layout)
+            parts = assemble(self.env_fns, layout, self.start_method, config, adapt_layout, self.max_concurrency)
         except BaseException:
             self.closed = True
             raise
@@ -302,11 +318,12 @@ class PoolVectorEnv(VectorEnv):
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
         self._partial: PartialBatches | None = None
-        self._set_timing(measure_timing)
+        self.set_timing(measure_timing)
 
     # ------------------------------------------------------------------ reset
 
-    def _reset(
+    @public_call
+    def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         """Reset all envs (or those in ``options["reset_mask"]``); see ``AsyncVectorEnv.reset``.
@@ -321,13 +338,21 @@ class PoolVectorEnv(VectorEnv):
         Returns:
             The batch of observations and the merged infos of the reset envs.
         """
-        self._reset_async(seed=seed, options=options)
-        return self._reset_wait()
+        self._send_reset(seed, options)
+        return self._recv_reset(None)
 
-    reset = one_thread_at_a_time(_reset)
-
-    def _reset_async(self, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
+    @public_call
+    def reset_async(self, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Start resetting; collect the result with :meth:`reset_wait`."""
+        self._send_reset(seed, options)
+
+    @public_call
+    def reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
+        """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
+        return self._recv_reset(timeout)
+
+    def _send_reset(self, seed: int | list[int | None] | None, options: dict[str, Any] | None) -> None:
+        """Check the arguments, then send the reset (``init="once"`` first resets one env alone)."""
         self._assert_is_running()
         seeds = seeds_per_env(seed, self.num_envs)
         check_reset_options(options)
@@ -337,14 +362,12 @@ class PoolVectorEnv(VectorEnv):
         if options is not None and "reset_mask" in options:
             options = dict(options)
             mask = check_reset_mask(options.pop("reset_mask"), self.num_envs)
-        with self._stopped_on_interrupt():
+        with self._sending():
             if self._init_once and mask.any():
                 self._init_once = False
                 options = self._initialized_once(seeds, options, mask)
             self._dispatcher.reset(seeds, options, mask)
             self._state = AsyncState.WAITING_RESET
-
-    reset_async = one_thread_at_a_time(_reset_async)
 
     def _initialized_once(self, seeds: list[int | None], options: dict[str, Any] | None,
                           mask: np.ndarray) -> dict[str, Any] | None:
@@ -361,7 +384,7 @@ class PoolVectorEnv(VectorEnv):
         self._dispatcher.call_each("get_state", [() if i == first else None for i in range(self.num_envs)])
         self._state = AsyncState.WAITING_CALL
         try:
-            state = self._collect_calls(None, "init='once'")[first]
+            state = self._call_results(None, "init='once'")[first]
         except PoolError:
             raise
         except Exception as error:  # it cannot serialize its state: each env initializes itself
@@ -370,24 +393,21 @@ class PoolVectorEnv(VectorEnv):
         per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
         return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
 
-    def _reset_wait(self, timeout: float | None = None) -> tuple[Any, dict[str, Any]]:
-        """Wait for :meth:`reset_async`; ``timeout`` defaults to ``step_timeout``."""
-        deadline = self._callers_deadline(timeout)
+    def _recv_reset(self, timeout: float | None) -> tuple[Any, dict[str, Any]]:
+        """The observations and merged infos of the reset sent (see :meth:`_raise_if_overran`)."""
+        deadline = Deadline.after(timeout)
         entries, self._init_entries = self._init_entries + self._reset_entries(timeout), []
-        self._raise_if_past(deadline, timeout, "reset_wait")
+        self._raise_if_overran(deadline, "reset_wait")
         return self._buffers.observations.read_batch(self.copy), self._merge_infos(entries)
 
-    reset_wait = one_thread_at_a_time(_reset_wait)
-
     def _reset_entries(self, timeout: float | None) -> Entries:
-        """Collect the pending reset; the ``(env index, info)`` of the reset envs' non-empty infos."""
+        """Receive the reset sent; the ``(env index, info)`` of the reset envs' non-empty infos."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_RESET, "reset_wait", "reset_async")
-        commands = self._dispatcher.pending
         entries: Entries = []
-        for (handle, message, failure), command in zip(self._gather(timeout, "reset"), commands, strict=True):
+        for command, message, failure in self._receive(timeout, "reset"):
             if failure is not None:
-                entries += self._recovery.after_reset(handle, failure, command)
+                entries += self._recovery.after_reset(command.party, failure, command)
             elif message is not None:
                 entries += message.data
         if self._placement.adaptive and self._placement.after_reset(self._buffers.reset_mask):
@@ -396,137 +416,28 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ step
 
-    def _step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    @public_call
+    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every env with its action; returns batched ``(obs, rewards, terminations,
-        truncations, infos)`` as :class:`~gymnasium.vector.SyncVectorEnv` does. A Ctrl-C while it
-        runs leaves the pool as it was (the step never started) or stopped, never half-way."""
-        try:
-            self._step_async(actions)
-            return self._step_wait()
-        except (KeyboardInterrupt, SystemExit):
-            if self._state is not AsyncState.DEFAULT:
-                self._abort()
-            raise
+        truncations, infos)`` as :class:`~gymnasium.vector.SyncVectorEnv` does: :meth:`step_async`
+        then :meth:`step_wait`. A Ctrl-C while it runs leaves the pool as it was (the step never
+        started) or stopped, never half-way."""
+        self._send_step(actions)
+        return self._recv_step(None)
 
-    step = one_thread_at_a_time(_step)
-
-    def _step_async(self, actions: Any) -> None:
+    @public_call
+    def step_async(self, actions: Any) -> None:
         """Check the actions (`modelicagym.vector.parent.action_writer`: an `ActionError` naming the env leaves
         the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
-        self._assert_is_running()
-        self._assert_idle("step_async")
-        started_ns = time.perf_counter_ns() if self._timing_enabled else 0
-        self._actions.write(actions)
-        self._start_step(started_ns)
+        self._send_step(actions)
 
-    step_async = one_thread_at_a_time(_step_async)
-
-    def _start_step(self, started_ns: int) -> None:
-        """Wake the parties to step with the actions written (``started_ns``: for the timing)."""
-        self._step_started_ns = started_ns
-        if self._placement.pending and self._placement.move_pending():
-            self._dispatcher.stepping_changed()
-        try:
-            self._dispatcher.step_all()
-            self._state = AsyncState.WAITING_STEP
-        except BaseException:  # a Ctrl-C between waking the workers and recording it
-            self._abort()
-            raise
-
-    def _step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    @public_call
+    def step_wait(self, timeout: float | None = None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Wait for the step started by :meth:`step_async`; ``timeout`` defaults to ``step_timeout``."""
-        self._assert_is_running()
-        self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
-        buffers = self._buffers
-        entries: Entries = []
-        restarted = False
-        deadline = self._callers_deadline(timeout)
-        if timeout is None:
-            timeout = self.step_timeout
-        started = None if timeout is None else time.monotonic()
-        try:
-            complete = self._dispatcher.all_done(timeout)
-            if complete:
-                self._state = AsyncState.DEFAULT
-        except BaseException:  # a Ctrl-C while waiting: the batch cannot be resumed
-            self._abort()
-            raise
-        if not complete:
-            if started is not None:
-                timeout = max(timeout - (time.monotonic() - started), 0.0)
-            for handle, message, failure in self._gather(timeout, "step"):
-                if failure is not None:
-                    entries += self._recovery.after_step(handle, failure)
-                    restarted = True
-                elif message is not None:
-                    entries += message.data
-        if self._placement.due():
-            self._adapt_after_step()
-        if self._timing_enabled and not restarted:
-            timing = buffers.timing
-            idle = self._placement.stepping == 0
-            if idle.any():  # workers not woken left their last step's times
-                timing[: len(idle)][idle] = 0
-            self._timing.add(
-                time.perf_counter_ns() - self._step_started_ns,
-                timing[:, SharedBuffers.ENV_NS],
-                timing[:, SharedBuffers.FMU_NS],
-            )
-        infos = self._merge_infos(entries) if entries else {}
-        if self._same_step:
-            add_final_infos(infos, buffers.take_final_ready(), buffers.final_observations, self.num_envs)
-        self._raise_if_past(deadline, timeout, "step_wait")
-        return (
-            buffers.observations.read_batch(self.copy),
-            buffers.rewards.copy(),
-            buffers.terminations.copy(),
-            buffers.truncations.copy(),
-            infos,
-        )
+        return self._recv_step(timeout)
 
-    step_wait = one_thread_at_a_time(_step_wait)
-
-    def _adapt_after_step(self) -> None:
-        """Let the adaptive layout account the steps it measured and move envs this one ended."""
-        buffers = self._buffers
-        self._placement.after_step(buffers.terminations, buffers.truncations, self._dispatcher.take_collect_times)
-
-    @property
-    def layout(self) -> LayoutState:
-        """Where the envs run now and why: adaptive or fixed, envs in the calling process,
-        workers stepping, and the measurement behind the last change (see
-        `modelicagym.vector.parent.placement`)."""
-        return self._placement.state()
-
-    # ------------------------------------------------------------------ partial batches
-
-    def _async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
-        """Reset every env and make their results the first to come back from :meth:`recv`
-        (EnvPool's ``async_reset``; see `modelicagym.vector.parent.partial_batches`)."""
-        self._reset_async(seed=seed, options=options)
-        entries = self._reset_entries(None)
-        self._partial_batches(None).start(entries)
-
-    async_reset = one_thread_at_a_time(_async_reset)
-
-    def _send(self, actions: Any, env_ids: Any) -> None:
-        """Step envs ``env_ids`` (returned by :meth:`recv` since they were last sent) with
-        ``actions``, one per id, and return at once (EnvPool's ``send``)."""
-        self._assert_is_running()
-        with self._stopped_on_interrupt():
-            self._partial_batches("send").send(actions, env_ids)
-
-    send = one_thread_at_a_time(_send)
-
-    def _recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """The first ``batch_size`` envs whose results are in, as a batch of that many; their
-        indices are in ``infos["env_id"]`` (EnvPool's ``recv``)."""
-        self._assert_is_running()
-        return self._collected(self._partial_batches("recv").recv)
-
-    recv = one_thread_at_a_time(_recv)
-
-    def _step_envs(self, actions: Any, env_ids: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    @public_call
+    def step_envs(self, actions: Any, env_ids: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step only envs ``env_ids`` (the others keep their state) and return their results, in
         the order of ``env_ids``, as a batch of that many; ``infos["env_id"]`` repeats the ids.
         ``env_ids`` may also be a boolean mask over all envs (the ids are then in increasing order).
@@ -538,77 +449,136 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         self._assert_idle("step_envs")
         ids = check_env_ids(env_ids, self.num_envs)
-        started_ns = time.perf_counter_ns() if self._timing_enabled else 0
-        self._actions.write_rows(np.asarray(actions), ids)
         mask = self._buffers.step_mask
         mask[:] = 0
         mask[ids] = 1
         try:
-            self._start_step(started_ns)
-            observations, rewards, terminations, truncations, infos = self._step_wait()
-        except (KeyboardInterrupt, SystemExit):
-            if self._state is not AsyncState.DEFAULT:
-                self._abort()
-            raise
+            self._send_step(actions, ids)
+            observations, rewards, terminations, truncations, infos = self._recv_step(None)
         finally:
-            mask[:] = 1
+            if self._buffers is not None:
+                mask[:] = 1
         infos = select_infos(infos, ids)
         infos["env_id"] = ids.astype(np.int32)
         return observations[ids], rewards[ids], terminations[ids], truncations[ids], infos
 
-    step_envs = one_thread_at_a_time(_step_envs)
+    def _send_step(self, actions: Any, ids: np.ndarray | None = None) -> None:
+        """Check the actions (of envs ``ids`` only, if given), write them to shared memory and send the step."""
+        self._assert_is_running()
+        self._assert_idle("step_async")
+        self._step_started_ns = time.perf_counter_ns() if self._timing_enabled else 0
+        if ids is None:
+            self._actions.write(actions)
+        else:
+            self._actions.write_rows(np.asarray(actions), ids)
+        self._state = AsyncState.WAITING_STEP  # from here on a Ctrl-C stops the pool (`_interrupted`)
+        if self._placement.pending and self._placement.move_pending():
+            self._dispatcher.stepping_changed()
+        self._dispatcher.send_step()
 
-    def _collected(self, collect: Callable[[], Any]) -> Any:
-        """``collect()`` results of partial batches; a worker's failure (or Ctrl-C) while
-        collecting stops the pool: a half-collected batch cannot be resumed."""
-        try:
-            return collect()
-        except (PoolError, KeyboardInterrupt, SystemExit):
-            self._abort()
-            raise
+    def _recv_step(self, timeout: float | None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The results of the step sent: a failed worker's envs as :mod:`~modelicagym.vector.parent.recovery`
+        reports them, the layout adapted, the timing recorded, the infos merged."""
+        self._assert_is_running()
+        self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
+        deadline = Deadline.after(timeout)
+        buffers = self._buffers
+        entries: Entries = []
+        restarted = False
+        for command, message, failure in self._receive(timeout, "step"):
+            if failure is not None:
+                entries += self._recovery.after_step(command.party, failure)
+                restarted = True
+            elif message is not None:
+                entries += message.data
+        if self._placement.due():
+            self._placement.after_step(buffers.terminations, buffers.truncations, self._dispatcher.take_collect_times)
+        if self._timing_enabled and not restarted:
+            self._timing.add(time.perf_counter_ns() - self._step_started_ns, buffers.timing, self._placement.stepping)
+        infos = self._merge_infos(entries) if entries else {}
+        if self._same_step:
+            add_final_infos(infos, buffers.take_final_ready(), buffers.final_observations, self.num_envs)
+        self._raise_if_overran(deadline, "step_wait")
+        return (
+            buffers.observations.read_batch(self.copy),
+            buffers.rewards.copy(),
+            buffers.terminations.copy(),
+            buffers.truncations.copy(),
+            infos,
+        )
+
+    @property
+    def layout(self) -> LayoutState:
+        """Where the envs run now and why: adaptive or fixed, envs in the calling process,
+        workers stepping, and the measurement behind the last change (see
+        `modelicagym.vector.parent.placement`)."""
+        return self._placement.state()
+
+    # ------------------------------------------------------------------ partial batches
+
+    @public_call
+    def async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
+        """Reset every env and make their results the first to come back from :meth:`recv`
+        (EnvPool's ``async_reset``; see `modelicagym.vector.parent.partial_batches`)."""
+        self._send_reset(seed, options)
+        entries = self._reset_entries(None)
+        self._partial_batches(None).start(entries)
+
+    @public_call
+    def send(self, actions: Any, env_ids: Any) -> None:
+        """Step envs ``env_ids`` (returned by :meth:`recv` since they were last sent) with
+        ``actions``, one per id, and return at once (EnvPool's ``send``)."""
+        self._assert_is_running()
+        self._partial_batches("send").send(actions, env_ids)
+
+    @public_call
+    def recv(self) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The first ``batch_size`` envs whose results are in, as a batch of that many; their
+        indices are in ``infos["env_id"]`` (EnvPool's ``recv``)."""
+        self._assert_is_running()
+        return self._partial_batches("recv").recv()
 
     def _partial_batches(self, call: str | None) -> PartialBatches:
         """The partial batches' state; created by ``async_reset`` (``call=None``), which ``call`` needs first."""
         if self._partial is None:
             if call is not None:
                 raise NoPendingCallError(f"Calling `{call}` before `async_reset`.", call)
-            self._partial = PartialBatches(
-                self._workers.handles, self._buffers, self._actions, self.batch_size,
-                self._dispatcher.spin_time, self.step_timeout,
-            )
+            self._partial = PartialBatches(self._dispatcher, self._recovery, self._actions, self.batch_size)
         return self._partial
 
     # ------------------------------------------------------------------ call, attributes, render
 
-    def _call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+    @public_call
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call method ``name`` of every env (or read attribute ``name``); one result per env."""
-        self._call_async(name, *args, **kwargs)
-        return self._call_wait()
+        self._send_call(name, args, kwargs)
+        return self._recv_call(None)
 
-    call = one_thread_at_a_time(_call)
-
-    def _call_async(self, name: str, *args: Any, **kwargs: Any) -> None:
+    @public_call
+    def call_async(self, name: str, *args: Any, **kwargs: Any) -> None:
         """Start :meth:`call`; collect the results with :meth:`call_wait`."""
+        self._send_call(name, args, kwargs)
+
+    @public_call
+    def call_wait(self, timeout: float | None = None) -> tuple[Any, ...]:
+        """Wait for :meth:`call_async`; ``timeout`` defaults to ``step_timeout``."""
+        return self._recv_call(timeout)
+
+    def _send_call(self, name: str, args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
         self._assert_is_running()
         self._assert_idle("call_async")
         if name in _RESERVED_CALLS:
             raise ArgumentError(f"Trying to call function `{name}` with `call`, use `{name}` directly instead.")
-        with self._stopped_on_interrupt():
-            self._dispatcher.call(name, args, kwargs)
-            self._state = AsyncState.WAITING_CALL
+        self._dispatcher.call(name, args, kwargs)
+        self._state = AsyncState.WAITING_CALL
 
-    call_async = one_thread_at_a_time(_call_async)
-
-    def _call_wait(self, timeout: float | None = None) -> tuple[Any, ...]:
-        """Wait for :meth:`call_async`; ``timeout`` defaults to ``step_timeout``."""
+    def _recv_call(self, timeout: float | None) -> tuple[Any, ...]:
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_CALL, "call_wait", "call_async")
-        deadline = self._callers_deadline(timeout)
-        results = tuple(self._collect_calls(timeout, "call"))
-        self._raise_if_past(deadline, timeout, "call_wait")
+        deadline = Deadline.after(timeout)
+        results = tuple(self._call_results(timeout, "call"))
+        self._raise_if_overran(deadline, "call_wait")
         return results
-
-    call_wait = one_thread_at_a_time(_call_wait)
 
     def get_states(self) -> VectorState:
         """Every env's state (``env.get_state()``), mid-episode, and which envs the pool resets at
@@ -617,7 +587,8 @@ class PoolVectorEnv(VectorEnv):
         states = self.call("get_state")
         return VectorState(tuple(states), tuple(int(flag) for flag in self._buffers.needs_reset))
 
-    def _set_states(self, states: VectorState | Sequence[Any]) -> None:
+    @public_call
+    def set_states(self, states: VectorState | Sequence[Any]) -> None:
         """Put back :meth:`get_states`'s checkpoint (or one state per env, e.g. start states): each
         env's ``set_state``, then the pool's per-env reset flags. The next step goes on from there.
 
@@ -630,56 +601,53 @@ class PoolVectorEnv(VectorEnv):
         if needs_reset is not None:
             self._buffers.needs_reset[:] = needs_reset
 
-    set_states = one_thread_at_a_time(_set_states)
-
-    def _check_states(self, states: VectorState | Sequence[Any]) -> None:
+    @public_call
+    def check_states(self, states: VectorState | Sequence[Any]) -> None:
         """Check that every env would load its state from ``states`` (as :meth:`set_states` takes
         them), changing nothing: a wrong count or type of ``states`` raises before anything is
         sent; then each env's ``check_state`` (the env contract's `StatefulEnv`) runs where the env
         is, and the first refusal is raised as an `EnvError` of its type that names the env."""
+        self._check_states(states)
+
+    def _check_states(self, states: VectorState | Sequence[Any]) -> None:
         self._assert_is_running()
         env_states, _ = split_states(states, self.num_envs)
         self._assert_idle("check_states")
         self._each_env("check_state", env_states, "set_states, before any env changed")
 
-    check_states = one_thread_at_a_time(_check_states)
-
     def _each_env(self, name: str, values: list[Any], doing: str) -> list[Any]:
         """Call method ``name`` of env ``i`` with ``values[i]``; their results in env order (an
         env's error raised as an `EnvError` of its type naming the env and ``doing``)."""
-        with self._stopped_on_interrupt():
-            self._dispatcher.call_each(name, [(value,) for value in values])
-            self._state = AsyncState.WAITING_CALL
-        return self._collect_calls(None, doing, named=True)
+        self._dispatcher.call_each(name, [(value,) for value in values])
+        self._state = AsyncState.WAITING_CALL
+        return self._call_results(None, doing, named=True)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
         """Attribute ``name`` of every env (through wrappers, like ``env.get_wrapper_attr``)."""
         return self.call(name)
 
-    def _set_attr(self, name: str, values: list[Any] | tuple[Any, ...] | Any) -> None:
+    @public_call
+    def set_attr(self, name: str, values: list[Any] | tuple[Any, ...] | Any) -> None:
         """Set attribute ``name`` of every env: a list/tuple gives one value per env, anything
         else is set on all of them."""
         self._assert_is_running()
         values = values_per_env(values, self.num_envs)
         self._assert_idle("set_attr")
-        with self._stopped_on_interrupt():
-            self._dispatcher.set_attr(name, values)
-            self._state = AsyncState.WAITING_CALL
-        self._collect_calls(None, "set_attr")
-
-    set_attr = one_thread_at_a_time(_set_attr)
+        self._dispatcher.set_attr(name, values)
+        self._state = AsyncState.WAITING_CALL
+        self._call_results(None, "set_attr")
 
     def render(self) -> tuple[Any, ...] | None:
         """The rendered frames of the envs (``render_mode`` applies)."""
         return self.call("render")
 
-    def _collect_calls(self, timeout: float | None, doing: str, named: bool = False) -> list[Any]:
-        """Results of a pending call/set_attr, in env order; raises the first env's exception
+    def _call_results(self, timeout: float | None, doing: str, named: bool = False) -> list[Any]:
+        """Results of the call/set_attr sent, in env order; raises the first env's exception
         (with ``named``, as an `EnvError` of its type naming the env)."""
-        outcomes = self._gather(timeout, doing)
-        for handle, _, failure in outcomes:
+        outcomes = self._receive(timeout, doing)
+        for command, _, failure in outcomes:
             if failure is not None:
-                self._recovery.after_call(handle, failure)
+                self._recovery.after_call(command.party, failure)
         return self._dispatcher.call_results(outcomes, doing, named)
 
     @property
@@ -706,7 +674,8 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ timing
 
-    def _set_timing(self, enabled: bool) -> None:
+    @public_call
+    def set_timing(self, enabled: bool) -> None:
         """Switch step-time measurement on or off (and forget what was measured so far).
 
         When off, the only cost is one flag check per worker and step.
@@ -716,8 +685,6 @@ class PoolVectorEnv(VectorEnv):
         self._timing_enabled = bool(enabled)
         self._buffers.timing_enabled[0] = self._timing_enabled or self._placement.samples_parties
         self._timing.clear()
-
-    set_timing = one_thread_at_a_time(_set_timing)
 
     def timing(self, reset: bool = False) -> StepTiming:
         """Where step time went, as means per batch step since timing was switched on.
@@ -745,7 +712,7 @@ class PoolVectorEnv(VectorEnv):
             return
         if timeout is None:
             timeout = DEFAULT_CLOSE_TIMEOUT if self.step_timeout is None else self.step_timeout
-        deadline = time.monotonic() + timeout
+        deadline = Deadline.after(timeout)
         if self._state != AsyncState.DEFAULT:
             gym.logger.warn(f"Calling `close` while waiting for a pending call to `{self._state.value}` to complete.")
         if self._partial is not None and self._partial.in_flight and not terminate:
@@ -754,10 +721,10 @@ class PoolVectorEnv(VectorEnv):
             except PoolError:
                 terminate = True
         if self._state != AsyncState.DEFAULT and not terminate:
-            terminate = any(outcome.failure is not None for outcome in self._gather(timeout, self._state.value))
-        if not terminate:
+            terminate = any(outcome.failure is not None for outcome in self._receive(timeout, self._state.value))
+        if not terminate and self._buffers is not None:
             for handle in self._dispatcher.close():
-                handle.join(max(deadline - time.monotonic(), 0.0))
+                handle.join(deadline.remaining())
         self._abort()
 
     def __enter__(self) -> PoolVectorEnv:
@@ -768,31 +735,47 @@ class PoolVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ internals
 
-    def _callers_deadline(self, timeout: float | None) -> float | None:
-        """When a ``timeout`` given to a ``*_wait`` ends, if the calling process runs envs itself
-        (it cannot interrupt them: :meth:`_raise_if_past` says so after); else ``None``."""
-        if timeout is None or self._dispatcher.local is None:
-            return None
-        return time.monotonic() + timeout
+    def _receive(self, timeout: float | None, doing: str) -> list[Outcome]:
+        """The calling process runs its own slice's share of the command sent (if it has a slice),
+        then receives every party's answer (`modelicagym.vector.parent.dispatch`)."""
+        self._state = AsyncState.DEFAULT
+        self._dispatcher.run_own_slice()
+        return self._dispatcher.recv(timeout, doing)
 
-    def _raise_if_past(self, deadline: float | None, timeout: float | None, doing: str) -> None:
-        """Raise `CallerTimeoutError` if ``deadline`` (:meth:`_callers_deadline`) has passed."""
-        if deadline is not None and time.monotonic() > deadline:
+    def _raise_if_overran(self, deadline: Deadline, doing: str) -> None:
+        """Raise `CallerTimeoutError` if a ``timeout`` given to a ``*_wait`` passed while the calling
+        process ran envs itself: it cannot interrupt them, so it says so once they are done."""
+        if self._dispatcher.local is not None and deadline.passed():
             raise CallerTimeoutError(
-                f"The call to `{doing}` has timed out after {timeout} second(s): the envs the calling process "
-                f"runs itself could not be interrupted; the call completed and the pool is usable, but its results "
-                f"are dropped, as AsyncVectorEnv drops them (caller_steps=False makes every env interruptible)"
+                f"The call to `{doing}` has timed out after {deadline.timeout} second(s): the envs the calling "
+                f"process runs itself could not be interrupted; the call completed and the pool is usable, but its "
+                f"results are dropped, as AsyncVectorEnv drops them (caller_steps=False makes every env interruptible)"
             )
 
-    def _gather(self, timeout: float | None, doing: str) -> list[Outcome]:
-        """Every pending worker's outcome. On any exception while waiting (e.g. ``KeyboardInterrupt``)
-        the pool is stopped before it propagates: a half-finished batch cannot be resumed."""
-        self._state = AsyncState.DEFAULT
-        try:
-            return self._dispatcher.gather(timeout, doing)
-        except BaseException:
+    def _interrupted(self) -> None:
+        """The interrupt policy, for a ``KeyboardInterrupt`` or ``SystemExit`` in any public call
+        (`modelicagym.vector.parent.call_state_checks.public_call`): if a command is being sent (the call state
+        says one is pending, or :meth:`_sending` is under way), or was sent and not all its answers
+        received (running, or half-collected, partial batches included), the pool is stopped
+        (``close()`` is then immediate): such a command cannot be resumed. Before anything was
+        sent, or once everything was received, the pool is left as it was and stays usable."""
+        out = self._sending_now or self._state is not AsyncState.DEFAULT or self._dispatcher.in_flight
+        if out and not self.closed:
             self._abort()
+
+    @contextmanager
+    def _sending(self) -> Iterator[None]:
+        """Marks where a command is being sent with what prepares it (``init="once"``'s first
+        reset), for :meth:`_interrupted`; an error that is not an interrupt leaves the pool usable."""
+        self._sending_now = True
+        try:
+            yield
+        except (KeyboardInterrupt, SystemExit):
             raise
+        except BaseException:
+            self._sending_now = False
+            raise
+        self._sending_now = False
 
     def _abort(self) -> None:
         """Stop every worker and free everything, without waiting for the envs to close.
@@ -801,20 +784,11 @@ class PoolVectorEnv(VectorEnv):
         unless the caller still holds observations returned with ``copy=False``.
         """
         self._state = AsyncState.DEFAULT
+        self._sending_now = False
         self._workers.release()
         self._dispatcher.release()
         self._buffers = self._actions = None
         self.closed = True
-
-    @contextmanager
-    def _stopped_on_interrupt(self) -> Iterator[None]:
-        """A Ctrl-C (or ``SystemExit``) while a command is being sent stops the pool: a half-sent
-        command cannot be resumed, and ``close()`` is then immediate."""
-        try:
-            yield
-        except (KeyboardInterrupt, SystemExit):
-            self._abort()
-            raise
 
     def _assert_is_running(self) -> None:
         check_open(self.closed, type(self).__name__)

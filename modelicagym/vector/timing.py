@@ -22,9 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-__all__ = ["StepTiming", "TimingRecorder"]
+__all__ = ["StepTiming"]
 
 
 @dataclass(frozen=True)
@@ -40,37 +38,3 @@ class StepTiming:
     env_python_total_s: float
     #: what runs where and why (``PoolVectorEnv.layout``), when read
     layout: str = ""
-
-
-class TimingRecorder:
-    """Accumulates per-batch measurements; :meth:`summary` turns them into a :class:`StepTiming`."""
-
-    def __init__(self) -> None:
-        self.clear()
-
-    def clear(self) -> None:
-        """Forget all measurements."""
-        self._steps = 0
-        self._sums = [0] * 6
-
-    def add(self, wall_ns: int, env_ns: np.ndarray, fmu_ns: np.ndarray) -> None:
-        """Record one batch: its wall time and each worker's env and FMU time (nanoseconds).
-
-        Plain Python integers: a handful of numpy calls would cost more than a light batch step."""
-        envs, fmus = env_ns.tolist(), fmu_ns.tolist()
-        critical = envs.index(max(envs))
-        env_total, fmu_total = sum(envs), sum(fmus)
-        critical_env, critical_fmu = envs[critical], fmus[critical]
-        sums = self._sums
-        sums[0] += wall_ns
-        sums[1] += critical_fmu
-        sums[2] += critical_env - critical_fmu
-        sums[3] += wall_ns - critical_env
-        sums[4] += fmu_total
-        sums[5] += env_total - fmu_total
-        self._steps += 1
-
-    def summary(self) -> StepTiming:
-        """Means per batch step so far (zeros if nothing was measured)."""
-        steps = max(self._steps, 1)
-        return StepTiming(self._steps, *(total / steps / 1e9 for total in self._sums))

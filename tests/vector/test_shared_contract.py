@@ -16,8 +16,8 @@ from gymnasium.vector import AutoresetMode
 import modelicagym
 from modelicagym.errors import ModelicaGymError
 from modelicagym.native.abi import MgBatch
-from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.slice.native_slice import SLICE_FIELDS, NativeBatch, check_batch_contract
+from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.shared_fields import SHARED_FIELDS, Values
 
 

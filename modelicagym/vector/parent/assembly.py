@@ -51,10 +51,12 @@ def assemble(
     start_method: str,
     config: WorkerConfig,
     adapt_layout: bool | None,
+    max_concurrency: int | None = None,
 ) -> PoolParts:
     """Start a worker per slice of the layout, create the caller's slice here (if it is safe
     there, with ``layout.caller_if_safe``: see the module docstring), share memory, place the envs
-    (`modelicagym.vector.parent.placement`) and set up the dispatcher; on any failure release it all and
+    (`modelicagym.vector.parent.placement`) and set up the dispatcher (at most ``max_concurrency`` parties
+    running a step or reset at once); on any failure release it all and
     raise."""
     slices, local_slice = list(layout.worker_slices), layout.caller_slice
     ask = layout.caller_if_safe and not all(map(fn_safe_in_caller, env_fns[local_slice.start : local_slice.stop]))
@@ -90,5 +92,5 @@ def assemble(
         workers.release()
         raise
     dispatcher = Dispatcher(workers.handles, local, workers.buffers, config.spin_time, config.step_timeout,
-                            placement.stepping)
+                            placement.stepping, max_concurrency)
     return PoolParts(workers, placement, dispatcher, first)

@@ -1,4 +1,5 @@
-"""The checks every public call of the pool makes first: one thread at a time, the pool open,
+"""The checks every public call of the pool makes first: one thread at a time (with the interrupt
+policy, in the same decorator: :func:`public_call`), the pool open,
 and the asynchronous call state (``AsyncVectorEnv``'s: a ``*_wait`` needs its ``*_async``, nothing
 else may start while one is pending), with Gymnasium's errors and messages."""
 
@@ -13,20 +14,28 @@ from gymnasium.vector.async_vector_env import AsyncState
 
 from modelicagym.vector.errors import ConcurrentUseError, NoPendingCallError, PendingCallError, PoolClosedError
 
-__all__ = ["check_idle", "check_open", "check_waiting", "one_thread_at_a_time"]
+__all__ = ["check_idle", "check_open", "check_waiting", "public_call"]
 
 
-def one_thread_at_a_time(method: Callable[..., Any]) -> Callable[..., Any]:
-    """``method`` as a public call of the pool: a second thread that calls while another is inside a
-    call gets `ConcurrentUseError` at once (a pool's calls share one state and one set of workers;
-    two threads interleaving them hung). The calling thread claims the pool (its ``_user`` dict)
-    with one atomic ``dict.setdefault`` (~0.15 us), not a lock: a Ctrl-C that lands between
-    claiming and the ``try`` leaves a claim only this same thread holds, which its next call
-    clears, where a lock would stay taken."""
-    name = method.__name__.lstrip("_")
+def public_call(method: Callable[..., Any]) -> Callable[..., Any]:
+    """Decorates each public call of the pool (a plain ``def``, name and docstring kept) with
+    what every one of them needs:
+
+    - **One thread at a time**: a second thread that calls while another is inside a call gets
+      `ConcurrentUseError` at once (a pool's calls share one state and one set of workers; two
+      threads interleaving them hung). The calling thread claims the pool (its ``_user`` dict) with
+      one atomic ``dict.setdefault`` (~0.15 us), not a lock: a Ctrl-C that lands between claiming
+      and the ``try`` leaves a claim only this same thread holds, which its next call clears, where
+      a lock would stay taken.
+    - **The interrupt policy**: a ``KeyboardInterrupt`` or ``SystemExit`` that escapes the call
+      goes to the pool's ``_interrupted()`` first, which decides what is left of the pool (see
+      `PoolVectorEnv._interrupted`), then propagates.
+
+    A public call never calls another (they share private helpers), so claims do not nest."""
+    name = method.__name__
 
     @functools.wraps(method)
-    def exclusive(self: Any, *args: Any, **kwargs: Any) -> Any:
+    def guarded(self: Any, *args: Any, **kwargs: Any) -> Any:
         me = threading.get_ident()
         if self._user.setdefault("thread", me) != me:
             raise ConcurrentUseError(
@@ -35,11 +44,13 @@ def one_thread_at_a_time(method: Callable[..., Any]) -> Callable[..., Any]:
             )
         try:
             return method(self, *args, **kwargs)
+        except (KeyboardInterrupt, SystemExit):
+            self._interrupted()
+            raise
         finally:
             self._user.pop("thread", None)
 
-    exclusive.__name__ = exclusive.__qualname__ = name
-    return exclusive
+    return guarded
 
 
 def check_open(closed: bool, owner: str) -> None:

@@ -114,3 +114,15 @@ def check_async_vector_env_options(
         raise ConfigError("a custom worker function is not supported: the pool's workers run modelicagym's own "
                           "command loop (use AsyncVectorEnv for a custom worker)")
     return start_method or context
+
+
+def check_max_concurrency(max_concurrency: Any) -> int | None:
+    """``max_concurrency`` as ``AsyncVectorEnv`` takes it (same checks, same messages): ``None``
+    or a positive integer."""
+    if max_concurrency is not None:
+        if not isinstance(max_concurrency, (int, np.integer)):
+            raise ConfigTypeError(f"`max_concurrency` must be an integer or None, got {type(max_concurrency)}.")
+        if max_concurrency < 1:
+            raise ConfigError(f"`max_concurrency` must be a positive or None, got {max_concurrency}.")
+        return int(max_concurrency)
+    return None

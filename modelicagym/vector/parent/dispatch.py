@@ -1,46 +1,64 @@
-"""Sending commands to the pool's parties and gathering their answers over shared memory.
+"""The pool's one dispatcher: ``send`` commands to its parties, ``recv`` what they answer.
 
-A :class:`Dispatcher` is the parent's side of the protocol (see :mod:`~modelicagym.vector.wire.protocol`):
-it posts command codes to every party (:mod:`~modelicagym.vector.parent.party`: the worker processes, and
-the calling process's own slice when ``caller_steps``), sends the messages that go with rare
-commands, lets the calling process run its share while the workers run theirs, and waits for every
-party it woke. It knows which parties it is waiting for, but nothing of the Gymnasium API or of what
-a failure means for the pool: those are the pool's and :mod:`~modelicagym.vector.parent.recovery`'s
-business.
+A :class:`Dispatcher` is the calling process's side of the protocol (see
+:mod:`~modelicagym.vector.wire.protocol`). Its primitives are EnvPool's: :meth:`~Dispatcher.send`
+posts commands to some parties (:mod:`~modelicagym.vector.parent.party`: the worker processes, and the
+calling process's own slice when ``caller_steps``) and returns at once; :meth:`~Dispatcher.recv`
+waits for every party sent to, :meth:`~Dispatcher.recv_any` for the first ones done (partial
+batches). A whole-batch step is ``send_step`` + :meth:`~Dispatcher.run_own_slice` + ``recv``, a
+partial batch ``send`` + ``recv_any``: one path, whichever the batch. The calling process's own
+slice runs only when :meth:`~Dispatcher.run_own_slice` is called, never as a side effect of a wait.
+
+With ``max_concurrency``, at most that many parties run a step or reset at once (each party runs
+its envs one after the other, so at most that many envs do): the others' commands are held here
+and posted as the first ones' answers come in.
+
+It knows which parties it is waiting for, but nothing of the Gymnasium API or of what a failure
+means for the pool: those are the pool's and :mod:`~modelicagym.vector.parent.recovery`'s business.
 """
 
 from __future__ import annotations
 
 import time
+from collections import deque
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
 import numpy as np
 
-from modelicagym.native.abi import COLLECT_DONE, COLLECT_LOCAL_PYTHON, MgWaiter
+from modelicagym.native.abi import COLLECT_DONE, MgWaiter
+from modelicagym.vector.parent.deadline import Deadline
 from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
-from modelicagym.vector.parent.worker_handle import WorkerHandle
+from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.slice.native_slice import NativeCollector
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message
-from modelicagym.vector.wire.sync import FutexSignal
+from modelicagym.vector.wire.sync import FutexSignal, machine_crowded
 
 __all__ = ["Dispatcher"]
 
+#: how long :meth:`Dispatcher.recv_any` blocks on one busy party before it looks at the others again (seconds)
+_POLL_BLOCK = 0.0002
+
+#: the commands that run envs' ``step`` or ``reset`` (``max_concurrency`` limits those, as ``AsyncVectorEnv`` does)
+_ENV_RUNNING_CODES = frozenset({Command.STEP, Command.RESET, Command.RESET_EMPTY_OPTIONS})
+_ENV_RUNNING_KINDS = frozenset({Kind.STEP, Kind.RESET})
+
 
 class Dispatcher:
-    """Posts commands to the pool's parties and collects what they answer.
+    """Sends commands to the pool's parties and receives what they answer.
 
     Args:
         handles: the workers, indexed like the shared ``command`` slots.
         local: the slice of envs the calling process steps itself, or ``None``.
         buffers: the pool's shared memory.
         spin_time: seconds a wait polls before it blocks (see :mod:`~modelicagym.vector.wire.sync`).
-        step_timeout: default timeout of a gather; ``None`` waits as long as the workers live.
+        step_timeout: default timeout of a ``recv``; ``None`` waits as long as the workers live.
         stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.parent.placement`);
             a step wakes only those. Call :meth:`stepping_changed` after it changes.
+        max_concurrency: at most this many parties run a step or reset at once (``None``: all).
     """
 
     def __init__(
@@ -51,6 +69,7 @@ class Dispatcher:
         spin_time: float,
         step_timeout: float | None,
         stepping: np.ndarray,
+        max_concurrency: int | None = None,
     ) -> None:
         self.handles = handles
         self.stepping = stepping
@@ -58,7 +77,15 @@ class Dispatcher:
         self.buffers = buffers
         self.spin_time = spin_time
         self.step_timeout = step_timeout
+        self.max_concurrency = max_concurrency
+        #: commands sent and not yet received (posted, or held for ``max_concurrency``), in send order
         self.pending: list[PendingCommand] = []
+        #: commands held until fewer than ``max_concurrency`` parties run envs, with their pickled messages
+        self._held: deque[tuple[PendingCommand, bytes | None]] = deque()
+        #: posted env-running commands not yet received (what ``max_concurrency`` bounds)
+        self._running = 0
+        #: per party index, when its command was posted (``time.monotonic()``; for :meth:`recv_any`)
+        self._posted_at: dict[int, float] = {}
         #: the calling process's slice as a party, or ``None``
         self.caller = None if local is None else CallerParty(local, buffers)
         #: every party in slot order: the workers, then the calling process
@@ -68,32 +95,33 @@ class Dispatcher:
         self.stepping_changed()
         #: the command slots hold STEP for every worker (so a step need not write them again)
         self._slots_say_step = False
+        #: the command out is a whole batch's step (:meth:`send_step`): ``recv`` tries its hot path
+        self._step_sent = False
         self._replies = memoryview(buffers.reply)
         #: the adaptive state of the native collection's waits (see ``FutexSignal``)
         self.waiter = MgWaiter()
-        #: the calling process's native slice ends its steps in Python (`~modelicagym.vector.slice.slice_endings`):
-        #: it steps before the native collection, which then only waits for the workers
-        self._local_in_python = local is not None and local.endings is not None
         self._collector = self._native_collector()
+        #: how the calling process's slice runs a step: in one C call if it is native with no endings
+        #: of its own in Python (`CallerParty.run_native_step`), else as any command
+        self._own_step = None if self.caller is None else (
+            self.caller.run_native_step if local.native is not None and local.endings is None else self.caller.run)
+        #: nanoseconds the calling process stepped its slice, and steps that woke no worker (so no
+        #: native collection), since the last `take_collect_times`
+        self._own_ns = self._own_calls = 0
 
     def _native_collector(self) -> NativeCollector | None:
-        """The native step's collection (``mg_collect``) when the signals live in shared memory
-        and the caller's slice, if any, steps natively; else ``None`` (the Python path)."""
+        """The native wait for a step's workers (``mg_collect``) when their signals live in shared
+        memory (with no workers: when the calling process's slice is native, so the library is
+        loaded; the wait is then one call that finds nothing to wait for); else ``None`` (the Python
+        waits)."""
         if not all(isinstance(handle.done, FutexSignal) for handle in self.handles):
             return None
-        if self.local is not None and self.local.native is None:
-            return None
-        if not self.handles and (self.local is None or self._local_in_python):
+        if not self.handles and (self.local is None or self.local.native is None):
             return None
         timeout = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         return NativeCollector(
-            None if self.local is None or self._local_in_python else self.local.native,
-            [handle.done.address for handle in self.handles],
-            self.buffers.reply[: len(self.handles)],
-            self.stepping,
-            self.spin_time,
-            timeout,
-            self.waiter,
+            None, [handle.done.address for handle in self.handles], self.buffers.reply[: len(self.handles)],
+            self.stepping, self.spin_time, timeout, self.waiter,
         )
 
     def stepping_changed(self) -> None:
@@ -101,37 +129,59 @@ class Dispatcher:
         calling process, which always takes part)."""
         self._stepping_parties = [party for party in self._parties if party.in_caller or self.stepping[party.index]]
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
+        #: a step wakes at least one worker
+        self._workers_step = any(party is not self.caller for party in self._stepping_parties)
+
+    @property
+    def in_flight(self) -> bool:
+        """Whether a command was sent and not all its answers received (a half-done command)."""
+        return bool(self.pending)
 
     def take_collect_times(self) -> tuple[int, int, int] | None:
-        """Native collections since the last take, and their nanoseconds on the local slice, then
-        waiting for the workers; ``None`` on the Python path."""
-        return None if self._collector is None else self._collector.take_times()
+        """Native collections since the last take, and their nanoseconds on the local slice (in
+        :meth:`run_own_slice`), then waiting for the workers; ``None`` on the Python path."""
+        if self._collector is None:
+            return None
+        calls, local_ns, wait_ns = self._collector.take_times()
+        own_ns, own_calls, self._own_ns, self._own_calls = self._own_ns, self._own_calls, 0, 0
+        return calls + own_calls, local_ns + own_ns, wait_ns
 
     def release(self) -> None:
         """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""
         self.pending = []
+        self._held.clear()
+        self._running = 0
+        if self.buffers is None:
+            return
         self.buffers = self._replies = self._collector = None
         if self.caller is not None:
             self.caller.close()
             close_envs(self.local.envs)
             self.local.detach()
 
-    def step_all(self) -> None:
-        """The hot path of :meth:`dispatch`: every worker steps; no messages, no allocation
-        (except for actions with no shared-memory layout, sent in a ``STEP`` message)."""
+    # ------------------------------------------------------------------ send
+
+    def send_step(self) -> None:
+        """Every stepping party steps with the actions in shared memory: the hot path of
+        :meth:`send`, with no messages and no allocation (except for actions with no shared-memory
+        layout, sent in a ``STEP`` message, or when ``max_concurrency`` holds parties back)."""
         actions = self.buffers.actions
         if actions.pickled:
-            self.dispatch([
+            self.send([
                 PendingCommand(party, Command.MESSAGE, Message(Kind.STEP, actions.values(party.env_indices)))
                 for party in self._parties
             ])
-            return
-        if not self._slots_say_step:
-            self.buffers.command[:] = Command.STEP
-            self._slots_say_step = True
-        for party in self._stepping_parties:
-            party.post(Command.STEP, None, None, None)
-        self.pending = self._step_all
+        else:
+            if not self._slots_say_step:
+                self.buffers.command[:] = Command.STEP
+                self._slots_say_step = True
+            if self.max_concurrency is not None and len(self._stepping_parties) > self.max_concurrency:
+                self.send(self._step_all, slots_hold_code=True)
+            else:
+                self.pending = self._step_all  # before posting: a Ctrl-C half-way still shows the command out
+                for party in self._stepping_parties:
+                    party.post(Command.STEP, None, None, None)
+        self._step_sent = True
 
     def reset(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray) -> None:
         """Reset the envs selected by ``mask`` (workers with none selected are not woken).
@@ -151,7 +201,7 @@ class Dispatcher:
             else:
                 message = Message(Kind.RESET, (seeds[indices.start : indices.stop], options_for(options, indices)))
                 commands.append(PendingCommand(party, Command.MESSAGE, message))
-        self.dispatch(commands)
+        self.send(commands)
 
     def call_each(self, name: str, args: list[tuple[Any, ...] | None]) -> None:
         """Call method ``name`` of env ``i`` with its own arguments ``args[i]`` (``None``: not called)."""
@@ -172,43 +222,118 @@ class Dispatcher:
     def close(self) -> list[WorkerHandle]:
         """Tell every living worker to close its envs and exit; returns those workers (to join)."""
         alive = [handle for handle in self.handles if handle.is_alive()]
-        self.dispatch([PendingCommand(handle, Command.MESSAGE, Message(Kind.CLOSE)) for handle in alive])
+        self.send([PendingCommand(handle, Command.MESSAGE, Message(Kind.CLOSE)) for handle in alive])
         self.pending = []
         return alive
 
     def _message_all(self, message_for: Any) -> None:
-        self.dispatch([PendingCommand(party, Command.MESSAGE, message_for(party)) for party in self._parties])
+        self.send([PendingCommand(party, Command.MESSAGE, message_for(party)) for party in self._parties])
 
-    def dispatch(self, commands: list[PendingCommand]) -> None:
-        """Post each party its command (and message).
+    def send(self, commands: list[PendingCommand], slots_hold_code: bool = False) -> None:
+        """Post each party its command (and message), or hold it while ``max_concurrency``
+        parties run envs; returns at once.
 
         Messages are pickled before anything else happens, so an unpicklable argument raises here
-        with no worker woken. A worker that died meanwhile is reported by :meth:`gather`.
+        with no worker woken. A worker that died meanwhile is reported by the ``recv``. With
+        ``slots_hold_code`` the shared command slots already hold every command's code.
         """
         payloads: dict[int, bytes] = {}
         for command in commands:
             if command.message is not None and id(command.message) not in payloads:
                 payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
-        slots = self.buffers.command
-        self._slots_say_step = False
-        for party, code, message in commands:
-            party.post(code, message, None if message is None else payloads[id(message)], slots)
-        self.pending = commands
+        if self.max_concurrency is not None:  # the calling process's own command first: it is never held
+            commands = sorted(commands, key=lambda command: not command.party.in_caller)
+        if not slots_hold_code:
+            self._slots_say_step = False
+        self._step_sent = False
+        self.pending = [*self.pending, *commands]
+        now = time.monotonic()
+        for command in commands:
+            payload = None if command.message is None else payloads[id(command.message)]
+            if self.max_concurrency is not None and _runs_envs(command):
+                if self._running >= self.max_concurrency:
+                    self._held.append((command, payload))
+                    continue
+                self._running += 1
+            self._post(command, payload, now, slots_hold_code)
 
-    def all_done(self, timeout: float | None) -> bool:
-        """The hot path of :meth:`gather`: ``True`` if every pending worker posted ``done`` within
-        one spin-then-block wait and none has a reply on its pipe; the batch is then complete.
+    def _post(self, command: PendingCommand, payload: bytes | None, now: float, slots_hold_code: bool) -> None:
+        party = command.party
+        self._posted_at[party.index] = now
+        party.post(command.code, command.message, payload, None if slots_hold_code else self.buffers.command)
 
-        Otherwise (``False``) nothing is lost: the workers already seen done are left to
-        :meth:`gather`, which sees them done at once and handles replies, deaths and timeouts.
+    def _answered(self, command: PendingCommand) -> None:
+        """``command``'s party answered: with ``max_concurrency``, post the next held command."""
+        if self.max_concurrency is None or not _runs_envs(command):
+            return
+        self._running -= 1
+        if self._held:
+            held, payload = self._held.popleft()
+            self._running += 1
+            self._post(held, payload, time.monotonic(), self._slots_say_step and held.code == Command.STEP)
+
+    def _is_held(self, command: PendingCommand) -> bool:
+        return any(held is command for held, _ in self._held)
+
+    # ------------------------------------------------------------------ the calling process's share
+
+    def run_own_slice(self) -> None:
+        """The calling process runs its own slice's command (step, reset, call) now, while the
+        workers run theirs; its answer waits for ``recv``. Nothing to do without ``caller_steps``."""
+        caller = self.caller
+        if caller is None:
+            return
+        if self.pending is not self._step_all:
+            caller.run()
+        elif self._collector is None:
+            self._own_step()
+        else:  # a step the native collection accounts (`take_collect_times`)
+            started = time.perf_counter_ns()
+            self._own_step()
+            self._own_ns += time.perf_counter_ns() - started
+
+    # ------------------------------------------------------------------ recv
+
+    def recv(self, timeout: float | None, doing: str) -> list[Outcome]:
+        """Wait for every party sent to; the outcome of each that answered with a message or
+        failed (parties done with nothing to say are left out: on the hot path, all of them).
+
+        ``timeout`` (seconds, for all parties together) defaults to ``step_timeout``; ``doing``
+        names what the parties were asked to do, for error messages. A party whose env failed
+        (an ``ERROR`` reply) has that failure as an :class:`~modelicagym.vector.errors.EnvError`.
         """
-        pending = self.pending
-        if self._collector is not None and pending is self._step_all and timeout == self.step_timeout:
-            return self._collect()
-        block = LIVENESS_INTERVAL if timeout is None else min(timeout, LIVENESS_INTERVAL)
+        if self._step_sent and timeout is None and not self._held and self._done_quietly():
+            self.pending = []
+            return []
+        deadline = Deadline.after(self.step_timeout if timeout is None else timeout)
+        outcomes = []
+        buffers = self.buffers
+        for command in list(self.pending):
+            message, failure = command.party.answer(deadline.at, doing, buffers.reply, buffers.current_env)
+            self._answered(command)
+            outcome = self._outcome(command, message, failure, doing)
+            if outcome.message is not None or outcome.failure is not None:
+                outcomes.append(outcome)
+        self.pending = []
+        return outcomes
+
+    def _done_quietly(self) -> bool:
+        """The hot path of :meth:`recv`: ``True`` if every pending party is done within one
+        spin-then-block wait with nothing to say (no reply on its pipe); the command is then
+        complete. Otherwise (``False``) nothing is lost: the parties already seen done are left
+        to the slow path, which sees them done at once and handles replies, deaths and timeouts."""
+        self._step_sent = False
+        pending, caller = self.pending, self.caller
+        if pending is self._step_all:
+            if caller is not None and self._replies[caller.index]:
+                return False
+            if not self._workers_step:  # every env is the calling process's: no one to wait for
+                self._own_calls += 1
+                return True
+            if self._collector is not None:
+                return self._collector.collect() == COLLECT_DONE
+        block = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         spin_time = self.spin_time
-        for command in pending:
-            command.party.run()
         for k, command in enumerate(pending):
             if not command.party.poll_done(spin_time, block):
                 self._repost(pending[:k])
@@ -216,34 +341,73 @@ class Dispatcher:
         if any(self._replies):
             self._repost(pending)
             return False
-        self.pending = []
         return True
-
-    def _collect(self) -> bool:
-        """:meth:`all_done` for a plain step, in one native call (see ``mg_collect``): it steps the
-        calling process's native slice itself, so that party's posted step is dropped (unless that
-        slice ends its steps in Python: it steps here first, and a reply of its own takes the slow path)."""
-        if self.caller is not None and self._local_in_python:
-            started = time.perf_counter_ns()
-            self.caller.run()
-            if self._replies[self.caller.index]:
-                return False
-            self._collector.add_local_time(time.perf_counter_ns() - started)
-        elif self.caller is not None:
-            self.caller.forget()
-        status = self._collector.collect()
-        if status == COLLECT_DONE:
-            self.pending = []
-            return True
-        if status == COLLECT_LOCAL_PYTHON:
-            self.caller.finish_native_step()
-        return False
 
     @staticmethod
     def _repost(seen_done: list[PendingCommand]) -> None:
-        """Undo what successful waits consumed, so that :meth:`gather` sees those parties done."""
+        """Undo what successful waits consumed, so that the slow path sees those parties done."""
         for command in seen_done:
             command.party.repost()
+
+    def recv_any(self, doing: str) -> list[Outcome]:
+        """Wait until at least one posted party is done; the outcomes of every party done by then
+        (silent ones too: the caller learns which are done), the others stay pending. A party that
+        died, or overran ``step_timeout`` since its command was posted, answers with its failure."""
+        posted = [command for command in self.pending if not self._is_held(command)]
+        spin_until = time.monotonic() + (0.0 if machine_crowded() else self.spin_time)
+        while True:
+            done = self._take_done(posted, 0.0, doing)
+            if done or time.monotonic() >= spin_until:
+                break
+        while not done:
+            done = self._take_done(posted, _POLL_BLOCK / len(posted), doing)
+            if not done:
+                done = [outcome for command in posted if (outcome := self._overdue(command, doing)) is not None]
+        taken = {id(outcome.command) for outcome in done}
+        self.pending = [command for command in self.pending if id(command) not in taken]
+        for outcome in done:
+            self._answered(outcome.command)
+        return done
+
+    def _take_done(self, posted: list[PendingCommand], block: float, doing: str) -> list[Outcome]:
+        """The outcomes of the parties of ``posted`` that are done (blocking up to ``block`` on each)."""
+        return [self._read(command, doing) for command in posted if command.party.poll_done(0.0, block)]
+
+    def _read(self, command: PendingCommand, doing: str) -> Outcome:
+        """The outcome of a party seen done."""
+        buffers = self.buffers
+        message, failure = command.party.read_reply(None, doing, buffers.reply, buffers.current_env)
+        return self._outcome(command, message, failure, doing)
+
+    def _overdue(self, command: PendingCommand, doing: str) -> Outcome | None:
+        """``command``'s outcome if its worker died or overran ``step_timeout`` (its failure, or
+        its answer if it finished meanwhile); else ``None``."""
+        party = command.party
+        running = time.monotonic() - self._posted_at[party.index]
+        overran = self.step_timeout is not None and running > self.step_timeout
+        if not overran and (running <= LIVENESS_INTERVAL or party.process.is_alive()):
+            return None
+        if party.poll_done(0.0, 0.0):
+            return self._read(command, doing)
+        status = WaitStatus.TIMED_OUT if overran else WaitStatus.DIED
+        return Outcome(command, None, party.failure(status, int(self.buffers.current_env[party.index]), doing))
+
+    def _outcome(self, command: PendingCommand, message: Message | None, failure: Any, doing: str) -> Outcome:
+        """A party's answer as an :class:`Outcome`: an ``ERROR`` reply becomes its failure, an
+        ``OBSERVATIONS`` reply is stored (its infos left as the message)."""
+        party = command.party
+        if message is not None and message.kind is Kind.ERROR:
+            failure = message.data.to_env_error(party.index, doing, party.process if party.in_caller else None)
+            message = None
+        elif message is not None and message.kind is Kind.OBSERVATIONS:
+            message = self._take_observations(message)
+        return Outcome(command, message, failure)
+
+    def _take_observations(self, message: Message) -> Message | None:
+        """Store the observations an ``OBSERVATIONS`` reply carries; the ``INFOS`` reply left."""
+        first, observations, infos = message.data
+        self.buffers.observations.store(first, observations)
+        return Message(Kind.INFOS, infos) if infos else None
 
     def call_results(self, outcomes: list[Outcome], doing: str, named: bool = False) -> list[Any]:
         """The results of ``call`` (or ``set_attr``) in env order, from outcomes without failures;
@@ -256,47 +420,23 @@ class Dispatcher:
             message = outcome.message
             if message is None:
                 continue
+            party = outcome.command.party
             if message.kind is Kind.CALL_ERROR:
                 remote = message.data
                 original = None if named else remote.original()
-                party = outcome.party
                 raise original if original is not None else remote.to_env_error(
                     party.index, doing, party.process if party.in_caller else None)
-            here = outcome.party.in_caller
-            for index, value in zip(outcome.party.env_indices, message.data):
-                if bool(in_caller[index]) == here:
+            for index, value in zip(party.env_indices, message.data):
+                if bool(in_caller[index]) == party.in_caller:
                     results[index] = value
         return [results[index] for index in sorted(results)]
 
-    def gather(self, timeout: float | None, doing: str) -> list[Outcome]:
-        """Wait for every pending worker; per worker its reply message and/or its failure.
 
-        ``timeout`` (seconds, for all workers together) defaults to ``step_timeout``; ``doing``
-        names what the workers were asked to do, for error messages. A worker whose env failed
-        (an ``ERROR`` reply) has that failure as an :class:`~modelicagym.vector.errors.EnvError`.
-        """
-        if timeout is None:
-            timeout = self.step_timeout
-        deadline = None if timeout is None else time.monotonic() + timeout
-        pending, self.pending = self.pending, []
-        for command in pending:
-            command.party.run()
-        buffers, outcomes = self.buffers, []
-        for command in pending:
-            party = command.party
-            message, failure = party.answer(deadline, doing, buffers.reply, buffers.current_env)
-            if message is not None and message.kind is Kind.ERROR:
-                failure = message.data.to_env_error(party.index, doing, party.process if party.in_caller else None)
-            elif message is not None and message.kind is Kind.OBSERVATIONS:
-                message = self._take_observations(message)
-            outcomes.append(Outcome(party, message, failure))
-        return outcomes
-
-    def _take_observations(self, message: Message) -> Message | None:
-        """Store the observations an ``OBSERVATIONS`` reply carries; the ``INFOS`` reply left."""
-        first, observations, infos = message.data
-        self.buffers.observations.store(first, observations)
-        return Message(Kind.INFOS, infos) if infos else None
+def _runs_envs(command: PendingCommand) -> bool:
+    """Whether ``command`` runs envs' ``step`` or ``reset`` (what ``max_concurrency`` limits)."""
+    if command.code == Command.MESSAGE:
+        return command.message.kind in _ENV_RUNNING_KINDS
+    return command.code in _ENV_RUNNING_CODES
 
 
 def options_for(options: dict[str, Any] | None, indices: range) -> dict[str, Any] | None:

@@ -10,8 +10,10 @@ Workers step whole slices, so the unit of work here is the part of a worker's sl
 sent: the shared ``step_mask`` says which of its envs a ``STEP`` steps (on the native path too),
 and a worker still busy when more of its envs are sent gets them as soon as it finishes. Each env
 keeps its own autoreset (``NEXT_STEP``), so its trajectory is the one ``SyncVectorEnv`` gives for
-the same seed and actions, whatever order the envs come back in. A worker that fails stops the
-pool, as an ordinary step does without ``restart_dead_workers`` (partial batches restart nothing).
+the same seed and actions, whatever order the envs come back in. The commands go through the
+pool's one dispatcher (``send``, then ``recv_any`` for the first workers done: `modelicagym.vector.parent.dispatch`),
+and a worker that fails stops the pool through its recovery (`modelicagym.vector.parent.recovery`: partial
+batches restart nothing).
 
 Example::
 
@@ -25,7 +27,6 @@ Example::
 
 from __future__ import annotations
 
-import time
 from collections import deque
 from typing import Any
 
@@ -35,54 +36,40 @@ from gymnasium.vector.utils import concatenate, create_empty_array
 from modelicagym.errors import ArgumentError
 from modelicagym.vector.parent.action_writer import ActionWriter
 from modelicagym.vector.parent.argument_checks import check_env_ids
+from modelicagym.vector.parent.dispatch import Dispatcher
 from modelicagym.vector.parent.infos import add_info
-from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
-from modelicagym.vector.wire.buffers import SharedBuffers
-from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind
-from modelicagym.vector.wire.sync import machine_crowded
+from modelicagym.vector.parent.party import Outcome, PendingCommand
+from modelicagym.vector.parent.recovery import Recovery
+from modelicagym.vector.wire.protocol import Command, Kind
 
 __all__ = ["PartialBatches"]
 
-#: how long ``recv`` blocks on one busy worker before it looks at the others again (seconds)
-_POLL_BLOCK = 0.0002
-
 
 class PartialBatches:
-    """The parent's side of partial batches for a pool whose envs all live in workers.
+    """The calling process's side of partial batches for a pool whose envs all live in workers.
 
     Args:
-        handles: the pool's workers, in slot order.
-        buffers: the pool's shared memory.
+        dispatcher: the pool's dispatcher (its parties are the workers, in slot order).
+        recovery: the pool's recovery, which a worker's failure goes to.
         actions: the pool's action writer (actions are checked as for a whole batch).
         batch_size: how many envs :meth:`recv` returns.
-        spin_time: seconds to poll a worker before blocking.
-        step_timeout: seconds a worker may take for one step (``None``: no limit).
     """
 
-    def __init__(
-        self,
-        handles: list[WorkerHandle],
-        buffers: SharedBuffers,
-        actions: ActionWriter,
-        batch_size: int,
-        spin_time: float,
-        step_timeout: float | None,
-    ) -> None:
-        self.handles = handles
-        self.buffers = buffers
+    def __init__(self, dispatcher: Dispatcher, recovery: Recovery, actions: ActionWriter, batch_size: int) -> None:
+        self.dispatcher = dispatcher
+        self.recovery = recovery
+        self.handles = dispatcher.handles
+        self.buffers = buffers = dispatcher.buffers
         self.actions = actions
         self.batch_size = batch_size
-        self.spin_time = spin_time
-        self.step_timeout = step_timeout
         n = buffers.rewards.shape[0]
         self.num_envs = n
         self._owner = np.empty(n, dtype=np.int64)
-        for k, handle in enumerate(handles):
+        for k, handle in enumerate(self.handles):
             self._owner[handle.env_indices.start : handle.env_indices.stop] = k
         #: per worker: the env ids it is stepping now, and those sent while it was busy
-        self._stepping: list[list[int]] = [[] for _ in handles]
-        self._queued: list[list[int]] = [[] for _ in handles]
-        self._started = [0.0] * len(handles)
+        self._stepping: list[list[int]] = [[] for _ in self.handles]
+        self._queued: list[list[int]] = [[] for _ in self.handles]
         #: env ids whose results are in and not yet returned, in the order they came in
         self._ready: deque[int] = deque()
         self._infos: dict[int, dict[str, Any]] = {}
@@ -154,62 +141,30 @@ class PartialBatches:
         return ids
 
     def _dispatch(self, k: int, ids: list[int]) -> None:
-        """Wake worker ``k`` to step envs ``ids`` of its slice (it is idle)."""
+        """Send worker ``k`` a step of envs ``ids`` of its slice (it is idle)."""
         handle, buffers = self.handles[k], self.buffers
         indices = handle.env_indices
-        mask = buffers.step_mask[indices.start : indices.stop]
-        mask[:] = 0
+        buffers.step_mask[indices.start : indices.stop] = 0
         buffers.step_mask[ids] = 1
         self._stepping[k] = ids
-        self._started[k] = time.monotonic()
-        handle.post(Command.STEP, None, None, buffers.command)
+        self.dispatcher.send([PendingCommand(handle, Command.STEP)])
 
     def _collect(self) -> None:
         """Wait until at least one busy worker is done; take in the results of every done one
         (all of them, so that no worker's results wait behind a faster worker's)."""
-        busy = [k for k, ids in enumerate(self._stepping) if ids]
-        deadline = time.monotonic() + (0.0 if machine_crowded() else self.spin_time)
-        while not self._take_done(busy, 0.0):
-            if time.monotonic() >= deadline:
-                break
-        else:
-            return
-        while not self._take_done(busy, _POLL_BLOCK / len(busy)):
-            for k in busy:
-                if self._stepping[k]:
-                    self._check_alive(k)
+        for outcome in self.dispatcher.recv_any("step"):
+            self._take(outcome)
 
-    def _take_done(self, busy: list[int], block: float) -> bool:
-        """Take in every worker of ``busy`` that is done (blocking up to ``block`` on each)."""
-        took = False
-        for k in busy:
-            if self._stepping[k] and self.handles[k].poll_done(0.0, block):
-                self._take(k)
-                took = True
-        return took
-
-    def _check_alive(self, k: int) -> None:
-        """Raise the worker's failure if it died or overran ``step_timeout``."""
-        handle = self.handles[k]
-        overran = self.step_timeout is not None and time.monotonic() - self._started[k] > self.step_timeout
-        if overran or (time.monotonic() - self._started[k] > LIVENESS_INTERVAL and not handle.process.is_alive()):
-            if self._stepping[k] and handle.poll_done(0.0, 0.0):
-                self._take(k)
-                return
-            status = WaitStatus.TIMED_OUT if overran else WaitStatus.DIED
-            raise handle.failure(status, self._stepping[k][0], "step")
-
-    def _take(self, k: int) -> None:
-        """Worker ``k`` is done: its envs' results are in; send it what was queued meanwhile."""
-        handle, buffers = self.handles[k], self.buffers
+    def _take(self, outcome: Outcome) -> None:
+        """A worker answered: its envs' results are in (or its failure goes to the recovery); send
+        it what was queued meanwhile."""
+        if outcome.failure is not None:
+            self.recovery.after_partial_step(outcome.failure)
+        handle, buffers, message = outcome.party, self.buffers, outcome.message
+        k = handle.index
         ids, self._stepping[k] = self._stepping[k], []
         indices = handle.env_indices
         buffers.step_mask[indices.start : indices.stop] = 1
-        message, failure = handle.read_reply(None, "step", buffers.reply, buffers.current_env)
-        if failure is not None:
-            raise failure
-        if message is not None and message.kind is Kind.ERROR:
-            raise message.data.to_env_error(handle.index, "step", None)
         if message is not None and message.kind is Kind.INFOS:
             self._infos.update(message.data)
         for index in buffers.take_final_ready(indices.start, indices.stop).tolist():

@@ -1,12 +1,12 @@
 """The parties a pool's commands reach: a worker process, or the calling process's own slice.
 
-The dispatcher (and partial batches) talk to every party through one protocol, :class:`Party`:
-post a command, let the party run it, wait until it is done, take its answer. A worker
-(`~modelicagym.vector.parent.worker_handle.WorkerHandle`) gets its command through its shared slot and
-its ``go`` signal and runs it in its own process; the calling process's slice (:class:`CallerParty`)
-keeps the command and runs it when the dispatcher lets it, after waking the workers and before
-waiting for them, so the caller works while they do. Either answers the same way: the reply slot
-says whether a message follows.
+The dispatcher (:mod:`~modelicagym.vector.parent.dispatch`, for whole and partial batches alike) talks
+to every party through one protocol, :class:`Party`: post a command, wait until it is done, take
+its answer. A worker (`~modelicagym.vector.parent.worker_handle.WorkerHandle`) gets its command through
+its shared slot and its ``go`` signal and runs it in its own process; the calling process's slice
+(:class:`CallerParty`) keeps the command until the dispatcher's ``run_own_slice`` runs it, after
+waking the workers and before waiting for them, so the caller works while they do. Either answers
+the same way: the reply slot says whether a message follows. Waiting never runs anything.
 """
 
 from __future__ import annotations
@@ -43,9 +43,6 @@ class Party(Protocol):
         """Give it a command: ``code``, with ``message`` (pickled: ``payload``) for ``MESSAGE``;
         ``slots`` is the shared ``command`` array, ``None`` when its slot already holds ``code``."""
 
-    def run(self) -> None:
-        """Run the posted command now if the party runs in this process (a worker already does)."""
-
     def poll_done(self, spin_time: float, block: float) -> bool:
         """Whether it finished its command, waiting up to ``spin_time`` + ``block`` seconds."""
 
@@ -57,6 +54,10 @@ class Party(Protocol):
         """Wait until it is done (``deadline``: ``time.monotonic()`` or ``None``), then its reply
         message (if its ``reply`` slot says one follows) or its failure; ``doing`` names the
         command and ``current_env`` the env it was at, for messages."""
+
+    def read_reply(self, deadline: float | None, doing: str, reply: np.ndarray,
+                   current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
+        """:meth:`answer` once :meth:`poll_done` has seen it done."""
 
 
 class PendingCommand(NamedTuple):
@@ -70,16 +71,22 @@ class PendingCommand(NamedTuple):
 class Outcome(NamedTuple):
     """How one party answered a :class:`PendingCommand`: its reply message and/or its failure."""
 
-    party: Party
+    command: PendingCommand
     message: Message | None
     failure: PoolError | None
+
+    @property
+    def party(self) -> Party:
+        """The party that answered."""
+        return self.command.party
 
 
 class CallerParty:
     """The slice of envs the calling process steps itself, as a :class:`Party`.
 
-    It cannot die or time out; its command runs in :meth:`run`, and its reply (a message, if any)
-    waits here for :meth:`answer`, announced in its reply slot like a worker's.
+    It cannot die or time out; its command runs in :meth:`run` (the dispatcher's ``run_own_slice``),
+    and its reply (a message, if any) waits here for :meth:`answer`, announced in its reply slot
+    like a worker's. A command never run (the pool closed first) is dropped.
     """
 
     in_caller = True
@@ -106,7 +113,7 @@ class CallerParty:
         self._command = (code, message)
 
     def run(self) -> None:
-        """Run the posted command, once."""
+        """Run the posted command, once (nothing if none is posted)."""
         command, self._command = self._command, None
         if command is not None:
             code, message = command
@@ -116,13 +123,17 @@ class CallerParty:
             finally:
                 self.watch.leave()
 
-    def finish_native_step(self) -> None:
-        """Finish, in Python, what the native collection left of this slice's step."""
-        self.watch.enter()
-        try:
-            self.hold(self.envs.finish_native_step())
-        finally:
-            self.watch.leave()
+    def run_native_step(self) -> None:
+        """Run the posted ``STEP`` of a slice on the native path without endings of its own in
+        Python (`EnvSlice.step`'s hot path): one C call, which points the last word at this slice
+        itself; Python then finishes only what C left to it."""
+        self._command = None
+        if self.envs.native.step():
+            self.watch.enter()
+            try:
+                self.hold(self.envs.finish_native_step())
+            finally:
+                self.watch.leave()
 
     def hold(self, reply: Message | None) -> None:
         """Keep ``reply`` for :meth:`answer` (e.g. what Python finished of a native step)."""
@@ -137,7 +148,11 @@ class CallerParty:
 
     def answer(self, deadline: float | None, doing: str, reply: np.ndarray,
                current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
-        self.run()
+        return self.read_reply(deadline, doing, reply, current_env)
+
+    def read_reply(self, deadline: float | None, doing: str, reply: np.ndarray,
+                   current_env: np.ndarray) -> tuple[Message | None, PoolError | None]:
+        self._command = None
         message, self._reply = self._reply, None
         self._reply_slot[self.index] = Reply.NONE
         return message, None

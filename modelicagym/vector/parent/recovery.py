@@ -7,6 +7,8 @@ All failure handling of the pool is here, so its policy can be read in one place
 - ``restart_dead_workers=True``: the failed worker is replaced by a fresh one with fresh envs;
   what its envs report depends on what was running (see :class:`Recovery`'s methods). A failure
   of the replacement during that first command stops the pool.
+- Partial batches (``send``/``recv``) restart nothing: a failure stops the pool, whatever
+  ``restart_dead_workers`` says (:meth:`Recovery.after_partial_step`).
 
 After a failed step, each env of the restarted worker reports ``truncated=True``,
 ``terminated=False``, reward 0, with the reason in ``infos["pool_restart"]``. Then, as for any
@@ -34,7 +36,6 @@ __all__ = ["RESTART_INFO_KEY", "Recovery"]
 
 #: info key set (to the reason, a string) on envs truncated because their worker was restarted
 RESTART_INFO_KEY = "pool_restart"
-
 
 
 class Recovery:
@@ -115,14 +116,20 @@ class Recovery:
         self.restart_or_raise(handle, failure)
         raise failure
 
+    def after_partial_step(self, failure: PoolError) -> NoReturn:
+        """A worker failed a step of a partial batch: stop the pool and raise. Its other envs'
+        results may be half-collected and other workers still stepping: nothing to resume."""
+        self._fail(failure)
+
     def _run_first_command(self, command: PendingCommand, failure: PoolError, doing: str) -> dict[int, dict]:
         """Run a restarted worker's first command; its infos by env index. A second failure stops the pool."""
-        self._dispatcher.dispatch([command])
-        [outcome] = self._dispatcher.gather(None, doing)
-        if outcome.failure is not None:
-            self._abort()
-            raise outcome.failure from failure
-        return dict(outcome.message.data) if outcome.message is not None else {}
+        self._dispatcher.send([command])
+        for outcome in self._dispatcher.recv(None, doing):
+            if outcome.failure is not None:
+                self._abort()
+                raise outcome.failure from failure
+            return dict(outcome.message.data) if outcome.message is not None else {}
+        return {}
 
     def _fail(self, failure: PoolError) -> NoReturn:
         self._abort()

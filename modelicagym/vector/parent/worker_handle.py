@@ -137,9 +137,6 @@ class WorkerHandle:
             except OSError:
                 logger.debug("worker %d: pipe broken while sending %s", self.index, message.kind.value)
 
-    def run(self) -> None:
-        """Nothing to do here: the worker runs its command in its own process."""
-
     def poll_done(self, spin_time: float, block: float) -> bool:
         """Whether the worker posted ``done`` (consuming the post), waiting up to ``spin_time`` + ``block``."""
         return self.done.wait(spin_time, block)

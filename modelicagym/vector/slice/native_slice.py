@@ -37,8 +37,8 @@ from modelicagym.native.abi import (
     NativeABIError,
 )
 from modelicagym.native.library import load_library
-from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
+from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.shared_fields import SHARED_FIELDS, SharedField, Values
 
 __all__ = [
