@@ -21,7 +21,6 @@ from modelicagym.errors import NativeBuildError
 
 __all__ = [
     "COLLECT_DONE",
-    "COLLECT_LOCAL_PYTHON",
     "COLLECT_SLOW",
     "CONSTANTS",
     "NO_RESET",
@@ -134,7 +133,7 @@ NO_RESET, RESET_THEN_REPORT, RESET_THEN_STEP = 0, 1, 2
 #: ``mg_serve`` return values that are not command codes
 SERVE_TIMEOUT, SERVE_PYTHON_STEP = -1, -2
 #: ``mg_collect`` return values
-COLLECT_DONE, COLLECT_LOCAL_PYTHON, COLLECT_SLOW = 0, 1, 2
+COLLECT_DONE, COLLECT_SLOW = 0, 1
 
 
 class Solver:
@@ -192,7 +191,6 @@ CONSTANTS: dict[str, int] = {
     "MG_SERVE_TIMEOUT": SERVE_TIMEOUT,
     "MG_SERVE_PYTHON_STEP": SERVE_PYTHON_STEP,
     "MG_COLLECT_DONE": COLLECT_DONE,
-    "MG_COLLECT_LOCAL_PYTHON": COLLECT_LOCAL_PYTHON,
     "MG_COLLECT_SLOW": COLLECT_SLOW,
     **_prefixed("MG_SOLVER_", Solver),
     **_prefixed("MG_CVODE_", CVodeMethod),
@@ -410,14 +408,12 @@ class MgCollector(ctypes.Structure):
     """``mg_collector`` (``csrc/slice.h``): the parent's side of a pool step."""
 
     _fields_ = [
-        ("local", ctypes.c_void_p),
         ("n_workers", ctypes.c_int64),
         *_pointers("done", "replies", "stepping"),
         ("spin_ns", ctypes.c_int64),
         ("timeout_ns", ctypes.c_int64),
         ("waiter", ctypes.c_void_p),
         ("calls", ctypes.c_int64),
-        ("local_ns", ctypes.c_int64),
         ("wait_ns", ctypes.c_int64),
     ]
 

@@ -130,12 +130,6 @@ int32_t mg_serve(mg_server *server) {
 int32_t mg_collect(mg_collector *c) {
     int64_t started = mg_now_ns();
     c->calls++;
-    if (c->local && mg_step_batch(c->local)) {
-        c->local_ns += mg_now_ns() - started;
-        return MG_COLLECT_LOCAL_PYTHON;
-    }
-    int64_t stepped = mg_now_ns();
-    c->local_ns += stepped - started;
     int64_t seen = 0;
     int32_t status = MG_COLLECT_DONE;
     for (; seen < c->n_workers; seen++)
@@ -150,6 +144,6 @@ int32_t mg_collect(mg_collector *c) {
         for (int64_t k = 0; k < seen; k++)
             if (c->stepping[k])
                 mg_signal_post(c->done[k]);
-    c->wait_ns += mg_now_ns() - stepped;
+    c->wait_ns += mg_now_ns() - started;
     return status;
 }

@@ -92,26 +92,24 @@ typedef struct {
 enum { MG_SERVE_TIMEOUT = -1, MG_SERVE_PYTHON_STEP = -2 };
 int32_t mg_serve(mg_server *server);
 
-/* The parent's side of a pool step, after it posted every worker's `go`: step its own native
- * slice (if any), then wait for every worker's `done` and check that none has a reply. Returns
- * MG_COLLECT_DONE when the batch is complete; MG_COLLECT_LOCAL_PYTHON when the local slice needs
- * Python to finish its step (the workers are not waited for); MG_COLLECT_SLOW when a worker did not
- * post within timeout_ns or has a reply (every `done` consumed here is posted again, so Python's
- * slow path finds it). */
+/* The parent's side of a pool step, after it posted every stepping worker's `go` and stepped its
+ * own slice (vector/parent/dispatch.py: Dispatcher.run_own_slice): wait for every stepping worker's
+ * `done` and check that none has a reply. Returns MG_COLLECT_DONE when the batch is complete;
+ * MG_COLLECT_SLOW when a worker did not post within timeout_ns or has a reply (every `done`
+ * consumed here is posted again, so Python's slow path finds it). */
 typedef struct {
-    mg_batch *local; /* NULL: the calling process steps no native slice */
     int64_t n_workers;
     void **done;           /* mg_signal of each worker */
     const int32_t *replies; /* reply slot of each worker (worker k: replies[k]) */
     const uint8_t *stepping; /* per worker: it was woken for this step (else it is not waited for) */
     int64_t spin_ns, timeout_ns;
     mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
-    /* out, summed over calls until Python clears them: calls, time stepping the local slice, then
-     * waiting for the workers (the adaptive layout's measurement, vector/parent/placement.py) */
-    int64_t calls, local_ns, wait_ns;
+    /* out, summed over calls until Python clears them: calls, and time waiting for the workers
+     * (the adaptive layout's measurement, vector/parent/placement.py) */
+    int64_t calls, wait_ns;
 } mg_collector;
 
-enum { MG_COLLECT_DONE = 0, MG_COLLECT_LOCAL_PYTHON = 1, MG_COLLECT_SLOW = 2 };
+enum { MG_COLLECT_DONE = 0, MG_COLLECT_SLOW = 1 };
 int32_t mg_collect(mg_collector *collector);
 
 #endif

@@ -120,7 +120,7 @@ class Dispatcher:
             return None
         timeout = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         return NativeCollector(
-            None, [handle.done.address for handle in self.handles], self.buffers.reply[: len(self.handles)],
+            [handle.done.address for handle in self.handles], self.buffers.reply[: len(self.handles)],
             self.stepping, self.spin_time, timeout, self.waiter,
         )
 
@@ -142,9 +142,9 @@ class Dispatcher:
         :meth:`run_own_slice`), then waiting for the workers; ``None`` on the Python path."""
         if self._collector is None:
             return None
-        calls, local_ns, wait_ns = self._collector.take_times()
+        calls, wait_ns = self._collector.take_times()
         own_ns, own_calls, self._own_ns, self._own_calls = self._own_ns, self._own_calls, 0, 0
-        return calls + own_calls, local_ns + own_ns, wait_ns
+        return calls + own_calls, own_ns, wait_ns
 
     def release(self) -> None:
         """Forget the pending commands and the shared memory, close the local envs (the pool stopped)."""

@@ -11,7 +11,7 @@ Python's endings between them (`modelicagym.vector.slice.slice_endings`, ``csrc/
 
 `NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
 steps without returning to Python at all. `NativeCollector` is ``mg_collect``, the parent's side:
-it steps the calling process's own native slice and waits for every worker in one call.
+after the calling process stepped its own slice, it waits for every stepping worker in one call.
 """
 
 from __future__ import annotations
@@ -299,10 +299,9 @@ class NativeServer:
 
 
 class NativeCollector:
-    """``mg_collect``: the calling process steps its native slice, then waits for the workers.
+    """``mg_collect``: the calling process waits for the workers of a step in one C call.
 
     Args:
-        local: the calling process's native slice, or ``None``.
         done: addresses of the workers' ``done`` signals, in worker order.
         replies: the workers' reply slots (worker ``k`` at index ``k``).
         stepping: per worker, uint8: it was woken for the step (only those are waited for).
@@ -312,7 +311,6 @@ class NativeCollector:
 
     def __init__(
         self,
-        local: NativeBatch | None,
         done: list[int],
         replies: np.ndarray,
         stepping: np.ndarray,
@@ -326,7 +324,6 @@ class NativeCollector:
         self._done = (ctypes.c_void_p * max(len(done), 1))(*done)
         self._replies = replies
         self.state = collector = MgCollector()
-        collector.local = None if local is None else ctypes.addressof(local.state)
         collector.n_workers = len(done)
         collector.done = ctypes.addressof(self._done)
         collector.replies = replies.ctypes.data
@@ -337,18 +334,13 @@ class NativeCollector:
         self._ref = ctypes.byref(collector)
 
     def collect(self) -> int:
-        """`COLLECT_DONE`, `COLLECT_LOCAL_PYTHON` or `COLLECT_SLOW` (see ``mg_collect``)."""
+        """`COLLECT_DONE` or `COLLECT_SLOW` (see ``mg_collect``)."""
         return self._collect(self._ref)
 
-    def add_local_time(self, ns: int) -> None:
-        """Count ``ns`` nanoseconds the calling process spent stepping its slice before :meth:`collect`
-        (a slice whose steps end in Python is stepped outside it)."""
-        self.state.local_ns += ns
-
-    def take_times(self) -> tuple[int, int, int]:
-        """Calls of :meth:`collect` since the last take, and the nanoseconds they spent stepping
-        the local slice, then waiting for the workers; the sums start again from zero."""
+    def take_times(self) -> tuple[int, int]:
+        """Calls of :meth:`collect` since the last take, and the nanoseconds they spent waiting for
+        the workers; the sums start again from zero."""
         state = self.state
-        taken = state.calls, state.local_ns, state.wait_ns
-        state.calls = state.local_ns = state.wait_ns = 0
+        taken = state.calls, state.wait_ns
+        state.calls = state.wait_ns = 0
         return taken
