@@ -39,6 +39,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
+from modelicagym.vector.parent.infos import env_info
 
 try:
     from stable_baselines3.common.logger import Logger, make_output_format
@@ -49,7 +50,7 @@ except ImportError as error:  # pragma: no cover - the extra's tests skip withou
         'pip install "modelicagym[rl]"'
     ) from error
 
-__all__ = ["SB3VecEnv", "env_infos", "folderless_logger"]
+__all__ = ["SB3VecEnv", "folderless_logger"]
 
 #: the keys a same-step vector env adds for an env that ended
 _FINAL_KEYS = ("final_obs", "_final_obs", "final_info", "_final_info")
@@ -60,20 +61,6 @@ def folderless_logger(verbose: int = 0) -> Logger:
     folder: SB3's default makes a ``/tmp/SB3-<date and time>`` folder at every ``learn()``, empty when
     nothing is logged to files. Set it with ``model.set_logger(folderless_logger(model.verbose))``."""
     return Logger(folder=None, output_formats=[make_output_format("stdout", "")] if verbose else [])
-
-
-def env_infos(infos: dict[str, Any], index: int) -> dict[str, Any]:
-    """The info of env ``index`` out of a vector env's batched ``infos``: the inverse of
-    Gymnasium's ``_add_info`` (a key belongs to the env where its ``_key`` mask is set)."""
-    info: dict[str, Any] = {}
-    for key, value in infos.items():
-        if key.startswith("_"):
-            continue
-        mask = infos.get(f"_{key}")
-        if mask is None or not mask[index]:
-            continue
-        info[key] = env_infos(value, index) if isinstance(value, dict) else value[index]
-    return info
 
 
 class SB3VecEnv(VecEnv):
@@ -109,7 +96,7 @@ class SB3VecEnv(VecEnv):
             groups.setdefault(repr(options), []).append(index)
         if len(groups) == 1:
             observations, infos = self.venv.reset(seed=seeds, options=self._options[0] or None)
-            self.reset_infos = [env_infos(infos, i) for i in range(self.num_envs)]
+            self.reset_infos = [env_info(infos, i) for i in range(self.num_envs)]
         else:  # different options per env: one masked reset per set of options
             observations = np.array(self.venv.reset(seed=seeds)[0])
             for indices in groups.values():
@@ -118,7 +105,7 @@ class SB3VecEnv(VecEnv):
                 reset, infos = self.venv.reset(seed=seeds, options={**self._options[indices[0]], "reset_mask": mask})
                 observations[mask] = np.asarray(reset)[mask]
                 for i in indices:
-                    self.reset_infos[i] = env_infos(infos, i)
+                    self.reset_infos[i] = env_info(infos, i)
         self._reset_seeds()
         self._reset_options()
         return np.array(observations)
@@ -133,19 +120,19 @@ class SB3VecEnv(VecEnv):
         dones = terminations | truncations
         ended = np.flatnonzero(dones).tolist()
         if self.autoreset_mode is AutoresetMode.SAME_STEP:
-            env_info = {key: value for key, value in infos.items() if key not in _FINAL_KEYS}
-            step_infos = [env_infos(env_info, i) for i in range(self.num_envs)]
+            own_infos = {key: value for key, value in infos.items() if key not in _FINAL_KEYS}
+            step_infos = [env_info(own_infos, i) for i in range(self.num_envs)]
             for i in ended:
                 self.reset_infos[i] = step_infos[i]
-                step_infos[i] = {**env_infos(infos["final_info"], i), "terminal_observation": infos["final_obs"][i]}
+                step_infos[i] = {**env_info(infos["final_info"], i), "terminal_observation": infos["final_obs"][i]}
         else:
-            step_infos = [env_infos(infos, i) for i in range(self.num_envs)]
+            step_infos = [env_info(infos, i) for i in range(self.num_envs)]
             if ended:
                 reset, reset_infos = self.venv.reset(options={"reset_mask": dones.copy()})
                 for i in ended:
                     step_infos[i]["terminal_observation"] = observations[i].copy()
                     observations[i] = reset[i]
-                    self.reset_infos[i] = env_infos(reset_infos, i)
+                    self.reset_infos[i] = env_info(reset_infos, i)
         for i in range(self.num_envs):
             step_infos[i]["TimeLimit.truncated"] = bool(truncations[i] and not terminations[i])
         return observations, np.asarray(rewards, dtype=np.float32), dones, step_infos

@@ -23,8 +23,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from modelicagym.errors import ArgumentError, ModelicaGymError
 from modelicagym.vector.errors import EnvError
+from modelicagym.vector.parent.infos import env_info
 
-__all__ = ["EnvHost", "Policy", "Rollout", "env_info", "local_vector_env"]
+__all__ = ["EnvHost", "Policy", "Rollout", "local_vector_env"]
 
 #: ``policy(observations) -> actions`` for a batch of one actor's envs
 Policy = Callable[[np.ndarray], Any]
@@ -192,16 +193,3 @@ class EnvHost:
         """Close the local vector env (its pool's processes end with it)."""
         if self.envs is not None:
             self.envs.close()
-
-
-def env_info(batched: dict[str, Any], j: int) -> dict[str, Any]:
-    """Env ``j``'s own info from a vector env's batched infos (the inverse of ``VectorEnv._add_info``)."""
-    info = {}
-    for key, value in batched.items():
-        if key.startswith("_"):
-            continue
-        mask = batched.get(f"_{key}")
-        if mask is not None and not mask[j]:
-            continue
-        info[key] = env_info(value, j) if isinstance(value, dict) else value[j]
-    return info

@@ -26,12 +26,12 @@ from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
 from modelicagym.distributed.cluster import connect, format_env_range, wait_for_free_cpus
 from modelicagym.distributed.errors import ActorDiedError
-from modelicagym.distributed.host import EnvHost, Policy, Rollout, env_info
+from modelicagym.distributed.host import EnvHost, Policy, Rollout
 from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
 from modelicagym.vector.errors import PoolClosedError
 from modelicagym.vector.parent.argument_checks import check_reset_mask, seeds_per_env, values_per_env
-from modelicagym.vector.parent.infos import add_info
+from modelicagym.vector.parent.infos import add_info, env_info
 from modelicagym.vector.pool import INIT_MODES
 from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
 

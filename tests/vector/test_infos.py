@@ -1,7 +1,8 @@
 """The pool's infos are merged by one function of ours (`modelicagym.vector.parent.infos`); they equal
 ``AsyncVectorEnv``'s for the same run, in every autoreset mode: each key's column and its ``_key``
 mask, nested dicts, and ``final_obs`` / ``final_info`` whether an env's step ran in Python, or
-natively with the reset done in C (the pool's bulk merge) or left to Python."""
+natively with the reset done in C (the pool's bulk merge) or left to Python. `env_info`, the
+inverse, gives each env its info back."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from vector_rollouts import assert_same, rollout
 
 import modelicagym
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.parent.infos import add_info
+from modelicagym.vector.parent.infos import add_info, env_info
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -73,3 +74,26 @@ def test_add_info_marks_each_key_of_each_env_as_gymnasium_does() -> None:
     assert infos["_nested"].tolist() == [False, False, True, False]
     assert infos["final_obs"].dtype == object and infos["final_obs"][0] is None
     assert infos["tag"].tolist() == ["t", None, None, None]
+
+
+def test_env_info_gives_each_env_back_the_info_add_info_merged() -> None:
+    per_env = {
+        0: {"a": 5, "tag": "t", "_own": 1.5},
+        1: {},
+        2: {"a": 1, "nested": {"x": np.ones(2), "deeper": {"n": 3}}, "final_obs": np.zeros(3)},
+        3: {"nested": {"y": "only 3"}},
+    }
+    infos: dict[str, Any] = {}
+    for index, info in per_env.items():
+        add_info(infos, info, index, 4)
+    for index, info in per_env.items():
+        np.testing.assert_equal(env_info(infos, index), info, err_msg=f"env {index}")
+
+
+def test_env_info_keeps_a_key_without_a_mask_as_every_envs_row() -> None:
+    """A partial batch's ``env_id`` has no ``_env_id`` mask: row ``j`` is the id of the batch's env ``j``."""
+    with PoolVectorEnv([partial(CountEnv, max_len=5, info_every=1) for _ in range(4)], num_workers=1) as pool:
+        pool.reset(seed=0)
+        infos = pool.step_envs(np.zeros(2, dtype=np.int64), [3, 1])[4]
+    assert "env_id" in infos and "_env_id" not in infos
+    assert [env_info(infos, j)["env_id"] for j in range(2)] == [3, 1]

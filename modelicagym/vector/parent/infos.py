@@ -5,7 +5,8 @@ to Gymnasium, is not called): each key becomes an array of ``num_envs`` values (
 object array, a dict value merged recursively) beside its ``_key`` mask of the envs that reported
 it. `merge_infos` merges a batch of them; `add_final_infos` adds, in a few array operations, the
 ``final_obs`` / ``final_info`` of the envs the native step reset in a ``SAME_STEP`` step: the same
-merge, made with the same columns and masks, without building each env's info.
+merge, made with the same columns and masks, without building each env's info. `env_info` is
+the inverse: one env's info out of a vector env's infos (SB3's per-env infos, a Ray host's rollouts).
 Every vector env of the package (the pool, its partial batches, the Ray vector env) merges
 here; ``tests/vector/test_infos.py`` pins the result against ``AsyncVectorEnv``'s.
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from modelicagym.vector.wire.buffers import PickledBatch, SharedBatch
 
-__all__ = ["Entries", "add_final_infos", "add_info", "merge_infos"]
+__all__ = ["Entries", "add_final_infos", "add_info", "env_info", "merge_infos"]
 
 #: ``(env index, info)`` pairs, in env order, to merge into the vector infos
 Entries = list[tuple[int, dict[str, Any]]]
@@ -40,6 +41,26 @@ def add_info(infos: dict[str, Any], info: dict[str, Any], index: int, num_envs: 
         infos[key] = column
         infos[f"_{key}"] = _marked(infos.get(f"_{key}"), index, num_envs)
     return infos
+
+
+def env_info(infos: dict[str, Any], index: int) -> dict[str, Any]:
+    """Env ``index``'s own info out of vector ``infos``: the inverse of `add_info`, nested dicts included.
+
+    A key belongs to the env where its ``_key`` mask is set. A key with no mask belongs to every
+    env, its row ``index`` being the env's value: Gymnasium masks every key it merges, so an
+    unmasked one is a per-row column added beside them (the partial batches' ``env_id``, EnvPool's
+    maskless infos); dropping it would lose what the vector env said of each env. A key starting
+    with ``_`` is a mask only when the key it masks is there (an env's own ``_key`` is kept).
+    """
+    info: dict[str, Any] = {}
+    for key, value in infos.items():
+        if key.startswith("_") and key[1:] in infos:
+            continue
+        mask = infos.get(f"_{key}")
+        if mask is not None and not mask[index]:
+            continue
+        info[key] = env_info(value, index) if isinstance(value, dict) else value[index]
+    return info
 
 
 def merge_infos(entries: Entries, num_envs: int) -> dict[str, Any]:
