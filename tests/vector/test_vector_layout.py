@@ -315,8 +315,9 @@ def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs() ->
     assert "400.0 us" in policy.last_decision and "20.0 us" in policy.last_decision
     assert not window(220.0, 210.0, 220.0) and policy.target == 2  # balanced: stays
     now[0] += PROBE_FIRST_SECONDS
-    assert window(220.0, 210.0, 220.0) and policy.target == 4  # consolidation is tried ...
-    assert window(420.0, 0.0, 420.0) and policy.target == 2  # ... and loses: back to the balanced spread
+    assert not window(220.0, 210.0, 220.0) and policy.target == 2  # one party would need 430 us: not tried
+    assert window(220.0, 60.0, 60.0) and policy.target == 4  # it would need 120 us: consolidation is tried ...
+    assert window(240.0, 0.0, 240.0) and policy.target == 2  # ... and loses: back to the balanced spread
 
 
 def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:
