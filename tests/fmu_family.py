@@ -129,6 +129,9 @@ VARIANTS: dict[str, Variant] = {
     # a lag whose co-simulation step costs 100x more while x > threshold (tests/fmus/moody): a pool's
     # load balance under step costs that vary with the state
     "moody": Variant(FMUS_DIR / "moody"),
+    # ... allowed one instance per process (one env per worker), its cost set by cs_step_size (and a
+    # threshold no x reaches): a pool of such FMUs of a realistic cost (issue 32: ~100 us a step)
+    "moody_once": Variant(FMUS_DIR / "moody", once_per_process=True),
 }
 
 
