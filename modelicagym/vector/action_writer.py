@@ -28,7 +28,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector.utils import batch_space, iterate
 
-from modelicagym.action_checks import CHECKED_SPACES, action_checker, check_action, element_bounds as _element_bounds
+from modelicagym.action_checks import CHECKED_SPACES, action_checker, check_action, element_bounds
 from modelicagym.errors import ActionError, ActionTypeError
 from modelicagym.native.abi import RESET_THEN_REPORT
 from modelicagym.vector.buffers import PickledBatch, SharedBatch
@@ -252,14 +252,11 @@ class DictBatch:
 def _leaf_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray] | None:
     """Each element's lowest and highest valid value for a ``Dict`` entry the batch check takes
     (integers for ``Discrete``/``MultiDiscrete``/``MultiBinary``, numbers for ``Box``), else ``None``."""
-    kind = np.dtype(space.dtype).kind if getattr(space, "dtype", None) is not None else ""
-    if type(space) is spaces.Discrete and kind in "iu":
+    if type(space) not in ARRAY_SPACES or np.dtype(space.dtype).kind not in ("fiu" if type(space) is spaces.Box else "iu"):
+        return None
+    if type(space) is spaces.Discrete:
         return np.array([space.start]), np.array([space.start + space.n - 1])
-    if type(space) in (spaces.MultiDiscrete, spaces.MultiBinary) and kind in "iu":
-        return _element_bounds(space)
-    if type(space) is spaces.Box and kind in "fiu":
-        return _element_bounds(space)
-    return None
+    return element_bounds(space)
 
 
 def _in_range(view: np.ndarray, low: np.ndarray, high: np.ndarray, library: ctypes.CDLL | None) -> Callable[[], bool]:
@@ -269,10 +266,8 @@ def _in_range(view: np.ndarray, low: np.ndarray, high: np.ndarray, library: ctyp
     n, width = len(view), int(np.prod(view.shape[1:], dtype=np.int64))
     address = view.ctypes.data
     if library is not None and view.dtype == np.int64 and low.min() == low.max() and high.min() == high.max():
-        bounds = (int(low.min()), int(high.max()))
-        if np.iinfo(np.int64).min <= bounds[0] and bounds[1] <= np.iinfo(np.int64).max:
-            first_outside = library.mg_first_outside_int64
-            return lambda: first_outside(address, n * width, *bounds) < 0
+        lowest, highest, first_outside = int(low.min()), int(high.max()), library.mg_first_outside_int64
+        return lambda: first_outside(address, n * width, lowest, highest) < 0
     if library is not None and view.dtype == np.float64 and np.isfinite(low).all() and np.isfinite(high).all():
         lows, highs = (np.ascontiguousarray(bound, dtype=np.float64) for bound in (low, high))
         first_outside, low_address, high_address = library.mg_first_outside_float64, lows.ctypes.data, highs.ctypes.data

@@ -75,7 +75,7 @@ def pools(request: pytest.FixtureRequest) -> Any:
 
 
 def test_every_env_gets_its_entry_of_the_batch_as_sync_vector_env_gives_it(pools: Any) -> None:
-    n, pool, sync = pools
+    _, pool, sync = pools
     pool.action_space.seed(5)
     for _ in range(5):
         actions = pool.action_space.sample()
@@ -105,7 +105,7 @@ def test_a_refused_entry_is_named_with_the_single_envs_message_and_its_env(pools
 
 def test_batches_in_other_forms_are_taken_as_before(pools: Any) -> None:
     """Other dtypes and lists go through each env's check, which takes what the single env takes."""
-    n, pool, sync = pools
+    _, pool, sync = pools
     pool.action_space.seed(3)
     actions = pool.action_space.sample()
     for key, form in (("x", lambda a: a.astype(np.float32)), ("count", lambda a: a.astype(np.float64)),
