@@ -19,6 +19,7 @@ import pytest
 from fmu_family import build
 from step_paths import probe_env
 from vector_envs import MadeElsewhere, SafeCountEnv, count_fns
+from vector_leaks import cpu_seconds
 
 import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
@@ -44,13 +45,6 @@ def users_cartpole(**options: Any) -> modelicagym.FMUEnv:
     """Our cart-pole FMU, given as a user gives any FMU: a plain FMUEnv over its path."""
     return modelicagym.FMUEnv(fmu=cartpole_fmu(), inputs=["f"], outputs=list(OUTPUTS), time_step=0.05,
                               action_table=[[-15.0], [15.0]], termination={"x": (-2.4, 2.4)}, **options)
-
-
-def cpu_seconds(pid: int) -> float:
-    """User and system CPU time of process ``pid``."""
-    with open(f"/proc/{pid}/stat") as handle:
-        fields = handle.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def loaded_in_this_process(library_name: str) -> bool:
