@@ -203,8 +203,7 @@ class WorkerSet:
             buffers.signals[handle.index] = 0  # a restarted worker starts from unposted signals
             handle.go = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO))
             handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE))
-        spin_time = stand_in_go_spin_time(self._config.spin_time) if handle.in_caller else self.go_spin_time
-        handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset, spin_time)))
+        handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset, self.go_spin_time)))
         handle.send_fd(self._resources.fd)
         message = handle.receive(deadline, None, START_UP)
         if message.kind is Kind.ERROR:
@@ -219,16 +218,6 @@ def go_spin_time(spin_time: float, workers: int, caller_steps: bool) -> float:
     under load it waited for a preempted poller, 100-180 us a batch of a light env against 16-40 us
     with the workers asleep (README, "Speed")."""
     return 0.0 if not caller_steps and workers >= usable_cores() else spin_time
-
-
-def stand_in_go_spin_time(spin_time: float) -> float:
-    """Seconds the stand-in worker polls for its next command before it sleeps: ``spin_time``
-    wherever a core is left beside the parent's. Light envs end consolidated in the stand-in, the
-    only worker then stepping (the others are not woken): one poller beside the waiting parent,
-    and its batch no longer waits for a wake-up (25-50 us on an idle machine, where a light
-    FMU's whole batch of 8 steps takes 10-30 us). A long wait (heavy envs, an agent thinking) or
-    a crowded machine still puts it to sleep at once (``signal.h``)."""
-    return spin_time if usable_cores() >= 2 else 0.0
 
 
 def _say_what_is_pickled(buffers: SharedBuffers) -> None:

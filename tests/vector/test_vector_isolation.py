@@ -9,7 +9,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -19,14 +18,13 @@ import pytest
 from fmu_family import build
 from step_paths import probe_env
 from vector_envs import MadeElsewhere, SafeCountEnv, count_fns
-from vector_leaks import cpu_seconds
 
 import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 from modelicagym.vector.plan import usable_cores
 from modelicagym.vector.sync import futex_library
-from modelicagym.vector.worker_set import go_spin_time, stand_in_go_spin_time
+from modelicagym.vector.worker_set import go_spin_time
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
 
@@ -218,19 +216,3 @@ def test_workers_that_fill_the_cores_beside_a_waiting_caller_sleep_between_batch
         assert pool.num_workers == min(cores, 4) and pool._workers.go_spin_time == (0.0 if cores <= 4 else 1e-4)
         pool.reset(seed=0)
         assert pool.step(np.zeros(4, dtype=np.int64))[0].shape == (4, 4)  # the sleeping workers are woken
-
-
-def test_the_stand_in_polls_beside_the_waiting_caller_and_every_worker_sleeps_when_the_pool_is_idle() -> None:
-    """The stand-in worker, where light envs end consolidated as the only worker stepping, polls
-    for its next command whenever a core is left beside the parent's; idle, it sleeps after one
-    bounded poll, as the plain workers do."""
-    assert stand_in_go_spin_time(1e-4) == (1e-4 if usable_cores() >= 2 else 0.0)
-    with PoolVectorEnv([MadeElsewhere(users_cartpole, os.getpid())] * 4) as pool:
-        pool.reset(seed=0)
-        for _ in range(500):
-            pool.step(np.zeros(4, dtype=np.int64))
-        pids = pool.worker_pids
-        before = [cpu_seconds(pid) for pid in pids]
-        time.sleep(1.0)
-        used = [cpu_seconds(pid) - seconds for pid, seconds in zip(pids, before)]
-        assert max(used) < 0.05, used  # asleep on their futexes, not polling
