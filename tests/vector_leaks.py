@@ -25,14 +25,6 @@ def _stat_fields(pid: int) -> list[str] | None:
     return stat[stat.rindex(")") + 2 :].split()
 
 
-def cpu_seconds(pid: int) -> float:
-    """User and system CPU time of live process ``pid``, in seconds."""
-    fields = _stat_fields(pid)
-    if fields is None:
-        raise ProcessLookupError(pid)
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def process_state(pid: int) -> str | None:
     """The state letter of process ``pid`` ("R", "S", "Z", ...), or None when it is gone."""
     fields = _stat_fields(pid)

@@ -163,11 +163,6 @@ class ConsolidationPolicy:
     before the next try (0.5 s up to 30 s). ``target``: the workers' envs the stand-in steps,
     ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
 
-    A try of the consolidated layout is skipped while the parties' sampled stepping times say it
-    cannot win: one party would step every env in at least the busiest worker's time plus the
-    stand-in's, and a try of heavy envs (a window of 320 batches, 2.6 s at 1 ms an env for 8 envs)
-    would run at half speed for nothing.
-
     In the spread layout, a window's party costs (`modelicagym.vector.cost_balance`: what the
     busiest worker and the stand-in took to step their envs) move envs from the busier to the
     other (`balance_shift`), so that a synchronous step does not wait on one party while the
@@ -234,8 +229,6 @@ class ConsolidationPolicy:
                                                    f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
         if now - self._switched_at < self._probe_wait:
             return False
-        if self.target != self.movable and costs is not None and MARGIN * (costs.worker_us + costs.stand_in_us) >= batch_us:
-            return False  # one party cannot step every env fast enough to win: a try would only cost a window
         self._left_us = batch_us
         return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
                                                 "are tried")
