@@ -9,7 +9,7 @@ one per env step collected), to halve the updates' time, which dominates; ``lear
 fills the buffer with 1,000 random steps first. Training stops once the mean return of the last
 20 episodes reaches -200; then the deterministic policy is evaluated and the learning curve saved.
 
-Run: ``python examples/sb3_sac.py [--seed 0] [--envs 4] [--steps 60000] [--save sac.zip]``
+Run: ``python examples/sb3_sac.py [--seed 0] [--envs 4] [--steps 50000] [--save sac.zip]``
 (needs ``pip install torch==2.13.0`` for a CPU-only torch, then ``pip install "modelicagym[rl,plots]"``).
 """
 

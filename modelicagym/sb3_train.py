@@ -76,7 +76,7 @@ PRESETS: dict[tuple[str, str], Preset] = {
         envs=4, budget=200_000, max_episode_steps=200, measure="return", goal=-200),
     ("pendulum", "sac"): Preset(
         "pendulum", "sac", dict(learning_rate=1e-3, train_freq=1, gradient_steps=2, learning_starts=1000),
-        envs=4, budget=60_000, max_episode_steps=200, measure="return", goal=-200),
+        envs=4, budget=50_000, max_episode_steps=200, measure="return", goal=-200),
 }
 
 

@@ -44,7 +44,11 @@ def run_one(env: str, algorithm: str, seed: int, budget: int | None, eval_episod
     if result.returncode != 0:
         raise SeedRunError(f"{env} {algorithm} seed {seed}: the run failed (exit {result.returncode}):\n"
                            f"{result.stderr.strip()[-2000:]}")
-    return json.loads(result.stdout.strip().splitlines()[-1])
+    run = json.loads(result.stdout.strip().splitlines()[-1])
+    logger.info("%s %s seed %d: %s; evaluation %.1f", env, algorithm, seed,
+                f"solved after {run['solved_steps']} steps, {run['solved_seconds']:.0f} s" if run["solved_steps"]
+                else f"not solved in {run['steps']} steps, {run['seconds']:.0f} s", np.mean(run["eval_returns"]))
+    return run
 
 
 def _spread(values: list[float], digits: str) -> str:
