@@ -50,11 +50,11 @@ def test_the_training_benchmark_over_seeds_tables_each_preset(tmp_path: Path) ->
     spread, and the conditions a reader needs to compare (threads, versions, load)."""
     pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
                         "then pip install 'modelicagym[rl]'")
-    args = ["--seeds", "2", "--models", "pendulum", "--algorithms", "ppo", "sac", "--budget", "400",
+    args = ["--seeds", "2", "--models", "pendulum", "--algorithms", "ppo", "sac", "--budget", "800",
             "--eval-episodes", "1"]
     out = run_bench("training", args, tmp_path / "result.json")
-    assert re.search(r"^pendulum\s+ppo\s+400\s+[0-2]/2 ", out, re.MULTILINE), out
-    assert re.search(r"^pendulum\s+sac\s+400\s+[0-2]/2 ", out, re.MULTILINE), out
+    assert re.search(r"^pendulum\s+ppo\s+800\s+[0-2]/2 ", out, re.MULTILINE), out
+    assert re.search(r"^pendulum\s+sac\s+800\s+[0-2]/2 ", out, re.MULTILINE), out
     assert "1 torch thread per run, 2 runs at once" in out
     result = json.loads((tmp_path / "result.json").read_text())
     assert [(r["algorithm"], r["seed"]) for r in result["runs"]] == [("ppo", 0), ("ppo", 1), ("sac", 0), ("sac", 1)]
