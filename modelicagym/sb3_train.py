@@ -58,7 +58,8 @@ class Preset:
         return replace(self, settings={**self.settings, **settings})
 
 
-_CARTPOLE_PPO = dict(n_steps=32, batch_size=256, n_epochs=20, learning_rate=1e-3, gamma=0.995, gae_lambda=0.95)
+_CARTPOLE_PPO = {"n_steps": 32, "batch_size": 256, "n_epochs": 20, "learning_rate": 1e-3, "gamma": 0.995,
+                 "gae_lambda": 0.95}
 
 #: (env, algorithm) -> preset. The pendulum's are RL Baselines3 Zoo's Pendulum-v1 settings (our
 #: task is Pendulum-v1 on a motor drive): PPO with gSDE on 4 envs, SAC with a 1e-3 learning rate,
@@ -69,13 +70,14 @@ PRESETS: dict[tuple[str, str], Preset] = {
                                 measure="length", goal=475, normalize=True),
     ("cartpole-continuous", "ppo"): Preset(  # forces of +-15 N: the policy starts exploring with a std of ~7 N
         "cartpole-continuous", "ppo", _CARTPOLE_PPO, envs=8, budget=300_000, max_episode_steps=500,
-        measure="length", goal=475, normalize=True, policy_kwargs=dict(log_std_init=2.0)),
+        measure="length", goal=475, normalize=True, policy_kwargs={"log_std_init": 2.0}),
     ("pendulum", "ppo"): Preset(
-        "pendulum", "ppo", dict(n_steps=1024, batch_size=64, n_epochs=10, learning_rate=1e-3, gamma=0.9,
-                                gae_lambda=0.95, clip_range=0.2, ent_coef=0.0, use_sde=True, sde_sample_freq=4),
+        "pendulum", "ppo", {"n_steps": 1024, "batch_size": 64, "n_epochs": 10, "learning_rate": 1e-3, "gamma": 0.9,
+                            "gae_lambda": 0.95, "clip_range": 0.2, "ent_coef": 0.0, "use_sde": True,
+                            "sde_sample_freq": 4},
         envs=4, budget=200_000, max_episode_steps=200, measure="return", goal=-200),
     ("pendulum", "sac"): Preset(
-        "pendulum", "sac", dict(learning_rate=1e-3, train_freq=1, gradient_steps=2, learning_starts=1000),
+        "pendulum", "sac", {"learning_rate": 1e-3, "train_freq": 1, "gradient_steps": 2, "learning_starts": 1000},
         envs=4, budget=50_000, max_episode_steps=200, measure="return", goal=-200),
 }
 

@@ -141,8 +141,8 @@ def one_torch_thread() -> Any:
 
 
 #: short runs (seconds): PPO updates after 2 x 64 env steps, SAC after 64 random ones, episodes of 16 steps
-SHORT = {"ppo": (dict(n_steps=64, batch_size=64, n_epochs=2), 384),
-         "sac": (dict(learning_starts=64, batch_size=64), 192)}
+SHORT = {"ppo": ({"n_steps": 64, "batch_size": 64, "n_epochs": 2}, 384),
+         "sac": ({"learning_starts": 64, "batch_size": 64}, 192)}
 
 
 @pytest.mark.usefixtures("one_torch_thread")
