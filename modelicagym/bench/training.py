@@ -167,7 +167,9 @@ def time_to_solve(candidate: str, model: str, n: int, budget: int) -> float | No
 
     spec = _preset(model)
     key = {"length": "l", "return": "r"}[spec.measure]
-    venv = VecNormalize(VecMonitor(make_candidate(candidate, model, n)), norm_reward=False)
+    venv = VecMonitor(make_candidate(candidate, model, n))
+    if spec.normalize:
+        venv = VecNormalize(venv, norm_reward=False)
 
     class Solved(BaseCallback):
         def _on_step(self) -> bool:

@@ -140,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"\ncores: {data['cores']}; load average (1 min) before {load['before'][0]:.2f}, after "
           f"{load['after'][0]:.2f}; {THREADS} torch thread per run, {args.jobs} runs at once; "
           + ", ".join(f"{k} {v}" for k, v in data["versions"].items()))
-    print(f"wrote {write_json(args.json or 'bench-results/training-seeds.json', {**data, 'summaries': summaries, 'runs': runs})}")
+    path = write_json(args.json or "bench-results/training-seeds.json", {**data, "summaries": summaries, "runs": runs})
+    print(f"wrote {path}")
     return 0
 
 
