@@ -134,3 +134,53 @@ def test_sb3_wrappers_training_and_evaluation_run_on_the_pool(tmp_path: Path, mo
 def test_a_gymnasium_env_is_refused() -> None:
     with pytest.raises(ValueError, match="wraps a gymnasium.vector.VectorEnv"):
         SB3VecEnv(modelicagym.make("cartpole"))
+
+
+@pytest.fixture
+def one_torch_thread() -> Any:
+    """Seeded runs repeat at a fixed torch thread count: one, as the examples and benchmark use."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+#: short runs (seconds): PPO updates after 2 x 64 env steps, SAC after 64 random ones, episodes of 16 steps
+SHORT = {"ppo": ({"n_steps": 64, "batch_size": 64, "n_epochs": 2}, 384),
+         "sac": ({"learning_starts": 64, "batch_size": 64}, 192)}
+
+
+@pytest.mark.usefixtures("one_torch_thread")
+@pytest.mark.parametrize("algorithm", list(SHORT))
+def test_the_same_seed_gives_the_same_learning_curve_and_policy(algorithm: str) -> None:
+    """Two runs of a preset with one seed on the pool: the same curve, the same evaluation returns,
+    the same network weights, bit for bit; another seed gives another curve."""
+    from dataclasses import replace
+
+    import torch
+
+    from modelicagym.sb3_train import preset, train
+
+    settings, budget = SHORT[algorithm]
+    spec = replace(preset("pendulum", algorithm).with_settings(**settings), goal=0.0)  # never reached: runs it all
+
+    def run(seed: int) -> Any:
+        return train(spec, seed, envs=2, budget=budget, max_episode_steps=16, eval_episodes=2)
+
+    first, again, other = run(0), run(0), run(1)
+    assert len(first.curve) == first.steps // 32 and first.steps == again.steps >= budget  # 2 episodes of 16
+    assert first.curve == again.curve
+    assert first.eval_returns == again.eval_returns
+    weights, weights_again = first.model.policy.state_dict(), again.model.policy.state_dict()
+    assert all(torch.equal(weights[key], weights_again[key]) for key in weights)
+    assert other.curve != first.curve
+
+
+def test_a_missing_preset_is_named_with_those_there_are() -> None:
+    from modelicagym.errors import ArgumentError
+    from modelicagym.sb3_train import preset
+
+    with pytest.raises(ArgumentError, match=r"no sac preset for env 'cartpole'; presets: .*pendulum \(sac\)"):
+        preset("cartpole", "sac")

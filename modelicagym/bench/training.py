@@ -13,7 +13,8 @@ interleaved over several rounds of a fixed step budget, and reports the median t
 second and how a round's time splits: stepping the envs, the policy during rollouts, the PPO
 update. With ``--solve`` it also trains each candidate on each model until it is solved (the
 cart-pole: a mean episode length of the last 20 episodes of 475; the pendulum: a mean return of
--200), and reports the wall time.
+-200), and reports the wall time. With ``--seeds N`` it instead trains every preset of
+`modelicagym.sb3_train` (PPO and SAC) with N seeds until solved: see `training_seeds`.
 
 Targets (issue "deep RL", 2 cores): on the heavy model at n=8, the pool >= 1.2x ``dummy`` and
 ``sync``, and >= 1.5x ``subproc``, in training steps per second.
@@ -26,7 +27,6 @@ import logging
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -34,35 +34,22 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 import modelicagym
-from modelicagym.bench import conditions, format_table, median, write_json
+from modelicagym.bench import conditions, format_table, median, training_seeds, write_json
 from modelicagym.registry import ENVIRONMENTS, EnvFactory
 
 logger = logging.getLogger(__name__)
 
 
 
-@dataclass(frozen=True)
-class Model:
-    """A registered env to train on, PPO's settings for it (``examples/sb3_ppo.py``'s), its episode
-    length, and when it counts as solved: the mean ``measure`` ("length" or "return") of the last
-    20 episodes reaching ``goal``."""
-
-    env: str
-    ppo: dict[str, Any]
-    episode_steps: int
-    measure: str
-    goal: float
-    options: dict[str, Any] = field(default_factory=dict)
-
-
-MODELS = {
-    "cartpole": Model("cartpole", {"n_steps": 32, "batch_size": 256, "n_epochs": 20, "learning_rate": 1e-3,
-                                   "gamma": 0.995, "gae_lambda": 0.95}, 500, "length", 475),
-    "pendulum": Model("pendulum", {"n_steps": 512, "batch_size": 64, "n_epochs": 10, "learning_rate": 1e-3,
-                                   "gamma": 0.9, "gae_lambda": 0.95, "use_sde": True, "sde_sample_freq": 4},
-                      200, "return", -200),
-}
+#: the models trained: `modelicagym.sb3_train`'s PPO preset of each (``examples/sb3_ppo.py``'s)
+MODELS = ("cartpole", "pendulum")
 CANDIDATES = ("pool", "sync", "async", "dummy", "subproc")
+
+
+def _preset(model: str) -> Any:
+    from modelicagym.sb3_train import preset
+
+    return preset(model, "ppo")
 
 
 def make_candidate(candidate: str, model: str, n: int) -> Any:
@@ -71,8 +58,8 @@ def make_candidate(candidate: str, model: str, n: int) -> Any:
 
     from modelicagym.sb3 import SB3VecEnv
 
-    spec = MODELS[model]
-    options = {**spec.options, "max_episode_steps": spec.episode_steps}
+    spec = _preset(model)
+    options = {"max_episode_steps": spec.max_episode_steps}
     fns = [EnvFactory(ENVIRONMENTS[spec.env][1], options) for _ in range(n)]
     if candidate == "pool":
         return SB3VecEnv(modelicagym.make_vec(spec.env, n=n, autoreset_mode=AutoresetMode.SAME_STEP, **options))
@@ -134,7 +121,8 @@ def _trainer(candidate: str, model: str, n: int, steps: int) -> Callable[[], dic
 
     split = _Split()
     venv = split.wrap(make_candidate(candidate, model, n))
-    ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **MODELS[model].ppo)
+    spec = _preset(model)
+    ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", policy_kwargs=spec.policy_kwargs, **spec.settings)
     ppo.set_logger(folderless_logger(ppo.verbose))
 
     def run() -> dict[str, float]:
@@ -182,9 +170,11 @@ def time_to_solve(candidate: str, model: str, n: int, budget: int) -> float | No
 
     from modelicagym.sb3 import folderless_logger
 
-    spec = MODELS[model]
+    spec = _preset(model)
     key = {"length": "l", "return": "r"}[spec.measure]
-    venv = VecNormalize(VecMonitor(make_candidate(candidate, model, n)), norm_reward=False)
+    venv = VecMonitor(make_candidate(candidate, model, n))
+    if spec.normalize:
+        venv = VecNormalize(venv, norm_reward=False)
 
     class Solved(BaseCallback):
         def _on_step(self) -> bool:
@@ -192,7 +182,7 @@ def time_to_solve(candidate: str, model: str, n: int, budget: int) -> float | No
             return not (len(episodes) == 20 and np.mean([e[key] for e in episodes]) >= spec.goal)
 
     try:
-        ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", **spec.ppo)
+        ppo = PPO("MlpPolicy", venv, seed=0, device="cpu", policy_kwargs=spec.policy_kwargs, **spec.settings)
         ppo.set_logger(folderless_logger(ppo.verbose))
         started = time.perf_counter()
         ppo.learn(budget, callback=Solved())
@@ -214,7 +204,8 @@ def report(results: list[dict[str, Any]], solves: dict[str, dict[str, float | No
                           "update", "pool/this"), rows)
     text = f"PPO training, steps per second and where the time goes:\n{table}"
     if solves:
-        goals = ", ".join(f"{model}: mean episode {MODELS[model].measure} >= {MODELS[model].goal:g}" for model in solves)
+        goals = ", ".join(f"{model}: mean episode {_preset(model).measure} >= {_preset(model).goal:g}"
+                          for model in solves)
         solved = format_table(("model", "vector env", "seconds to solve"),
                               [(model, name, "not solved" if s is None else f"{s:.1f}")
                                for model, times in solves.items() for name, s in times.items()])
@@ -231,10 +222,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--steps", type=int, default=4096, help="env steps per round and candidate")
     parser.add_argument("--solve", action="store_true", help="also time each candidate to solve each model")
     parser.add_argument("--solve-budget", type=int, default=300_000)
-    parser.add_argument("--json", default="bench-results/training.json", help="where to write the JSON")
+    parser.add_argument("--json", help="where to write the JSON (default: bench-results/training.json, "
+                        "with --seeds bench-results/training-seeds.json)")
+    parser.add_argument("--seeds", type=int, default=0,
+                        help="train every preset with seeds 0..N-1 until solved instead (see training_seeds.py)")
+    training_seeds.add_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.seeds:
+        return training_seeds.run(args)
     load_before = os.getloadavg()
     results = []
     for model in args.models:
@@ -247,5 +244,5 @@ def run(args: argparse.Namespace) -> int:
     line, data = conditions(load_before, args.repeats, float("nan"))
     print(report(results, solves))
     print(f"\n{line.split('; medians')[0]}; medians of {args.repeats} interleaved rounds of {args.steps} env steps")
-    print(f"wrote {write_json(args.json, {**data, 'results': results, 'seconds_to_solve': solves})}")
+    print(f"wrote {write_json(args.json or 'bench-results/training.json', {**data, 'results': results, 'seconds_to_solve': solves})}")
     return 0

@@ -5,6 +5,8 @@ test never asserts a duration — only that a benchmark nobody ran lately still 
 from __future__ import annotations
 
 import json
+import os
+import re
 import statistics
 import subprocess
 import sys
@@ -41,6 +43,25 @@ def test_the_training_benchmark_trains_every_vector_env(tmp_path: Path) -> None:
     result = json.loads((tmp_path / "result.json").read_text())
     assert [r["model"] for r in result["results"]] == ["cartpole", "pendulum"]
     assert set(result["results"][1]["results"]) == {"pool", "sync", "async", "dummy", "subproc"}
+
+
+def test_the_training_benchmark_over_seeds_tables_each_preset(tmp_path: Path) -> None:
+    """``--seeds``: every run in the JSON with its curve, per preset the seeds that solved and the
+    spread, and the conditions a reader needs to compare (threads, versions, load)."""
+    pytest.importorskip("stable_baselines3", reason="the rl extra is not installed: pip install torch==2.13.0, "
+                        "then pip install 'modelicagym[rl]'")
+    args = ["--seeds", "2", "--models", "pendulum", "--algorithms", "ppo", "sac", "--budget", "800",
+            "--eval-episodes", "1"]
+    out = run_bench("training", args, tmp_path / "result.json")
+    assert re.search(r"^pendulum\s+ppo\s+800\s+[0-2]/2 ", out, re.MULTILINE), out
+    assert re.search(r"^pendulum\s+sac\s+800\s+[0-2]/2 ", out, re.MULTILINE), out
+    assert "1 torch thread per run, 2 runs at once" in out
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert [(r["algorithm"], r["seed"]) for r in result["runs"]] == [("ppo", 0), ("ppo", 1), ("sac", 0), ("sac", 1)]
+    assert all(r["curve"] and len(r["eval_returns"]) == 1 for r in result["runs"])
+    assert [(s["algorithm"], s["seeds"]) for s in result["summaries"]] == [("ppo", [0, 1]), ("sac", [0, 1])]
+    assert result["torch_threads"] == 1 and {"torch", "stable-baselines3"} <= set(result["versions"])
+    assert result["cores"] == os.cpu_count() and len(result["load_average"]["before"]) == 3
 
 
 def run_bench(name: str, args: list[str], json_path: Path) -> str:

@@ -70,6 +70,20 @@ def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
     assert plot.stat().st_size > 0
 
 
+@requires("rl", "plots")
+def test_sb3_sac_trains_evaluates_plots_and_saves_on_the_pool(tmp_path):
+    from stable_baselines3 import SAC
+
+    plot, saved = tmp_path / "curve.png", tmp_path / "sac.zip"
+    out = run_example("sb3_sac.py", "--envs", "2", "--steps", "1200", "--max-episode-steps", "50",
+                      "--eval-episodes", "2", "--plot", str(plot), "--save", str(saved))
+    assert "pendulum, SAC, seed 0: 2 envs" in out and "'gradient_steps': 2" in out
+    assert "not solved within 1200 steps" in out or "solved:" in out
+    assert "evaluation: 2 episodes" in out
+    assert plot.stat().st_size > 0
+    assert SAC.load(saved, device="cpu").num_timesteps == 1200
+
+
 @requires("plots")
 @pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous", "pendulum"])
 def test_one_file_ppo_trains_and_plots(tmp_path, env):
