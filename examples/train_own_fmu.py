@@ -50,7 +50,7 @@ from modelicagym.console import add_debug_flag, run_command
 from modelicagym.disk import atomic_write
 from modelicagym.errors import ConfigError
 from modelicagym.experiments.plots import plot_learning_curve
-from modelicagym.sb3 import SB3VecEnv
+from modelicagym.sb3 import SB3VecEnv, folderless_logger
 
 #: each algorithm's class and settings: SAC learns a small control task in a few thousand steps
 #: (one gradient step per env step); PPO needs more steps but each costs less
@@ -81,7 +81,9 @@ def make_model(algorithm, envs, seed, settings):
         raise ConfigError(f"SAC acts on float inputs (a Box action space); this FMU's actions are "
                           f"{envs.action_space}: train it with --algo ppo")
     policy = "MultiInputPolicy" if isinstance(envs.observation_space, gym.spaces.Dict) else "MlpPolicy"
-    return algorithm(policy, envs, seed=seed, device="cpu", **settings)
+    model = algorithm(policy, envs, seed=seed, device="cpu", **settings)
+    model.set_logger(folderless_logger(model.verbose))  # SB3's default logger leaves a /tmp/SB3-<date> folder
+    return model
 
 
 class EpisodeLog(BaseCallback):
