@@ -20,7 +20,13 @@ from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.parent import placement
 from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
-from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
+from modelicagym.vector.parent.layout_policy import (
+    PROBE_FIRST_SECONDS,
+    TRY_SHARE,
+    WINDOW_PARTS,
+    ConsolidationPolicy,
+    LayoutPolicy,
+)
 from modelicagym.vector.wire.sync import futex_library
 
 pytestmark = [
@@ -225,10 +231,38 @@ def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> Non
     assert window(20.0) and policy.target == 0  # the planned layout is tried again
     assert window(40.0) and policy.target == 4, policy.last_decision  # slower: back
     assert "40.0 us" in policy.last_decision and "20.0 us" in policy.last_decision
+    assert not window(20.0)  # back at once (the envs moved at once)
     now[0] += 1.5 * PROBE_FIRST_SECONDS
-    assert not window(20.0)  # the next try waits twice as long
+    assert not window(20.0)  # the next try waits twice as long (and 19x the 0.06 s the try cost)
     now[0] += PROBE_FIRST_SECONDS
     assert window(20.0) and policy.target == 0
+
+
+def test_a_failed_try_that_took_long_to_undo_delays_the_next_one_in_proportion() -> None:
+    """Envs move only at episode boundaries: a failed try of heavy envs runs a whole episode in
+    the slower layout before they are back, and the tries must not eat the pool's time."""
+    now = [0.0]
+    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0])
+
+    def window(batch_us: float, settled: bool = True) -> bool:
+        changed = False
+        for _ in range(WINDOW_PARTS):
+            now[0] += 0.01
+            changed |= policy.observe(8, 0, int(8 * batch_us * 1e3), 4, 8, settled)
+        return changed
+
+    now[0] += PROBE_FIRST_SECONDS
+    assert window(4000.0) and policy.target == 4  # consolidation tried
+    tried = now[0] - WINDOW_PARTS * 0.01
+    assert window(8000.0) and policy.target == 0  # slower: back
+    now[0] += 4.0  # the envs wait for their episodes to end in the slower layout
+    assert not window(8000.0, settled=False)
+    assert not window(4000.0)  # back: what the try cost is known now
+    cost = now[0] - WINDOW_PARTS * 0.01 - tried
+    now[0] = tried + cost * (1 / TRY_SHARE - 1) * 0.9
+    assert not window(4000.0), "a failed try that cost 4 s was tried again too soon"
+    now[0] = tried + cost / TRY_SHARE
+    assert window(4000.0) and policy.target == 4
 
 
 def _moody(fmu: str, threshold: float, **options: Any) -> modelicagym.FMUEnv:

@@ -30,6 +30,12 @@ MARGIN = 1.1
 #: seconds the caller steps everything before the first probe of the workers, and at most
 PROBE_FIRST_SECONDS = 0.5
 PROBE_MAX_SECONDS = 30.0
+#: the share of the time a consolidation policy's tries that fail may cost: after one, the next try
+#: waits at least ``1 / TRY_SHARE - 1`` times what it cost. Envs move only at episode boundaries,
+#: so a failed try runs up to a whole episode in the slower layout before they are back: for 8
+#: envs of ~1 ms a step and 500-step episodes, 4 s of every try at half speed (a pool of 8 ran at
+#: 0.98x a single env in 5 s rounds, idle, where the spread layout alone does 1.9x)
+TRY_SHARE = 0.05
 #: idle cores (averaged since the last look) that make a probe of the workers worth it
 IDLE_CORES_TO_PROBE = 0.5
 
@@ -160,7 +166,8 @@ class ConsolidationPolicy:
     the same in both). After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
-    before the next try (0.5 s up to 30 s). ``target``: the workers' envs the stand-in steps,
+    before the next try (0.5 s up to 30 s), and long enough that failed tries cost at most
+    `TRY_SHARE` of the time. ``target``: the workers' envs the stand-in steps,
     ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
 
     In the spread layout, a window's party costs (`modelicagym.vector.parent.cost_balance`: what the
@@ -185,6 +192,9 @@ class ConsolidationPolicy:
         self._switched_at = clock()
         #: the batch time of the layout a try left, while the try's window runs
         self._left_us: float | None = None
+        #: when the last try started, and whether it failed and its envs are on their way back
+        self._try_started = 0.0
+        self._given_up = False
         self._window()
 
     def _window(self) -> None:
@@ -203,6 +213,10 @@ class ConsolidationPolicy:
         if not settled:
             self._window()
             return False
+        if self._given_up:  # the envs of a failed try are back: what it cost bounds the next wait
+            self._given_up = False
+            cost = self._clock() - self._try_started
+            self._probe_wait = max(self._probe_wait, cost * (1 / TRY_SHARE - 1))
         if batches:
             self._parts.append((local_ns + wait_ns) / batches / 1e3)
         self._party_samples += samples
@@ -219,6 +233,7 @@ class ConsolidationPolicy:
                 self._probe_wait, self._switched_at = PROBE_FIRST_SECONDS, now
                 return False
             self._probe_wait = min(2 * self._probe_wait, PROBE_MAX_SECONDS)
+            self._given_up = True
             return self._switch(self._other(), now, f"the parent waited {batch_us:.1f} us a batch with {here}, "
                                                     f"{left_us:.1f} us with {there}")
         if costs is not None and self.target != self.movable and (shift := balance_shift(costs, self.target,
@@ -229,7 +244,7 @@ class ConsolidationPolicy:
                                                    f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
         if now - self._switched_at < self._probe_wait:
             return False
-        self._left_us = batch_us
+        self._left_us, self._try_started = batch_us, now
         return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
                                                 "are tried")
 
