@@ -34,12 +34,12 @@ needs_sb3 = pytest.mark.skipif(
 )
 
 
-def run(*command: str, cwd: Path, ok: bool = True) -> subprocess.CompletedProcess:
-    """Run ``command`` (``python`` is this interpreter) in ``cwd``, with its temporary folder
-    ``cwd/.tmp``; it must exit 0 when ``ok``."""
-    (cwd / ".tmp").mkdir(exist_ok=True)
+def run(*command: str, cwd: Path, ok: bool = True, temp: Path | None = None) -> subprocess.CompletedProcess:
+    """Run ``command`` (``python`` is this interpreter) in ``cwd``, with ``temp`` as its temporary
+    folder if given; it must exit 0 when ``ok``."""
+    env = None if temp is None else {**os.environ, "TMPDIR": str(temp)}
     result = subprocess.run([sys.executable, *command], cwd=cwd, capture_output=True, text=True, timeout=300,
-                            check=False, env={**os.environ, "TMPDIR": str(cwd / ".tmp")})
+                            check=False, env=env)
     if ok:
         assert result.returncode == 0, f"{command} failed:\n{result.stdout}\n{result.stderr}"
     return result
@@ -73,10 +73,12 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
         k: v for k, v in printed["parameters"].items() if k != "T_0"}
 
     # 3. train, briefly (SAC starts learning after 500 steps)
+    temp = tmp_path / "temp"
+    temp.mkdir()
     out = run(str(EXAMPLES / "train_own_fmu.py"), str(TASK), "--out", "run", "--steps", "700", "--envs", "2",
-              "--eval-episodes", "2", cwd=tmp_path).stdout
+              "--eval-episodes", "2", cwd=tmp_path, temp=temp).stdout
     assert "trained 700 steps" in out and "evaluation, 2 episodes" in out
-    assert not list((tmp_path / ".tmp").glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
+    assert not list(temp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
     folder = tmp_path / "run"
     summary = json.loads((folder / "run.json").read_text())
     assert sorted(p.name for p in folder.iterdir()) == sorted([*summary["files"], "run.json"]), "temporary files left"
