@@ -39,7 +39,6 @@ from modelicagym.vector.parent.argument_checks import (
     check_reset_mask,
     check_reset_options,
     seeds_per_env,
-    select_infos,
     values_per_env,
 )
 from modelicagym.vector.parent.assembly import assemble
@@ -52,7 +51,7 @@ from modelicagym.vector.parent.config_checks import (
     check_pool_options,
 )
 from modelicagym.vector.parent.deadline import Deadline
-from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos
+from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos, select_infos
 from modelicagym.vector.parent.partial_batches import PartialBatches
 from modelicagym.vector.parent.party import Outcome
 from modelicagym.vector.parent.placement import LayoutState

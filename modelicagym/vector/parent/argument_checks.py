@@ -16,7 +16,7 @@ import numpy as np
 
 from modelicagym.errors import ArgumentError, ArgumentTypeError
 
-__all__ = ["check_env_ids", "check_reset_mask", "check_reset_options", "seeds_per_env", "select_infos", "values_per_env"]
+__all__ = ["check_env_ids", "check_reset_mask", "check_reset_options", "seeds_per_env", "values_per_env"]
 
 
 def seeds_per_env(seed: int | list[int | None] | None, num_envs: int) -> list[int | None]:
@@ -91,9 +91,3 @@ def check_env_ids(env_ids: Any, num_envs: int) -> np.ndarray:
     if int(seen.sum()) != ids.size:
         raise ArgumentError(f"env_ids must not repeat an env, got {ids.tolist()}")
     return ids
-
-
-def select_infos(infos: dict[str, Any], env_ids: np.ndarray) -> dict[str, Any]:
-    """The vector infos of envs ``env_ids`` only (every batched array indexed by them)."""
-    return {key: select_infos(value, env_ids) if isinstance(value, dict) else value[env_ids]
-            for key, value in infos.items()}

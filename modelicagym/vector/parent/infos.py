@@ -21,7 +21,7 @@ import numpy as np
 
 from modelicagym.vector.wire.buffers import PickledBatch, SharedBatch
 
-__all__ = ["Entries", "add_final_infos", "add_info", "env_info", "merge_infos"]
+__all__ = ["Entries", "add_final_infos", "add_info", "env_info", "merge_infos", "select_infos"]
 
 #: ``(env index, info)`` pairs, in env order, to merge into the vector infos
 Entries = list[tuple[int, dict[str, Any]]]
@@ -61,6 +61,12 @@ def env_info(infos: dict[str, Any], index: int) -> dict[str, Any]:
             continue
         info[key] = env_info(value, index) if isinstance(value, dict) else value[index]
     return info
+
+
+def select_infos(infos: dict[str, Any], env_ids: np.ndarray) -> dict[str, Any]:
+    """The vector infos of envs ``env_ids`` only (every batched array indexed by them)."""
+    return {key: select_infos(value, env_ids) if isinstance(value, dict) else value[env_ids]
+            for key, value in infos.items()}
 
 
 def merge_infos(entries: Entries, num_envs: int) -> dict[str, Any]:
