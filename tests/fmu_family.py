@@ -32,16 +32,14 @@ Tests get built members through the ``family_fmu(name, fmi_version)`` fixture of
 
 from __future__ import annotations
 
-import hashlib
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from lxml import etree
-
 from modelicagym.fmu import FMUDescription, open_fmu
-from modelicagym.fmu.build import build_source_fmu, cache_dir
+from modelicagym.fmu.build import build_source_fmu
+from modelicagym.fmu.description_edits import edited_description
 
 FMUS_DIR = Path(__file__).resolve().parent / "fmus"
 PROBE_DIR = FMUS_DIR / "probe"
@@ -138,32 +136,12 @@ VARIANTS: dict[str, Variant] = {
 
 
 def derive_description(variant: Variant, fmi_version: int) -> Path | None:
-    """The variant's model description (written to the cache, named by content), or None for the base."""
+    """The variant's model description (`edited_description`, in the cache), or None for the base."""
     if not variant.once_per_process and variant.snapshots and variant.start_time is None:
         return None
-    base = variant.model_dir / f"modelDescription_fmi{fmi_version}.xml"
-    root = etree.fromstring(base.read_bytes())
-    state = "canGetAndSetFMUstate" if fmi_version == 2 else "canGetAndSetFMUState"
-    serialize = "canSerializeFMUstate" if fmi_version == 2 else "canSerializeFMUState"
-    for interface in root:
-        if interface.tag not in ("CoSimulation", "ModelExchange"):
-            continue
-        if variant.once_per_process:
-            interface.set("canBeInstantiatedOnlyOncePerProcess", "true")
-        if not variant.snapshots:
-            interface.set(state, "false")
-            interface.set(serialize, "false")
-    if variant.start_time is not None:
-        root.find("DefaultExperiment").set("startTime", repr(variant.start_time))
-    text = etree.tostring(root, xml_declaration=True, encoding="UTF-8")
-    folder = cache_dir() / "test-descriptions"
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{hashlib.sha256(text).hexdigest()[:16]}.xml"
-    if not path.is_file():
-        tmp = path.with_suffix(f".{id(text)}.tmp")
-        tmp.write_bytes(text)
-        tmp.replace(path)
-    return path
+    return edited_description(variant.model_dir / f"modelDescription_fmi{fmi_version}.xml",
+                              once_per_process=variant.once_per_process, snapshots=variant.snapshots,
+                              start_time=variant.start_time)
 
 
 def build(name: str, fmi_version: int) -> Path:

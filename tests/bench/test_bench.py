@@ -176,3 +176,78 @@ def test_the_step_paths_benchmark_times_any_fmu_on_both_paths(family_fmu, tmp_pa
     assert set(result["seconds_per_step"]) == {"C loop", "FMUEnv.step (native)", "FMUEnv.step (python)"}
     assert result["inputs"][:5] == ["gear", "mode", "enable", "boost", "force"]
     assert "native env step / C loop" in out
+
+
+def test_the_pool_gain_benchmark_tables_each_fmu_against_its_bar(family_fmu, tmp_path: Path) -> None:
+    """``bench pool-gain``: a built-in case and a user's FMU allowed once per process (``--fmu``, its
+    config changed by ``--set``), each a row at the issue's n (8; 2 once per process) with the
+    rounds' ratios, the bar its measured cost sets, and the pool's layout; the load average at the
+    start and the end, in the output and the JSON."""
+    from modelicagym.bench.pool_gain import bar
+
+    fmu = family_fmu("probe_once", 2)
+    args = ["--cases", "cartpole-user", "--fmu", str(fmu), "--set", "max_episode_steps=40", "--rounds", "2",
+            "--seconds", "0.05", "--warm", "0.05"]
+    out = run_bench("pool-gain", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert {"cores", "load_average", "rounds", "seconds", "warm", "results"} <= set(result)
+    assert len(result["load_average"]["before"]) == len(result["load_average"]["after"]) == 3
+    assert out.startswith("load average at the start: ") and "load average (1 min) before " in out
+    rows = result["results"]
+    assert [(r["case"], r["n"], r["once_per_process"]) for r in rows] == [("cartpole-user", 8, False),
+                                                                          (fmu.stem, 2, True)]
+    assert rows[1]["fmu"] == str(fmu) and rows[1]["config"]["max_episode_steps"] == 40 and rows[1]["bar"] == 1.0
+    for r in rows:
+        assert len(r["ratios"]) == len(r["single_steps_per_second"]) == len(r["pool_steps_per_second"]) == 2
+        assert r["median"] == statistics.median(r["ratios"])
+        assert r["bar"] == bar(r["single_us"], r["n"], r["once_per_process"])
+        assert r["met"] == (r["median"] >= r["bar"])
+        ratios = " ".join(f"{x:.2f}" for x in r["ratios"])
+        assert re.search(rf"^{re.escape(r['label'])} \([\d.,]+ us\)\s+{r['n']}\s+{r['median']:.2f}x \({ratios}\)"
+                         rf"\s+>= {r['bar']:.1f}\s+{'yes' if r['met'] else 'no'}$", out, re.MULTILINE), out
+        assert f"{r['label']}, n={r['n']}: {r['layout']}" in out
+
+
+def test_the_pool_gain_benchmark_builds_the_moody_cases_and_sets_no_bar_off_the_issues_n(tmp_path: Path) -> None:
+    """The moody FMU, allowed once per process or not, built from the checkout; ``--n`` replaces the
+    issue's n, and a row where the issue sets no bar says so ("-")."""
+    args = ["--cases", "moody-once", "moody-100us", "--n", "2", "--rounds", "1", "--seconds", "0.05", "--warm", "0"]
+    out = run_bench("pool-gain", args, tmp_path / "result.json")
+    rows = json.loads((tmp_path / "result.json").read_text())["results"]
+    assert [(r["case"], r["n"], r["once_per_process"], r["bar"]) for r in rows] == [
+        ("moody-once", 2, True, 1.0), ("moody-100us", 2, False, None)]
+    assert rows[1]["met"] is None and re.search(r"^moody held calm.*\s+-\s+-$", out, re.MULTILINE), out
+    assert all(r["config"]["parameters"]["threshold"] == 1e9 for r in rows)
+
+
+@pytest.mark.parametrize("bad, message", [
+    (["--rounds", "0"], "bench pool-gain --rounds: at least 1, got 0"),
+    (["--cases"], "bench pool-gain: nothing to measure: name --cases or give --fmu PATH"),
+    (["--cases", "--fmu", "missing.fmu"], "FMU not found: missing.fmu"),
+])
+def test_the_pool_gain_benchmark_refuses_bad_input_in_one_line(bad: list[str], message: str, tmp_path: Path) -> None:
+    command = [sys.executable, "-m", "modelicagym.cli", "bench", "pool-gain", *bad, "--json", str(tmp_path / "r.json")]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert result.returncode == 1 and result.stderr.strip().startswith(f"error: {message}"), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and not (tmp_path / "r.json").exists()
+
+
+def test_the_pool_gain_benchmark_says_where_the_moody_sources_are_outside_a_checkout(monkeypatch, tmp_path) -> None:
+    from modelicagym.bench import pool_gain
+    from modelicagym.errors import ConfigError
+
+    monkeypatch.setattr(pool_gain, "MOODY_SOURCES", tmp_path / "tests" / "fmus" / "moody")
+    with pytest.raises(ConfigError, match=r"run from a checkout of modelicagym, or leave them out"):
+        pool_gain.CASES["moody-once"].config()
+
+
+@pytest.mark.parametrize("single_us, n, once, expected", [
+    (2.8, 8, False, 1.0), (19.9, 8, False, 1.0), (20.0, 8, False, 1.5), (999.0, 8, False, 1.5),
+    (1000.0, 8, False, 1.8), (100.0, 8, True, 1.5), (100.0, 2, True, 1.0), (100.0, 2, False, None),
+    (1000.0, 64, False, None)])
+def test_the_pool_gain_bar_is_issue_32s(single_us: float, n: int, once: bool, expected: float | None) -> None:
+    """At n=8: >= 1.8x from 1 ms a step, >= 1.5x from 20 us, else >= 1.0x; once per process at n=2:
+    >= 1.0x; no bar at another n."""
+    from modelicagym.bench.pool_gain import bar
+
+    assert bar(single_us, n, once) == expected
