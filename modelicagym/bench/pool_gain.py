@@ -33,6 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
+
 import modelicagym
 from modelicagym.bench import conditions, format_table, median, write_json
 from modelicagym.bench.balance import MOODY_SOURCES
@@ -128,7 +130,7 @@ def _single_run(env: modelicagym.FMUEnv) -> Callable[[float], float]:
     return run
 
 
-def _pool_run(envs: Any) -> Callable[[float], float]:
+def _pool_run(envs: gym.vector.VectorEnv) -> Callable[[float], float]:
     """The pool stepped for ``seconds`` (its own autoreset): env steps per second."""
     envs.reset(seed=0)
     envs.action_space.seed(0)
