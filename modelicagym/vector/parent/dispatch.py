@@ -28,6 +28,7 @@ import numpy as np
 
 from modelicagym.native.abi import COLLECT_DONE, MgWaiter
 from modelicagym.vector.parent.deadline import Deadline
+from modelicagym.vector.parent.machine_watch import MachineWatch
 from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
 from modelicagym.vector.parent.plan import usable_cores
 from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
@@ -90,6 +91,9 @@ class Dispatcher:
         self._posted_at: dict[int, float] = {}
         #: the calling process's slice as a party, or ``None``
         self.caller = None if local is None else CallerParty(local, buffers)
+        #: with a stand-in worker (every env isolated), its polling waits for a quiet machine
+        self._machine = MachineWatch() if any(handle.in_caller for handle in handles) else None
+        self._machine_quiet = False
         #: every party in slot order: the workers, then the calling process
         self._parties: list[Party] = [*handles, self.caller] if self.caller is not None else list(handles)
         self._step_all: list[PendingCommand] = []
@@ -136,8 +140,21 @@ class Dispatcher:
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
         #: a step wakes at least one worker
         self._workers_step = any(party is not self.caller for party in self._stepping_parties)
+        self._set_go_spin()
+
+    def watch_machine(self) -> None:
+        """Let an isolated pool's workers poll only on a quiet machine
+        (`~modelicagym.vector.parent.machine_watch`); cheap enough to call after every step."""
+        if self._machine is not None and self._machine.quiet() != self._machine_quiet:
+            self._machine_quiet = not self._machine_quiet
+            self._set_go_spin()
+
+    def _set_go_spin(self) -> None:
+        """Write how long the workers poll for their next command (`go_poll_time`)."""
         workers = sum(party is not self.caller for party in self._stepping_parties)
-        self.buffers.go_spin_ns[0] = round(go_poll_time(self.spin_time, workers, usable_cores()) * 1e9)
+        may_poll = self._machine is None or self._machine_quiet
+        spin_time = go_poll_time(self.spin_time, workers, usable_cores()) if may_poll else 0.0
+        self.buffers.go_spin_ns[0] = round(spin_time * 1e9)
 
     @property
     def in_flight(self) -> bool:
