@@ -75,7 +75,8 @@ class FMIBinding:
     For an FMU allowed one instance per process, with ``instances_per_process="copies"`` (the
     default), the binding leases its library for its life (`modelicagym.fmu.library_copies`): the
     FMU's binary while no other binding of it lives in the process, else a private copy of it, so
-    that each live instance has globals of its own. ``"one"`` loads the binary itself, always.
+    that each live instance has globals of its own. ``"one"`` loads the binary itself, always
+    (and a ``"copies"`` binding beside it then takes a copy).
 
     Subclasses set ``PREFIX``, ``FMPY_CLASSES``, ``TYPE_FUNCTIONS`` (for every FMI value type,
     the suffix of its get/set functions and the ctypes type of its values) and
@@ -100,9 +101,10 @@ class FMIBinding:
         self.fmu_name = description.name
         self.instance_name = instance_name or description.interface(mode).modelIdentifier
         library = description.library_path(mode)
+        private = check_instances_per_process(instances_per_process) == "copies"
         self._lease: LibraryLease | None = None
-        if check_instances_per_process(instances_per_process) == "copies" and description.once_per_process(mode):
-            self._lease = lease_library(library, self.fmu_name, description.unzip_dir / "resources")
+        if description.once_per_process(mode):
+            self._lease = lease_library(library, self.fmu_name, description.unzip_dir / "resources", private)
         try:
             self._fmu = self._load_library(library, self._lease.path if self._lease else library)
         except BaseException:

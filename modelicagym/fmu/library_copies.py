@@ -10,7 +10,9 @@ resolve beside the copy; ``resources`` is linked beside it for the same reason).
 Per process and library, slot 0 is the FMU's own binary and slot ``k > 0`` a copy. A binding leases
 the first free slot for its life (`lease_library`) and gives it back when it closes
 (`LibraryLease.release`): resets, re-instantiation and envs made again reuse loaded copies, so a
-process holds as many copies as it had instances alive at once. Libraries are never unloaded, so a
+process holds as many copies as it had instances alive at once. A binding told to keep the FMU's
+rule (``instances_per_process="one"``) shares slot 0 with any others so told, and a private lease
+then takes a copy. Libraries are never unloaded, so a
 copy's files stay while its process lives, under ``<cache>/library-copies/<pid>-<random>/``,
 locked by the process; they are removed when the process ends (by `multiprocessing`'s exit
 finalizers, which the main process and every multiprocessing child run, even those that leave by
@@ -71,10 +73,11 @@ def copies_root() -> Path:
 
 @dataclass
 class _Slots:
-    """The libraries of one FMU binary loaded in this process: slot 0 the binary, then copies."""
+    """The libraries of one FMU binary loaded in this process: slot 0 the binary, then copies; and
+    how many bindings hold each."""
 
     paths: list[Path]
-    leased: list[bool] = field(default_factory=list)
+    holders: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -83,12 +86,14 @@ class LibraryLease:
 
     path: Path
     slot: int
-    _slots: _Slots
+    _slots: _Slots | None
 
     def release(self) -> None:
         """Give the slot back (its library stays loaded for the next instance). Safe to call twice."""
         with _lock:
-            self._slots.leased[self.slot] = False
+            if self._slots is not None:
+                self._slots.holders[self.slot] -= 1
+                self._slots = None
 
 
 _lock = threading.Lock()
@@ -96,21 +101,22 @@ _slots: dict[Path, _Slots] = {}
 _folder: tuple[int, Path, IO[bytes] | None] | None = None  # (pid, folder, its locked lock file)
 
 
-def lease_library(library: Path, fmu_name: str, resources: Path | None = None) -> LibraryLease:
-    """The first free slot of ``library`` in this process, leased: the binary itself while no other
-    instance holds it, else a private copy (made now if every copy is leased)."""
+def lease_library(library: Path, fmu_name: str, resources: Path | None = None, private: bool = True) -> LibraryLease:
+    """A slot of ``library`` in this process, leased. ``private``: the first free one, i.e. the
+    binary itself while no other binding holds it, else a private copy (made now if every copy is
+    held); otherwise the binary itself, shared (``instances_per_process="one"``)."""
     key = library.resolve()
     with _lock:
-        slots = _slots.setdefault(key, _Slots([library], [False]))
-        for k, leased in enumerate(slots.leased):
-            if not leased:
-                slots.leased[k] = True
-                return LibraryLease(slots.paths[k], k, slots)
-        slot = len(slots.paths)
-        path = _copy(key, slot, fmu_name, resources)
-        slots.paths.append(path)
-        slots.leased.append(True)
-        return LibraryLease(path, slot, slots)
+        slots = _slots.setdefault(key, _Slots([library], [0]))
+        free = [k for k, holders in enumerate(slots.holders) if holders == 0] if private else [0]
+        if free:
+            slot = free[0]
+        else:
+            slot = len(slots.paths)
+            slots.paths.append(_copy(key, slot, fmu_name, resources))
+            slots.holders.append(0)
+        slots.holders[slot] += 1
+        return LibraryLease(slots.paths[slot], slot, slots)
 
 
 def _copy(library: Path, slot: int, fmu_name: str, resources: Path | None) -> Path:

@@ -121,13 +121,16 @@ def test_the_shared_machine_benchmark_leaves_no_load_behind(tmp_path: Path) -> N
     assert _processes_with(BUSY_MARKER) == [] and _processes_with("modelicagym.bench.shared_machine") == []
 
 
-@pytest.mark.parametrize("name", ["leaky", "probe_once"])
-def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize(("name", "settings"), [("leaky", {}), ("probe_once", {}),
+                                              ("probe_once", {"instances_per_process": "one"})])
+def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: str, settings: dict[str, str],
+                                                                       tmp_path: Path) -> None:
     """``bench fmu`` on a test FMU, its config as ``info`` suggests it changed by ``--config``; an
-    FMU allowed once per process gets no SyncVectorEnv (it would hold two instances), and says why."""
+    FMU allowed once per process gets a SyncVectorEnv (further instances load copies of its binary)
+    unless its config keeps one instance per process: then none (it would hold two), and it says why."""
     from fmu_family import build
 
-    (tmp_path / "config.json").write_text(json.dumps({"max_episode_steps": 40}))
+    (tmp_path / "config.json").write_text(json.dumps({"max_episode_steps": 40, **settings}))
     args = [str(build(name, 2)), "--config", str(tmp_path / "config.json"), "--n", "2", "--repeats", "1",
             "--seconds", "0.05"]
     out = run_bench("fmu", args, tmp_path / "result.json")
@@ -137,9 +140,10 @@ def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: st
     path = result["step_path"]
     assert f"single env: {path['path']} ({path['reason']})" in out
     [group] = result["results"]
-    measured = {"single", "async", "pool"} | ({"sync"} if name == "leaky" else set())
+    one_per_process = settings.get("instances_per_process") == "one"
+    measured = {"single", "async", "pool"} | (set() if one_per_process else {"sync"})
     assert set(group["steps_per_second"]) == measured and all(v > 0 for v in group["steps_per_second"].values())
-    assert ("sync" in group["skipped"]) == (name == "probe_once")
+    assert ("sync" in group["skipped"]) == one_per_process
     pool_paths = group["pool"]["step_paths"]
     assert sum(p["envs"] for p in pool_paths) == 2
     for p in pool_paths:
