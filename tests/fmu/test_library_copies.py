@@ -1,0 +1,125 @@
+"""FMUs allowed one instance per process, many in one process: each further live instance loads a
+private copy of the binary (`modelicagym.fmu.library_copies`). ``probe_once`` refuses a second live
+instance of a loaded library (a global counter in its C code), so without the copies these tests fail."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from modelicagym.env import FMUEnv
+from modelicagym.errors import ConfigError
+from once_copies import (REPO, actions, config, copies_in, copy_folders, observed, trajectory,
+                         trajectory_in_a_process)
+
+CASES = [("probe_once", "auto"), ("probe_once", "python"), ("moody_once", "auto")]
+
+
+@pytest.mark.processes
+@pytest.mark.parametrize(("name", "step_path"), CASES, ids=[f"{n}-{p}" for n, p in CASES])
+def test_two_live_instances_in_one_process_stay_independent(name: str, step_path: str, fmi_version: int) -> None:
+    """Two envs of the FMU alive in this process: stepping one leaves the other's values as they
+    were, and each gives, bit for bit, what it gives alone in a process of its own."""
+    env_config = config(name, fmi_version, step_path=step_path)
+    first, second = FMUEnv(env_config), FMUEnv(env_config)
+    try:
+        assert first.step_path == second.step_path == ("native" if step_path == "auto" else "python")
+        outputs = env_config["outputs"]
+        steps_first, steps_second = actions(1, 12), actions(2, 12)
+        runs = {"first": [observed(first.reset(seed=0)[0])], "second": [observed(second.reset(seed=0)[0])]}
+        for a, b in zip(steps_first, steps_second):
+            before = observed(second.fmu.get_values(outputs))
+            runs["first"].append(observed(first.step(np.array([a]))[0]))
+            assert observed(second.fmu.get_values(outputs)) == before  # the other's state is its own
+            runs["second"].append(observed(second.step(np.array([b]))[0]))
+        assert runs["first"] != runs["second"]
+        assert runs["first"] == trajectory_in_a_process(env_config, steps_first)
+        assert runs["second"] == trajectory_in_a_process(env_config, steps_second)
+    finally:
+        first.close()
+        second.close()
+
+
+def test_copies_are_made_once_and_reused_by_instances_made_again(fmi_version: int) -> None:
+    """A process keeps as many copies as it had instances alive at once: envs closed and made
+    again, and resets that re-instantiate, load the copies already made."""
+    env_config = config("probe_once", fmi_version, reset_rung="reinstantiate")
+    envs = [FMUEnv(env_config) for _ in range(3)]
+    [folder] = copy_folders(os.getpid())
+    made = copies_in(folder)
+    for env in envs:
+        env.close()
+    envs = [FMUEnv(env_config) for _ in range(3)]
+    for env in envs:
+        for _ in range(3):
+            env.reset()
+            env.step(np.array([0.5]))
+    assert copies_in(folder) == made
+    steps = actions(3, 5)
+    assert trajectory(envs[2], steps) == trajectory(envs[0], steps)
+    for env in envs:
+        env.close()
+
+
+def test_one_instance_per_process_keeps_the_fmus_rule(fmi_version: int) -> None:
+    """``instances_per_process="one"`` loads the FMU's own binary for every instance (the probe then
+    refuses a second live one); an env with copies beside such an env gets a copy."""
+    one = FMUEnv(config("probe_once", fmi_version, instances_per_process="one"))
+    try:
+        with pytest.raises(Exception, match="can be instantiated only once per process"):
+            FMUEnv(config("probe_once", fmi_version, instances_per_process="one"))
+        beside = FMUEnv(config("probe_once", fmi_version))
+        assert trajectory(beside, [0.5, 0.5]) == trajectory(one, [0.5, 0.5])
+        beside.close()
+    finally:
+        one.close()
+
+
+def test_an_unknown_setting_is_a_one_line_config_error() -> None:
+    with pytest.raises(ConfigError, match=r"^instances_per_process must be one of \('copies', 'one'\), got 'many'$"):
+        FMUEnv(config("probe_once", 2, instances_per_process="many"))
+
+
+_HOLDER = """
+import sys, time
+from once_copies import config
+from modelicagym.env import FMUEnv
+envs = [FMUEnv(config("probe_once", int(sys.argv[1]))) for _ in range(2)]
+print("ready", flush=True)
+if sys.argv[2] == "wait":
+    time.sleep(300)
+"""
+
+
+def _holder(fmi_version: int, then: str) -> subprocess.Popen:
+    """A process holding two live instances of ``probe_once`` (so one copy), which then exits or waits."""
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), str(REPO / "tests")])}
+    process = subprocess.Popen([sys.executable, "-c", _HOLDER, str(fmi_version), then], stdout=subprocess.PIPE,
+                               text=True, env=environment)
+    assert process.stdout is not None and process.stdout.readline() == "ready\n"
+    return process
+
+
+@pytest.mark.processes
+def test_a_process_leaves_no_copies_behind_even_when_killed(fmi_version: int) -> None:
+    """A process that ends removes its copies; one killed leaves them, and the next process that
+    makes a copy removes them."""
+    ended = _holder(fmi_version, "exit")
+    assert ended.wait(60) == 0
+    assert copy_folders(ended.pid) == []
+
+    killed = _holder(fmi_version, "wait")
+    [folder] = copy_folders(killed.pid)
+    assert copies_in(folder)  # the copy is on disk while the process lives
+    killed.send_signal(signal.SIGKILL)
+    killed.wait(60)
+    assert copy_folders(killed.pid) == [folder]
+
+    after = _holder(fmi_version, "exit")
+    assert after.wait(60) == 0
+    assert copy_folders(killed.pid) == [] and copy_folders(after.pid) == []
