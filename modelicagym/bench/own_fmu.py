@@ -248,12 +248,17 @@ def progress_reporter(total: int) -> Iterator[Callable[[str], None]]:
         yield advance
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
+def add_config_arguments(parser: argparse.ArgumentParser) -> None:
+    """The FMU and how its config changes ``info``'s suggestion (``try_config``'s arguments)."""
     parser.add_argument("fmu", help="path of the .fmu file")
     parser.add_argument("--config", help="a JSON file of FMUEnv keys that replace the suggested config's")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="change one config key, the value read as JSON (e.g. --set time_step=0.01)")
     parser.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_config_arguments(parser)
     add_round_arguments(parser, "fmu")
     parser.set_defaults(json=None)
     parser.description = (f"{(__doc__ or '').splitlines()[0]} The JSON goes to bench-results/fmu-<FMU name>.json "

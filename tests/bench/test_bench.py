@@ -180,3 +180,26 @@ def test_the_step_paths_benchmark_times_any_fmu_on_both_paths(family_fmu, tmp_pa
     assert set(result["seconds_per_step"]) == {"C loop", "FMUEnv.step (native)", "FMUEnv.step (python)"}
     assert result["inputs"][:5] == ["gear", "mode", "enable", "boost", "force"]
     assert "native env step / C loop" in out
+
+
+def test_the_once_per_process_benchmark_times_copies_against_one_env_per_worker(tmp_path: Path) -> None:
+    """``bench once-per-process``: a single env and the pool under both settings, the layouts, and
+    the pool's start under both; an FMU without the restriction is refused in one line."""
+    from fmu_family import build
+
+    args = [str(build("probe_once", 2)), "--n", "2", "--repeats", "1", "--seconds", "0.05", "--warm", "0",
+            "--start-n", "3"]
+    out = run_bench("once-per-process", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    [group] = result["results"]
+    assert set(group["steps_per_second"]) == {"single", "copies", "one"}
+    assert all(len(samples) == 1 for samples in group["samples"].values())
+    assert "an FMU that may be instantiated only once per process" in group["layouts"]["one"]
+    assert "once per process" not in group["layouts"]["copies"]
+    assert result["start"]["n"] == 3 and set(result["start"]["seconds"]) == {"copies", "one"}
+    assert "start (make_vec to the first reset's end) at n=3" in out
+
+    command = [sys.executable, "-m", "modelicagym.cli", "bench", "once-per-process", str(build("leaky", 2))]
+    refused = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert refused.returncode == 1
+    assert "does not declare canBeInstantiatedOnlyOncePerProcess" in refused.stderr.strip().splitlines()[-1]
