@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from fmu_family import build
+
 from modelicagym.fmu.library_copies import copies_root
 
 REPO = Path(__file__).resolve().parents[1]

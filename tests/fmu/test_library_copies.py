@@ -11,11 +11,10 @@ import sys
 
 import numpy as np
 import pytest
+from once_copies import REPO, actions, config, copies_in, copy_folders, observed, trajectory, trajectory_in_a_process
 
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ConfigError
-from once_copies import (REPO, actions, config, copies_in, copy_folders, observed, trajectory,
-                         trajectory_in_a_process)
 
 CASES = [("probe_once", "auto"), ("probe_once", "python"), ("moody_once", "auto")]
 

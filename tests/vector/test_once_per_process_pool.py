@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from once_copies import config, copies_in, copy_folders, observed
 
 import modelicagym
-from once_copies import config, copies_in, copy_folders, observed
 
 N = 4
 STEPS = 30
