@@ -122,18 +122,22 @@ def lease_library(library: Path, fmu_name: str, resources: Path | None = None, p
 def _copy(library: Path, slot: int, fmu_name: str, resources: Path | None) -> Path:
     """Copy ``library``'s folder into this process's folder as copy ``slot``; the copy's library."""
     digest = hashlib.sha256(str(library).encode()).hexdigest()[:12]
-    target = _process_folder() / f"{digest}-{slot}"
-    platform = target / "binaries" / library.parent.name
+    target = None
     try:
+        target = _process_folder() / f"{digest}-{slot}"
+        platform = target / "binaries" / library.parent.name
         shutil.copytree(library.parent, platform, symlinks=True)
         if resources is not None and resources.is_dir():
             (target / "resources").symlink_to(resources, target_is_directory=True)
     except OSError as error:
-        shutil.rmtree(target, ignore_errors=True)
+        if target is not None:
+            shutil.rmtree(target, ignore_errors=True)
+        where = target or copies_root()
         if is_disk_full(error):
-            raise disk_full(platform, ELSEWHERE) from error
-        raise FMUError(f"{fmu_name}: cannot copy its binary folder {library.parent} to {platform} "
-                       f"(a private copy for a further instance in this process): {error}") from error
+            raise disk_full(where, ELSEWHERE) from error
+        raise FMUError(f"{fmu_name}: cannot copy its binary folder {library.parent} to {where} (a private copy for "
+                       "a further instance in this process; set MODELICAGYM_CACHE to a writable folder, or "
+                       f"instances_per_process='one' to keep one instance per process): {error}") from error
     log = logger.info if slot == 1 else logger.debug
     log("%s may be instantiated only once per process (canBeInstantiatedOnlyOncePerProcess) and %d instance(s) "
         "are alive in this one: loading a private copy of its binary, %s (instances_per_process='one' "

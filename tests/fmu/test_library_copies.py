@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +16,8 @@ from once_copies import REPO, actions, config, copies_in, copy_folders, observed
 
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ConfigError
+from modelicagym.fmu import library_copies
+from modelicagym.fmu.errors import FMUError
 
 CASES = [("probe_once", "auto"), ("probe_once", "python"), ("moody_once", "auto")]
 
@@ -82,6 +85,27 @@ def test_one_instance_per_process_keeps_the_fmus_rule(fmi_version: int) -> None:
 def test_an_unknown_setting_is_a_one_line_config_error() -> None:
     with pytest.raises(ConfigError, match=r"^instances_per_process must be one of \('copies', 'one'\), got 'many'$"):
         FMUEnv(config("probe_once", 2, instances_per_process="many"))
+
+
+def test_a_copy_that_cannot_be_written_is_a_one_line_error(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """Where the copies' folder cannot be made (here: its parent is a file), the second instance
+    fails with one line that says what, where and the ways out; the first goes on."""
+    blocked = tmp_path / "a-file"
+    blocked.write_text("")
+    monkeypatch.setattr(library_copies, "copies_root", lambda: blocked / "library-copies")
+    monkeypatch.setattr(library_copies, "_folder", None)  # this process's folder, made again
+    monkeypatch.setattr(library_copies, "_slots", {})  # no copy made yet
+    first = FMUEnv(config("probe_once", 2))
+    try:
+        with pytest.raises(FMUError) as raised:
+            FMUEnv(config("probe_once", 2))
+        message = str(raised.value)
+        assert "\n" not in message and "cannot copy its binary folder" in message
+        assert "set MODELICAGYM_CACHE to a writable folder, or instances_per_process='one'" in message
+        first.reset()
+        assert first.step(np.array([0.5]))[0]["steps"] == 1  # the first instance goes on
+    finally:
+        first.close()
 
 
 _HOLDER = """
