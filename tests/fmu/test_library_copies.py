@@ -9,14 +9,16 @@ import signal
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
+from fmu_family import rewrite
 from once_copies import REPO, actions, config, copies_in, copy_folders, observed, trajectory, trajectory_in_a_process
 
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ConfigError
-from modelicagym.fmu import library_copies
+from modelicagym.fmu import library_copies, open_fmu
 from modelicagym.fmu.errors import FMUError
 
 CASES = [("probe_once", "auto"), ("probe_once", "python"), ("moody_once", "auto")]
@@ -42,6 +44,35 @@ def test_two_live_instances_in_one_process_stay_independent(name: str, step_path
         assert runs["first"] != runs["second"]
         assert runs["first"] == trajectory_in_a_process(env_config, steps_first)
         assert runs["second"] == trajectory_in_a_process(env_config, steps_second)
+    finally:
+        first.close()
+        second.close()
+
+
+def _mapped_libraries() -> set[str]:
+    """The shared libraries mapped in this process (Linux)."""
+    lines = Path("/proc/self/maps").read_text().splitlines()
+    return {line.split(maxsplit=5)[5] for line in lines if line.count(" ") >= 5 and ".so" in line}
+
+
+@pytest.mark.processes
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="reads /proc/self/maps (Linux)")
+def test_an_fmi1_slave_declaring_once_per_process_gets_a_copy(cartpole_fmu: Any, tmp_path: Path) -> None:
+    """FMI 1.0 declares the rule in ``Implementation/.../Capabilities`` (co-simulation only): the
+    cart-pole's FMI 1.0 slave so declared loads a copy for its second live instance (mapped in this
+    process) whose steps are, bit for bit, those of a process of its own."""
+    fmu = rewrite(cartpole_fmu(1, "cs"), tmp_path / "CartPoleOnce.fmu", edit_description=lambda text: text.replace(
+        "<Capabilities ", '<Capabilities canBeInstantiatedOnlyOncePerProcess="true" '))
+    assert open_fmu(fmu).once_per_process() and not open_fmu(cartpole_fmu(1, "cs")).once_per_process()
+    env_config = {"fmu": str(fmu), "inputs": ["f"], "outputs": ["x", "theta"], "time_step": 0.02}
+    first, second = FMUEnv(env_config), FMUEnv(env_config)
+    try:
+        assert second.step_path == "native"
+        copies = {path for path in _mapped_libraries() if str(library_copies.copies_root()) in path}
+        assert any(path.endswith("/CartPole.so") for path in copies)
+        steps = actions(4, 10)
+        assert trajectory(second, steps) == trajectory_in_a_process(env_config, steps)
+        assert trajectory(first, steps) == trajectory(second, steps)
     finally:
         first.close()
         second.close()
@@ -110,6 +141,7 @@ def test_a_copy_that_cannot_be_written_is_a_one_line_error(monkeypatch: pytest.M
 
 _HOLDER = """
 import sys, time
+from fmu_family import rewrite
 from once_copies import config
 from modelicagym.env import FMUEnv
 envs = [FMUEnv(config("probe_once", int(sys.argv[1]))) for _ in range(2)]
