@@ -20,6 +20,7 @@ from modelicagym.env import FMUEnv
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import library_copies, open_fmu
 from modelicagym.fmu.errors import FMUError
+from modelicagym.info import format_info
 
 CASES = [("probe_once", "auto"), ("probe_once", "python"), ("moody_once", "auto")]
 
@@ -178,3 +179,10 @@ def test_a_process_leaves_no_copies_behind_even_when_killed(fmi_version: int) ->
     after = _holder(fmi_version, "exit")
     assert after.wait(60) == 0
     assert copy_folders(killed.pid) == [] and copy_folders(after.pid) == []
+
+
+def test_info_says_what_happens_to_further_instances(family_fmu: Any) -> None:
+    said = format_info(open_fmu(family_fmu("moody_once", 2)))
+    assert "one instance per process: each further instance alive in a process loads a private copy" in said
+    assert '"instances_per_process": "one" keeps one env per process instead' in said
+    assert "private copy" not in format_info(open_fmu(family_fmu("moody", 2)))
