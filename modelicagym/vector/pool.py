@@ -179,7 +179,8 @@ class PoolVectorEnv(VectorEnv):
         Args:
             env_fns: functions creating the envs, sent to the workers with cloudpickle. If one has
                 an attribute ``max_envs_per_process`` (e.g. 1 for an FMU that can be instantiated
-                only once per process), it caps the envs per worker like ``max_envs_per_worker``.
+                only once per process, where its config keeps that rule: ``instances_per_process="one"``),
+                it caps the envs per worker like ``max_envs_per_worker``.
             num_workers: worker processes; default one per usable core (less the caller's, see
                 ``caller_steps``), never more than envs. ``0``: none, the calling process steps
                 every env itself, whatever it runs (no fault handling then: nothing to isolate,
