@@ -21,6 +21,7 @@ import gymnasium as gym
 
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ModelicaGymError
 from modelicagym.fmu import open_fmu
+from modelicagym.fmu.library_copies import check_instances_per_process
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
     "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.models.cartpole.env:CartPoleEnv"),
@@ -57,8 +58,9 @@ class EnvFactory:
     """A picklable ``() -> env`` for one environment, sent to pool workers.
 
     ``max_envs_per_process`` tells the pool to keep FMUs that may be instantiated only once per
-    process one to a worker; ``safe_in_caller`` that its envs (a bundled model's) may run in the
-    calling process, without the pool asking a worker first (`modelicagym.vector.env_contract`).
+    process one to a worker (where the config asks for it: ``instances_per_process="one"``);
+    ``safe_in_caller`` that its envs (a bundled model's) may run in the calling process, without
+    the pool asking a worker first (`modelicagym.vector.env_contract`).
     """
 
     def __init__(self, entry_point: str, options: dict[str, Any], max_envs_per_process: int | None = None):
@@ -138,11 +140,11 @@ def make_vec(
         ray_options.update({key: options.pop(key) for key in [k for k in options if k in RAY_OPTIONS]})
     elif ray_options:
         raise ArgumentError(f"ray_options apply to backend='ray' only, not {backend!r}")
-    limit = None
+    once_per_process = False
     if isinstance(name, Mapping):
         entry_point, options = "modelicagym.env:FMUEnv", {**name, **options}
-        if open_fmu(options["fmu"], validate=options.get("validate", True)).once_per_process(options.get("mode")):
-            limit = 1
+        once_per_process = open_fmu(options["fmu"], validate=options.get("validate", True)).once_per_process(
+            options.get("mode"))
     else:
         entry_point = _entry_point(name)
     env_keys = _env_option_names(_load(entry_point))
@@ -155,12 +157,19 @@ def make_vec(
     if env_keys is not None:
         _check_names({k: v for k, v in options.items() if k not in env_keys}, POOL_OPTIONS, "pool option",
                      only_if_close=True)
-    env_fns = [
-        EnvFactory(entry_point, {**options, **(env_options or {}), **(options_per_env[i] if options_per_env else {})},
-                   limit)
-        for i in range(n)
-    ]
+    env_fns = []
+    for i in range(n):
+        env_config = {**options, **(env_options or {}), **(options_per_env[i] if options_per_env else {})}
+        env_fns.append(EnvFactory(entry_point, env_config, _envs_per_process(env_config, once_per_process)))
     return _vector_env(backend, env_fns, {**to_pool, **(pool_options or {})}, ray_options)
+
+
+def _envs_per_process(config: Mapping[str, Any], once_per_process: bool) -> int | None:
+    """1 where an env keeps its FMU's one-instance-per-process rule (``instances_per_process="one"``
+    on an FMU that declares it), so the pool gives it a worker of its own; else no limit (further
+    instances in a process load private copies of the FMU's binary)."""
+    setting = check_instances_per_process(config.get("instances_per_process", "copies"))
+    return 1 if once_per_process and setting == "one" else None
 
 
 def _vector_env(

@@ -7,7 +7,8 @@ actions sampled from the action space (seeded):
 
 * ``single``: one `FMUEnv` in a plain loop;
 * ``sync``: ``gymnasium.vector.SyncVectorEnv`` of n envs (not for an FMU that may be instantiated
-  only once per process: it holds every env in this process);
+  only once per process whose config keeps that rule, ``instances_per_process="one"``: it holds
+  every env in this process);
 * ``async``: ``gymnasium.vector.AsyncVectorEnv`` (n <= 8: one process per env);
 * ``pool``: ``modelicagym.make_vec`` with its default layout;
 
@@ -114,12 +115,13 @@ def make_vector(candidate: str, n: int, config: Mapping[str, Any]) -> gym.vector
     return gym.vector.AsyncVectorEnv(fns, shared_memory=True)
 
 
-def skipped(candidate: str, n: int, once_per_process: bool) -> str | None:
+def skipped(candidate: str, n: int, one_per_process: bool) -> str | None:
     """Why ``candidate`` is not measured at ``n`` envs (``None``: it is)."""
     if candidate == "async" and n > ASYNC_MAX_N:
         return f"AsyncVectorEnv starts one process per env: measured up to n={ASYNC_MAX_N}"
-    if candidate == "sync" and once_per_process:
-        return "the FMU may be instantiated only once per process: SyncVectorEnv cannot hold two"
+    if candidate == "sync" and one_per_process:
+        return ("the FMU may be instantiated only once per process and the config keeps that rule "
+                "(instances_per_process='one'): SyncVectorEnv cannot hold two")
     return None
 
 
@@ -128,7 +130,7 @@ def describe_paths(paths: list[tuple[str, str]]) -> list[dict[str, Any]]:
     return [{"path": path, "reason": reason, "envs": count} for (path, reason), count in Counter(paths).items()]
 
 
-def measure_group(config: Mapping[str, Any], n: int, repeats: int, seconds: float, once_per_process: bool,
+def measure_group(config: Mapping[str, Any], n: int, repeats: int, seconds: float, one_per_process: bool,
                   progress: Callable[[str], None]) -> dict[str, Any]:
     """Env steps per second of a single env and of the vector candidates for ``n`` envs, interleaved;
     the single env's time in and around the FMU; the pool's step paths, layout and step breakdown.
@@ -139,7 +141,7 @@ def measure_group(config: Mapping[str, Any], n: int, repeats: int, seconds: floa
     try:
         pool = None
         for candidate in VECTORS:  # before the single env: AsyncVectorEnv makes (and closes) an env here
-            why = skipped(candidate, n, once_per_process)
+            why = skipped(candidate, n, one_per_process)
             if why is not None:
                 skips[candidate] = why
                 continue
@@ -246,12 +248,17 @@ def progress_reporter(total: int) -> Iterator[Callable[[str], None]]:
         yield advance
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
+def add_config_arguments(parser: argparse.ArgumentParser) -> None:
+    """The FMU and how its config changes ``info``'s suggestion (``try_config``'s arguments)."""
     parser.add_argument("fmu", help="path of the .fmu file")
     parser.add_argument("--config", help="a JSON file of FMUEnv keys that replace the suggested config's")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="change one config key, the value read as JSON (e.g. --set time_step=0.01)")
     parser.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_config_arguments(parser)
     add_round_arguments(parser, "fmu")
     parser.set_defaults(json=None)
     parser.description = (f"{(__doc__ or '').splitlines()[0]} The JSON goes to bench-results/fmu-<FMU name>.json "
@@ -268,15 +275,16 @@ def run(args: argparse.Namespace) -> int:
     config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
     description = open_fmu(config["fmu"], validate=config.get("validate", True))
     once = description.once_per_process(config.get("mode"))
+    one_per_process = once and config.get("instances_per_process", "copies") == "one"
     head = {"fmu": str(config["fmu"]), "model": description.model_name, "fmi_version": description.fmi_version,
             "mode": config.get("mode") or description.default_mode(), "once_per_process": once,
             "config": json.loads(json.dumps(config, default=str))}
-    candidates = [1 + sum(skipped(c, n, once) is None for c in VECTORS) for n in args.n]  # single + vectors
+    candidates = [1 + sum(skipped(c, n, one_per_process) is None for c in VECTORS) for n in args.n]  # single + vectors
     total = sum(1 + k * (1 + args.repeats) + 1 for k in candidates)
     results = []
     with progress_reporter(total) as progress:
         for n in args.n:
-            results.append(measure_group(config, n, args.repeats, args.seconds, once, progress))
+            results.append(measure_group(config, n, args.repeats, args.seconds, one_per_process, progress))
     head["step_path"] = results[0]["single_step_path"]
     line, data = conditions(load_before, args.repeats, args.seconds)
     print(report(head, results))

@@ -18,6 +18,7 @@ from gymnasium import spaces
 from modelicagym.env.config_checks import check_action_bounds, check_batch_hooks, check_numbers, check_termination
 from modelicagym.env.saved_state import EnvState, StartStates
 from modelicagym.errors import ConfigError, ConfigTypeError
+from modelicagym.fmu.library_copies import check_instances_per_process
 
 Bounds = Mapping[str, Sequence[float]]
 
@@ -61,6 +62,11 @@ class FMUEnvConfig:
             solver loop (the reference both native paths are tested against).
         mode: ``"cs"`` or ``"me"``; default: co-simulation when the FMU offers it.
         reset_rung, solver, tolerance, solver_step, validate, logging_on: passed to `FMUInstance`.
+        instances_per_process: for an FMU allowed one instance per process: ``"copies"``
+            (default: each further instance in a process loads a private copy of the FMU's binary,
+            so a pool lays such envs out like any other) or ``"one"`` (one env per process: a pool
+            keeps one env per worker; for an FMU whose restriction is not about globals, e.g. one
+            writing fixed file names). Passed to `FMUInstance`.
         start_states: states (``env.unwrapped.get_state()``, `modelicagym.env.saved_state`) or a
             `StartStates`: every reset that brings no state of its own starts from one, drawn with
             the env's generator (e.g. a plant's recorded operating points).
@@ -91,6 +97,7 @@ class FMUEnvConfig:
     solver_step: float | None = None
     validate: bool = True
     logging_on: bool = False
+    instances_per_process: str = "copies"
     start_states: Sequence[EnvState] | StartStates | None = None
 
     @classmethod
@@ -117,6 +124,7 @@ class FMUEnvConfig:
                                     for name, (low, high) in config.action_bounds.items()}
         if config.start_states is not None and not isinstance(config.start_states, StartStates):
             config.start_states = StartStates(config.start_states)
+        check_instances_per_process(config.instances_per_process)
         if config.step_path not in STEP_PATHS:
             raise ConfigError(f"step_path must be one of {STEP_PATHS}, got {config.step_path!r}")
         if config.action_table is not None:

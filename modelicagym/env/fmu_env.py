@@ -132,6 +132,7 @@ class FMUEnv(gym.Env):
             validate=cfg.validate,
             logging_on=cfg.logging_on,
             step_size=self.time_step,
+            instances_per_process=cfg.instances_per_process,
         )
         self.action_space = cfg.action_space or self.make_action_space()
         self.observation_space = cfg.observation_space or self.make_observation_space()

@@ -28,6 +28,7 @@ import numpy as np
 
 from modelicagym.fmu.description import FMUDescription
 from modelicagym.fmu.errors import DISCARD, ERROR, FATAL, OK, WARNING, FMUCallError, FMUError
+from modelicagym.fmu.library_copies import LibraryLease, check_instances_per_process, lease_library
 from modelicagym.fmu.logs import FMULog
 from modelicagym.fmu.trial import check_first_load
 
@@ -71,6 +72,12 @@ _LOADED: dict[tuple[type, str, str], Any] = {}
 class FMIBinding:
     """One loaded FMU library and at most one live instance of it.
 
+    For an FMU allowed one instance per process, with ``instances_per_process="copies"`` (the
+    default), the binding leases its library for its life (`modelicagym.fmu.library_copies`): the
+    FMU's binary while no other binding of it lives in the process, else a private copy of it, so
+    that each live instance has globals of its own. ``"one"`` loads the binary itself, always
+    (and a ``"copies"`` binding beside it then takes a copy).
+
     Subclasses set ``PREFIX``, ``FMPY_CLASSES``, ``TYPE_FUNCTIONS`` (for every FMI value type,
     the suffix of its get/set functions and the ctypes type of its values) and
     ``CONTINUOUS_STATE_FUNCTIONS``; ``FREE_INSTANCE``, ``TERMINATE`` and ``RESET`` name the
@@ -87,38 +94,50 @@ class FMIBinding:
     CONTINUOUS_STATE_FUNCTIONS: dict[str, str] = {}
     """Suffixes of the model-exchange functions `continuous_state_functions` binds, by key."""
 
-    def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None):
+    def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None,
+                 instances_per_process: str = "copies"):
         self.description = description
         self.mode = mode
         self.fmu_name = description.name
         self.instance_name = instance_name or description.interface(mode).modelIdentifier
-        self._fmu = self._load_library(description.library_path(mode))
+        library = description.library_path(mode)
+        private = check_instances_per_process(instances_per_process) == "copies"
+        self._lease: LibraryLease | None = None
+        if description.once_per_process(mode):
+            self._lease = lease_library(library, self.fmu_name, description.unzip_dir / "resources", private)
+        try:
+            self._fmu = self._load_library(library, self._lease.path if self._lease else library)
+        except BaseException:
+            self._release()
+            raise
         self.raw = FunctionTable(self._fmu.dll, self.fmu_name)
         self._addresses: dict[str, int] = {}
         self.component: Any = None
         self.log = FMULog(description.model_name, self.instance_name)
 
-    def _load_library(self, library: Path) -> Any:
-        """fmpy's object for ``library``, made once per process and mode: it declares the C
-        signatures on its ``dll``, which every instance of the library then shares (declaring them
-        costs ~2 ms, which a pool of many envs used to pay per env).
+    def _load_library(self, binary: Path, library: Path) -> Any:
+        """fmpy's object for ``library`` (the FMU's ``binary`` or a private copy of it), made once
+        per process and mode: it declares the C signatures on its ``dll``, which every instance of
+        the library then shares (declaring them costs ~2 ms, which a pool of many envs used to pay
+        per env).
 
         The first load of a binary on this machine is tried in a child process first
-        (`modelicagym.fmu.trial`). fmpy changes the working directory to the binary's folder while
-        it loads the library and, if that fails, leaves it there: it is put back either way.
+        (`modelicagym.fmu.trial`; a copy's verdict is its binary's). fmpy changes the working
+        directory to the binary's folder while it loads the library and, if that fails, leaves it
+        there: it is put back either way.
         """
         fmpy_class = self.FMPY_CLASSES[self.mode]
         identifier = self.description.interface(self.mode).modelIdentifier
         key = (fmpy_class, str(library), identifier)
         loaded = _LOADED.get(key)
         if loaded is None:
-            check_first_load(self.description, self.mode, library)
+            check_first_load(self.description, self.mode, binary)
             working_directory = os.getcwd()
             try:
                 loaded = fmpy_class(
                     guid=self.description.guid,
                     modelIdentifier=identifier,
-                    unzipDirectory=str(self.description.unzip_dir),
+                    unzipDirectory=str(library.parents[2]),  # FMI 3.0's class finds the library from it
                     instanceName=self.instance_name,
                     libraryPath=str(library),
                 )
@@ -333,8 +352,15 @@ class FMIBinding:
         return checked
 
     def close(self) -> None:
-        """Free the instance and release the log route; the library is left to the OS."""
+        """Free the instance and release the log route and the library's lease; the library is
+        left to the OS (loaded, for the next binding)."""
         try:
             self.free_instance()
         finally:
             self.log.close()
+            self._release()
+
+    def _release(self) -> None:
+        if self._lease is not None:
+            self._lease.release()
+            self._lease = None

@@ -149,9 +149,19 @@ class FMUDescription:
         return self.fmi_version == 1 or bool(self.interface("me").needsCompletedIntegratorStep)
 
     def once_per_process(self, mode: str | None = None) -> bool:
-        """Whether only one instance may live in a process (``canBeInstantiatedOnlyOncePerProcess``)."""
+        """Whether only one instance may live in a process (``canBeInstantiatedOnlyOncePerProcess``;
+        FMI 1.0 declares it for co-simulation only, in ``Implementation``, which fmpy does not read)."""
         modes = [mode] if mode else self.modes
-        return any(self.interface(m).canBeInstantiatedOnlyOncePerProcess for m in modes)
+        interfaces = {m: self.interface(m) for m in modes}
+        if self.fmi_version == 1:
+            return "cs" in interfaces and self._fmi1_once_per_process
+        return any(interface.canBeInstantiatedOnlyOncePerProcess for interface in interfaces.values())
+
+    @cached_property
+    def _fmi1_once_per_process(self) -> bool:
+        root = etree.parse(str(self.unzip_dir / "modelDescription.xml")).getroot()
+        flags = root.xpath("Implementation/*/Capabilities/@canBeInstantiatedOnlyOncePerProcess")
+        return any(flag in ("true", "1") for flag in flags)
 
     @property
     def default_experiment(self) -> DefaultExperiment:

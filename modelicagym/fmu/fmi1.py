@@ -55,8 +55,9 @@ class FMI1Binding(FMIBinding):
     TYPE_FUNCTIONS = {**FMI2Binding.TYPE_FUNCTIONS, "Boolean": ("Boolean", ctypes.c_int8)}
     CONTINUOUS_STATE_FUNCTIONS = {**FMI2Binding.CONTINUOUS_STATE_FUNCTIONS, "get_nominals": "GetNominalContinuousStates"}
 
-    def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None):
-        super().__init__(description, mode, instance_name)
+    def __init__(self, description: FMUDescription, mode: str, instance_name: str | None = None,
+                 instances_per_process: str = "copies"):
+        super().__init__(description, mode, instance_name, instances_per_process)
         self.PREFIX = f"{description.interface(mode).modelIdentifier}_fmi"
         if mode == "cs":
             self.FREE_INSTANCE, self.TERMINATE, self.RESET = "FreeSlaveInstance", "TerminateSlave", "ResetSlave"

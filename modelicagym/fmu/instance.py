@@ -99,6 +99,12 @@ class FMUInstance:
             `modelicagym.fmu.logs.LOG_LIMITS`).
         step_size: the step the caller will take, for checking a reset rung when the first
             episode took no step (default: the model's ``defaultExperiment stepSize``).
+        instances_per_process: for an FMU allowed one instance per process
+            (``canBeInstantiatedOnlyOncePerProcess``): ``"copies"`` (default) loads a private copy
+            of its binary for each further instance alive at once in this process
+            (`modelicagym.fmu.library_copies`); ``"one"`` loads the binary itself, as the FMU
+            asks (for an FMU whose restriction is not about globals, e.g. one writing fixed file
+            names: then keep one instance per process).
     """
 
     time = OnClock()
@@ -130,6 +136,7 @@ class FMUInstance:
         validate: bool = True,
         logging_on: bool = False,
         step_size: float | None = None,
+        instances_per_process: str = "copies",
     ):
         self.description = description = open_fmu(fmu, validate=validate)
         self.clock = StepClock()
@@ -144,7 +151,7 @@ class FMUInstance:
         self.step_size = step_size or description.default_experiment.step_size
         self.reset_rung = self._first_rung(reset_rung)
 
-        self.binding = _BINDINGS[description.fmi_version](description, self.mode, instance_name)
+        self.binding = _BINDINGS[description.fmi_version](description, self.mode, instance_name, instances_per_process)
         self.binding.log.count_errors_in(self.clock)
         self.clock.log_error_limit = LOG_LIMITS.errors_per_step
         self.inputs = ValueBuffer(self.binding, self.input_variables)

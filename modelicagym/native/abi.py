@@ -398,7 +398,7 @@ class MgServer(ctypes.Structure):
     _fields_ = [
         *_pointers("batch", "go", "done", "command", "reply"),
         ("step_code", ctypes.c_int32),
-        ("spin_ns", ctypes.c_int64),
+        *_pointers("spin_ns"),
         ("timeout_ns", ctypes.c_int64),
         ("waiter", ctypes.c_void_p),
     ]
@@ -409,8 +409,7 @@ class MgCollector(ctypes.Structure):
 
     _fields_ = [
         ("n_workers", ctypes.c_int64),
-        *_pointers("done", "replies", "stepping"),
-        ("spin_ns", ctypes.c_int64),
+        *_pointers("done", "replies", "stepping", "spin_ns"),
         ("timeout_ns", ctypes.c_int64),
         ("waiter", ctypes.c_void_p),
         ("calls", ctypes.c_int64),

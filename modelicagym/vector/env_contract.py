@@ -31,7 +31,8 @@ env that offers more gets more, and the pool asks for it by these names only:
   ``exit()``) names the env by its index and this label.
 
 And of the env fn, the callable that makes an env: ``max_envs_per_process`` (an attribute of it) caps
-the envs of one worker process (1 for FMUs with ``canBeInstantiatedOnlyOncePerProcess``); it is
+the envs of one worker process (``make_vec`` sets 1 for an FMU with
+``canBeInstantiatedOnlyOncePerProcess`` whose config says ``instances_per_process="one"``); it is
 pickled with cloudpickle and called in the worker, so it must not capture live FMU instances
 (ctypes handles), only what is needed to create one. ``safe_in_caller`` (an attribute of it, as of
 the env) promises that its envs are safe in the calling process, so the pool need not ask a worker

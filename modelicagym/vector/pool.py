@@ -179,7 +179,8 @@ class PoolVectorEnv(VectorEnv):
         Args:
             env_fns: functions creating the envs, sent to the workers with cloudpickle. If one has
                 an attribute ``max_envs_per_process`` (e.g. 1 for an FMU that can be instantiated
-                only once per process), it caps the envs per worker like ``max_envs_per_worker``.
+                only once per process, where its config keeps that rule: ``instances_per_process="one"``),
+                it caps the envs per worker like ``max_envs_per_worker``.
             num_workers: worker processes; default one per usable core (less the caller's, see
                 ``caller_steps``), never more than envs. ``0``: none, the calling process steps
                 every env itself, whatever it runs (no fault handling then: nothing to isolate,
@@ -492,6 +493,7 @@ class PoolVectorEnv(VectorEnv):
                 entries += message.data
         if self._placement.due():
             self._placement.after_step(buffers.terminations, buffers.truncations, self._dispatcher.take_collect_times)
+            self._dispatcher.watch_machine()
         if self._timing_enabled and not restarted:
             self._timing.add(time.perf_counter_ns() - self._step_started_ns, buffers.timing, self._placement.stepping)
         infos = self._merge_infos(entries) if entries else {}

@@ -121,13 +121,16 @@ def test_the_shared_machine_benchmark_leaves_no_load_behind(tmp_path: Path) -> N
     assert _processes_with(BUSY_MARKER) == [] and _processes_with("modelicagym.bench.shared_machine") == []
 
 
-@pytest.mark.parametrize("name", ["leaky", "probe_once"])
-def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize(("name", "settings"), [("leaky", {}), ("probe_once", {}),
+                                              ("probe_once", {"instances_per_process": "one"})])
+def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: str, settings: dict[str, str],
+                                                                       tmp_path: Path) -> None:
     """``bench fmu`` on a test FMU, its config as ``info`` suggests it changed by ``--config``; an
-    FMU allowed once per process gets no SyncVectorEnv (it would hold two instances), and says why."""
+    FMU allowed once per process gets a SyncVectorEnv (further instances load copies of its binary)
+    unless its config keeps one instance per process: then none (it would hold two), and it says why."""
     from fmu_family import build
 
-    (tmp_path / "config.json").write_text(json.dumps({"max_episode_steps": 40}))
+    (tmp_path / "config.json").write_text(json.dumps({"max_episode_steps": 40, **settings}))
     args = [str(build(name, 2)), "--config", str(tmp_path / "config.json"), "--n", "2", "--repeats", "1",
             "--seconds", "0.05"]
     out = run_bench("fmu", args, tmp_path / "result.json")
@@ -137,9 +140,10 @@ def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: st
     path = result["step_path"]
     assert f"single env: {path['path']} ({path['reason']})" in out
     [group] = result["results"]
-    measured = {"single", "async", "pool"} | ({"sync"} if name == "leaky" else set())
+    one_per_process = settings.get("instances_per_process") == "one"
+    measured = {"single", "async", "pool"} | (set() if one_per_process else {"sync"})
     assert set(group["steps_per_second"]) == measured and all(v > 0 for v in group["steps_per_second"].values())
-    assert ("sync" in group["skipped"]) == (name == "probe_once")
+    assert ("sync" in group["skipped"]) == one_per_process
     pool_paths = group["pool"]["step_paths"]
     assert sum(p["envs"] for p in pool_paths) == 2
     for p in pool_paths:
@@ -176,6 +180,29 @@ def test_the_step_paths_benchmark_times_any_fmu_on_both_paths(family_fmu, tmp_pa
     assert set(result["seconds_per_step"]) == {"C loop", "FMUEnv.step (native)", "FMUEnv.step (python)"}
     assert result["inputs"][:5] == ["gear", "mode", "enable", "boost", "force"]
     assert "native env step / C loop" in out
+
+
+def test_the_once_per_process_benchmark_times_copies_against_one_env_per_worker(tmp_path: Path) -> None:
+    """``bench once-per-process``: a single env and the pool under both settings, the layouts, and
+    the pool's start under both; an FMU without the restriction is refused in one line."""
+    from fmu_family import build
+
+    args = [str(build("probe_once", 2)), "--n", "2", "--repeats", "1", "--seconds", "0.05", "--warm", "0",
+            "--start-n", "3"]
+    out = run_bench("once-per-process", args, tmp_path / "result.json")
+    result = json.loads((tmp_path / "result.json").read_text())
+    [group] = result["results"]
+    assert set(group["steps_per_second"]) == {"single", "copies", "one"}
+    assert all(len(samples) == 1 for samples in group["samples"].values())
+    assert "an FMU that may be instantiated only once per process" in group["layouts"]["one"]
+    assert "once per process" not in group["layouts"]["copies"]
+    assert result["start"]["n"] == 3 and set(result["start"]["seconds"]) == {"copies", "one"}
+    assert "start (make_vec to the first reset's end) at n=3" in out
+
+    command = [sys.executable, "-m", "modelicagym.cli", "bench", "once-per-process", str(build("leaky", 2))]
+    refused = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert refused.returncode == 1
+    assert "does not declare canBeInstantiatedOnlyOncePerProcess" in refused.stderr.strip().splitlines()[-1]
 
 
 def test_the_pool_gain_benchmark_tables_each_fmu_against_its_bar(family_fmu, tmp_path: Path) -> None:

@@ -200,9 +200,14 @@ def test_a_buggy_reset_can_be_skipped_by_config(family_fmu, fmi_version, caplog)
 
 
 def test_once_per_process_fmu_is_never_instantiated_twice(family_fmu, fmi_version):
+    """With ``instances_per_process="one"`` the FMU's own binary serves every instance: the probe
+    refuses a second live one, and the ladder frees before it instantiates again."""
     path = family_fmu("probe_once", fmi_version)
     assert open_fmu(path).once_per_process()
-    make = lambda **kw: FMUEnv(fmu=path, inputs=["force"], outputs=["steps"], **kw)  # noqa: E731
+
+    def make(**kw: object) -> FMUEnv:
+        return FMUEnv(fmu=path, inputs=["force"], outputs=["steps"], instances_per_process="one", **kw)
+
     env = make()
     env.reset()
     env.step(np.array([1.0]))

@@ -49,9 +49,10 @@ def random_mass(rng: Any) -> float:
 
 
 def once_per_process_pool(**pool_options: Any) -> PoolVectorEnv:
-    """The probe variant an FMU allows once per process, as a user pools it: ``make_vec`` of its config."""
+    """The probe variant an FMU allows once per process, as a user pools it keeping that rule:
+    ``make_vec`` of its config with ``instances_per_process="one"``."""
     config = {"fmu": str(build("probe_once", 2)), "inputs": ["force"], "outputs": ["position", "clock"],
-              "parameters": {"gear": 1, "enable": True}, "time_step": 0.1}
+              "parameters": {"gear": 1, "enable": True}, "time_step": 0.1, "instances_per_process": "one"}
     return modelicagym.make_vec(config, n=2, **pool_options)
 
 

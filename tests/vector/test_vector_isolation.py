@@ -23,7 +23,7 @@ import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 from modelicagym.vector.parent.plan import usable_cores
-from modelicagym.vector.parent.worker_set import go_spin_time
+from modelicagym.vector.parent.dispatch import go_poll_time
 from modelicagym.vector.wire.sync import futex_library
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
@@ -205,14 +205,21 @@ def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how:
     assert result.returncode == (3 if how == "exit" else -signal.SIGSEGV), result.stderr
 
 
-def test_workers_that_fill_the_cores_beside_a_waiting_caller_sleep_between_batches() -> None:
-    """Pollers must not outnumber the cores: where the calling process steps nothing and the workers
-    fill the usable cores, a worker sleeps as soon as it waits for its next command."""
+def test_workers_poll_for_their_next_command_only_while_the_pollers_fit_the_cores() -> None:
+    """Pollers must not outnumber the cores: the calling process takes part in every step, so a
+    worker polls for its next command only while it and the other stepping workers leave the
+    calling process a core; otherwise it sleeps as soon as it waits. The choice lives in shared
+    memory, where the workers read it at every wait."""
     cores = usable_cores()
-    assert go_spin_time(1e-4, cores, caller_steps=False) == 0.0
-    assert go_spin_time(1e-4, cores, caller_steps=True) == 1e-4
-    assert go_spin_time(1e-4, cores - 1, caller_steps=False) == 1e-4
-    with PoolVectorEnv([MadeElsewhere(users_cartpole, os.getpid())] * 4) as pool:
-        assert pool.num_workers == min(cores, 4) and pool._workers.go_spin_time == (0.0 if cores <= 4 else 1e-4)
+    assert go_poll_time(1e-4, cores, cores) == 0.0
+    assert go_poll_time(1e-4, cores - 1, cores) == 1e-4
+    fns = [MadeElsewhere(users_cartpole, os.getpid())] * 4
+    with PoolVectorEnv(fns, adapt_layout=False, spin_time=1e-4) as pool:
+        assert pool.num_workers == min(cores, 4)
+        assert pool._workers.buffers.go_spin_ns[0] == (0 if pool.num_workers + 1 > cores else 100_000)
         pool.reset(seed=0)
         assert pool.step(np.zeros(4, dtype=np.int64))[0].shape == (4, 4)  # the sleeping workers are woken
+    with PoolVectorEnv(fns, num_workers=1, adapt_layout=False, spin_time=1e-4) as pool:
+        assert pool._workers.buffers.go_spin_ns[0] == (100_000 if cores >= 2 else 0)
+        pool.reset(seed=0)
+        assert pool.step(np.zeros(4, dtype=np.int64))[0].shape == (4, 4)

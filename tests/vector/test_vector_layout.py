@@ -18,8 +18,11 @@ from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_l
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
+from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.parent import placement
 from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
+from modelicagym.vector.parent.dispatch import go_poll_time
+from modelicagym.vector.parent.plan import usable_cores
 from modelicagym.vector.parent.layout_policy import (
     PROBE_FIRST_SECONDS,
     TRY_SHARE,
@@ -203,6 +206,8 @@ def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatc
         policy = flipping(pool, every=7)
         actual, in_stand_in = rollout_recording_layouts(pool, 300)
         stepping = pool.layout.workers_stepping
+        go_spin_ns = int(pool._workers.buffers.go_spin_ns[0])
+        quiet = pool._dispatcher._machine_quiet
     expected, _ = rollout_recording_layouts(sync, 300)
     sync.close()
     assert_same(expected, actual)
@@ -210,6 +215,9 @@ def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatc
     home = 6 // 2  # the stand-in's own slice: one worker and the stand-in on 2 cores
     assert min(in_stand_in) == home and max(in_stand_in) == 6, in_stand_in
     assert stepping in (0, 1)
+    # the stand-in and the stepping plain worker poll for their next command only if they leave the caller a core,
+    # and only on a quiet machine
+    assert go_spin_ns == (round(go_poll_time(DEFAULT_SPIN_TIME, stepping + 1, usable_cores()) * 1e9) if quiet else 0)
 
 
 def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> None:

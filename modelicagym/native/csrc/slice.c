@@ -115,7 +115,8 @@ static int64_t step_batch(mg_batch *b) {
 
 int32_t mg_serve(mg_server *server) {
     for (;;) {
-        if (!mg_signal_wait(server->go, server->spin_ns, server->timeout_ns, server->waiter))
+        int64_t spin_ns = __atomic_load_n(server->spin_ns, __ATOMIC_RELAXED);
+        if (!mg_signal_wait(server->go, spin_ns, server->timeout_ns, server->waiter))
             return MG_SERVE_TIMEOUT;
         int32_t code = *server->command;
         if (code != server->step_code || server->batch == NULL)
@@ -128,12 +129,13 @@ int32_t mg_serve(mg_server *server) {
 }
 
 int32_t mg_collect(mg_collector *c) {
-    int64_t started = mg_now_ns();
+    int64_t started = mg_now_ns(), spin_ns = __atomic_load_n(c->spin_ns, __ATOMIC_RELAXED);
+    int64_t long_waits = c->waiter->long_waits;
     c->calls++;
     int64_t seen = 0;
     int32_t status = MG_COLLECT_DONE;
     for (; seen < c->n_workers; seen++)
-        if (c->stepping[seen] && !mg_signal_wait(c->done[seen], c->spin_ns, c->timeout_ns, c->waiter)) {
+        if (c->stepping[seen] && !mg_signal_wait(c->done[seen], spin_ns, c->timeout_ns, c->waiter)) {
             status = MG_COLLECT_SLOW;
             break;
         }
@@ -145,5 +147,15 @@ int32_t mg_collect(mg_collector *c) {
             if (c->stepping[k])
                 mg_signal_post(c->done[k]);
     c->wait_ns += mg_now_ns() - started;
+    /* The collection is one wait for the waiter's account, however many signals it took (a later
+     * worker's post found at once says nothing about whether the next collection pays polling):
+     * long if the last post came after the spin time. */
+    int64_t last_post = started;
+    for (int64_t k = 0; k < seen; k++)
+        if (c->stepping[k]) {
+            int64_t posted = __atomic_load_n(&((mg_signal *)c->done[k])->posted_ns, __ATOMIC_RELAXED);
+            last_post = posted > last_post ? posted : last_post;
+        }
+    c->waiter->long_waits = status != MG_COLLECT_DONE || last_post - started > spin_ns ? long_waits + 1 : 0;
     return status;
 }

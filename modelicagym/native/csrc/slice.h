@@ -85,7 +85,8 @@ typedef struct {
     const int32_t *command;
     int32_t *reply;
     int32_t step_code;
-    int64_t spin_ns, timeout_ns;
+    const int64_t *spin_ns; /* how long to poll for `go`, in shared memory: the parent changes it */
+    int64_t timeout_ns;
     mg_waiter *waiter; /* the adaptive state of the worker's waits for `go` (signal.h) */
 } mg_server;
 
@@ -102,7 +103,8 @@ typedef struct {
     void **done;           /* mg_signal of each worker */
     const int32_t *replies; /* reply slot of each worker (worker k: replies[k]) */
     const uint8_t *stepping; /* per worker: it was woken for this step (else it is not waited for) */
-    int64_t spin_ns, timeout_ns;
+    const int64_t *spin_ns; /* how long to poll for each `done` */
+    int64_t timeout_ns;
     mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
     /* out, summed over calls until Python clears them: calls, and time waiting for the workers
      * (the adaptive layout's measurement, vector/parent/placement.py) */

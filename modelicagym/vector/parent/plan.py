@@ -90,7 +90,8 @@ def _why_no_caller_slice(
     if capped:
         k = min(capped, key=lambda k: env_fns[k].max_envs_per_process)
         reasons.append(f"env {k}'s fn allows at most {env_fns[k].max_envs_per_process} env(s) per process "
-                       "(max_envs_per_process; 1 for an FMU that may be instantiated only once per process)")
+                       "(max_envs_per_process; 1 for an FMU that may be instantiated only once per process, "
+                       "kept so by its config: instances_per_process='one')")
     return reasons
 
 

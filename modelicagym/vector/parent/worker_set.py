@@ -18,7 +18,6 @@ from multiprocessing.context import BaseContext
 import gymnasium as gym
 from gymnasium import Space
 
-from modelicagym.vector.parent.plan import usable_cores
 from modelicagym.vector.parent.worker_handle import WorkerHandle
 from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
@@ -80,8 +79,6 @@ class WorkerSet:
         #: per env, the path its slice steps on, and its observation space
         self.step_paths: list[StepPath] = [StepPath("python", "not created yet")] * self.num_envs
         self.observation_spaces: list[Space] = [None] * self.num_envs
-        #: seconds a worker polls for its next command before it sleeps (`go_spin_time`)
-        self.go_spin_time = config.spin_time
         self._resources = _Resources(self.handles)
         self._finalizer = weakref.finalize(self, self._resources.release)
 
@@ -147,7 +144,6 @@ class WorkerSet:
                 self.step_paths[party.env_indices.start : party.env_indices.stop] = [description.step_path] * len(
                     party.env_indices)
             slots = len(self.handles) + (local is not None)
-            self.go_spin_time = go_spin_time(self._config.spin_time, len(self.handles), local is not None)
             spec = BufferSpec(self.description.observation_space, self.description.action_space, self.num_envs, slots)
             self.buffers, self._resources.fd = SharedBuffers.create(spec)
             _say_what_is_pickled(self.buffers)
@@ -203,21 +199,11 @@ class WorkerSet:
             buffers.signals[handle.index] = 0  # a restarted worker starts from unposted signals
             handle.go = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO))
             handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE))
-        handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset, self.go_spin_time)))
+        handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset)))
         handle.send_fd(self._resources.fd)
         message = handle.receive(deadline, None, START_UP)
         if message.kind is Kind.ERROR:
             raise message.data.to_env_error(handle.index, START_UP)
-
-
-def go_spin_time(spin_time: float, workers: int, caller_steps: bool) -> float:
-    """Seconds a worker polls for its next command before it sleeps: ``spin_time``, or none when
-    the workers alone fill the usable cores and the calling process runs beside them without a
-    slice of its own (a stand-in worker, or every env isolated). Then the workers polling between
-    two batches hold every core while the parent needs one for its part of the batch: on 2 cores
-    under load it waited for a preempted poller, 100-180 us a batch of a light env against 16-40 us
-    with the workers asleep (README, "Speed")."""
-    return 0.0 if not caller_steps and workers >= usable_cores() else spin_time
 
 
 def _say_what_is_pickled(buffers: SharedBuffers) -> None:

@@ -264,8 +264,9 @@ class NativeServer:
         go, done: addresses of the worker's signals in shared memory.
         command, reply: the worker's command and reply slots (one-element views).
         step_code: the command code of a step.
-        spin_time, timeout: seconds to poll at most before sleeping, and to wait before
-            returning `SERVE_TIMEOUT`.
+        spin_ns: the pool's shared poll time (a one-element int64 view of ``SharedBuffers.spin_ns``):
+            nanoseconds to poll at most before sleeping, read at every wait.
+        timeout: seconds to wait before returning `SERVE_TIMEOUT`.
         waiter: the adaptive state of the worker's waits (its ``go`` signal's).
     """
 
@@ -277,7 +278,7 @@ class NativeServer:
         command: np.ndarray,
         reply: np.ndarray,
         step_code: int,
-        spin_time: float,
+        spin_ns: np.ndarray,
         timeout: float,
         waiter: MgWaiter,
     ) -> None:
@@ -289,7 +290,7 @@ class NativeServer:
         server.command, server.reply = command.ctypes.data, reply.ctypes.data
         server.step_code = step_code
         server.waiter = ctypes.addressof(waiter)
-        server.spin_ns, server.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
+        server.spin_ns, server.timeout_ns = spin_ns.ctypes.data, int(timeout * 1e9)
         self._serve = batch.library.mg_serve
         self._ref = ctypes.byref(server)
 
@@ -305,7 +306,7 @@ class NativeCollector:
         done: addresses of the workers' ``done`` signals, in worker order.
         replies: the workers' reply slots (worker ``k`` at index ``k``).
         stepping: per worker, uint8: it was woken for the step (only those are waited for).
-        spin_time, timeout: as for :class:`NativeServer`.
+        spin_ns, timeout: as for :class:`NativeServer`.
         waiter: the adaptive state of the parent's waits for the workers.
     """
 
@@ -314,7 +315,7 @@ class NativeCollector:
         done: list[int],
         replies: np.ndarray,
         stepping: np.ndarray,
-        spin_time: float,
+        spin_ns: np.ndarray,
         timeout: float,
         waiter: MgWaiter,
     ) -> None:
@@ -328,7 +329,7 @@ class NativeCollector:
         collector.done = ctypes.addressof(self._done)
         collector.replies = replies.ctypes.data
         collector.stepping = stepping.ctypes.data
-        collector.spin_ns, collector.timeout_ns = int(spin_time * 1e9), int(timeout * 1e9)
+        collector.spin_ns, collector.timeout_ns = spin_ns.ctypes.data, int(timeout * 1e9)
         collector.waiter = ctypes.addressof(waiter)
         self._collect = self.library.mg_collect
         self._ref = ctypes.byref(collector)

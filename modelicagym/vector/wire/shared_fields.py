@@ -107,6 +107,10 @@ SHARED_FIELDS: tuple[SharedField, ...] = (
     SharedField("timing", Rows.SLOT, np.int64, (2,), ("timing",),
                 "each slot's env time and FMU time of the last step, in nanoseconds"),
     SharedField("timing_enabled", Rows.ONE, np.bool_, (), ("timing_enabled",)),
+    SharedField("go_spin_ns", Rows.ONE, np.int64, (), (),
+                "how long a worker waiting for its next command polls before it sleeps, in nanoseconds: "
+                "written by the calling process when the workers that step change "
+                "(`Dispatcher.stepping_changed`, `dispatch.go_poll_time`), read at every such wait"),
     SharedField("signals", Rows.SLOT, np.uint32, (2, CACHE_LINE // 4), (),
                 "each slot's go and done signals (native/csrc/signal.h), a cache line each"),
 )

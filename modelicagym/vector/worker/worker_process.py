@@ -119,8 +119,6 @@ class Worker:
         self._go = go
         self._done = done
         self._config = config
-        #: seconds it polls for a command before it sleeps (the parent's choice comes with the buffers)
-        self._spin_time = config.spin_time
         self._buffers: SharedBuffers | None = None
         self._server: NativeServer | None = None
         self._parent = multiprocessing.parent_process()
@@ -128,7 +126,7 @@ class Worker:
 
     def attach(self) -> None:
         """Receive and map the shared memory, then confirm."""
-        spec, needs_reset, self._spin_time = self._conn.recv().data
+        spec, needs_reset = self._conn.recv().data
         fd = recv_handle(self._conn)
         try:
             self._buffers = SharedBuffers.attach(spec, fd)
@@ -143,7 +141,7 @@ class Worker:
                 slot = slice(self._index, self._index + 1)
                 self._server = NativeServer(
                     self._envs.native, self._go.address, self._done.address, self._buffers.command[slot],
-                    self._buffers.reply[slot], Command.STEP, self._spin_time, LIVENESS_INTERVAL, self._go.waiter,
+                    self._buffers.reply[slot], Command.STEP, self._buffers.go_spin_ns, LIVENESS_INTERVAL, self._go.waiter,
                 )
         self._conn.send(Message(Kind.OK))
 
@@ -171,7 +169,7 @@ class Worker:
 
     def _wait_for_command(self) -> bool:
         """Wait for ``go``; ``False`` if the parent died meanwhile."""
-        if self._go.wait(self._spin_time, LIVENESS_INTERVAL):
+        if self._go.wait(self._buffers.go_spin_ns[0] * 1e-9, LIVENESS_INTERVAL):
             return True
         while not self._go.wait(0.0, LIVENESS_INTERVAL):
             if not self._parent_alive():

@@ -1,0 +1,77 @@
+"""The machine watch: an isolated pool's workers poll only once the CPU pressure stayed low."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from modelicagym.vector.parent.machine_watch import QUIET_FOR, READ_EVERY, STALL_SHARE, MachineWatch
+
+
+class Machine:
+    """A CPU pressure file and a clock, both moved by the test."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        self.path = tmp_path / "cpu"
+        self.now = 100.0
+        self.stall_us = 5_000_000
+        self._write()
+
+    def _write(self) -> None:
+        self.path.write_text(f"some avg10=0.00 avg60=0.00 avg300=0.00 total={self.stall_us}\n"
+                             "full avg10=0.00 avg60=0.00 avg300=0.00 total=0\n")
+
+    def run(self, seconds: float, stall_share: float) -> None:
+        """Let ``seconds`` pass in which some thread waited for a core ``stall_share`` of the time."""
+        self.now += seconds
+        self.stall_us += round(seconds * stall_share * 1e6)
+        self._write()
+
+
+def watch_until(watch: MachineWatch, machine: Machine, seconds: float, stall_share: float) -> list[bool]:
+    """What ``watch.quiet()`` says after each reading interval of ``seconds``."""
+    said = []
+    for _ in range(round(seconds / READ_EVERY)):
+        machine.run(READ_EVERY, stall_share)
+        said.append(watch.quiet())
+    return said
+
+
+def test_the_machine_is_quiet_once_the_pressure_stayed_low_for_a_while(tmp_path: Path) -> None:
+    machine = Machine(tmp_path)
+    watch = MachineWatch(machine.path, clock=lambda: machine.now)
+    assert not watch.quiet()  # nothing measured yet
+    said = watch_until(watch, machine, QUIET_FOR + 2 * READ_EVERY, stall_share=0.0)
+    assert not said[0] and said[-1]  # quiet only after QUIET_FOR seconds of low pressure
+
+
+def test_one_crowded_reading_ends_the_quiet_and_it_takes_a_while_to_come_back(tmp_path: Path) -> None:
+    machine = Machine(tmp_path)
+    watch = MachineWatch(machine.path, clock=lambda: machine.now)
+    assert watch_until(watch, machine, QUIET_FOR + 2 * READ_EVERY, stall_share=0.0)[-1]
+    assert watch_until(watch, machine, READ_EVERY, stall_share=10 * STALL_SHARE) == [False]  # a busy process
+    assert not any(watch_until(watch, machine, QUIET_FOR - 2 * READ_EVERY, stall_share=0.0))
+    assert watch_until(watch, machine, 3 * READ_EVERY, stall_share=0.0)[-1]
+
+
+def test_a_pressure_just_under_the_share_still_counts_as_quiet(tmp_path: Path) -> None:
+    machine = Machine(tmp_path)
+    watch = MachineWatch(machine.path, clock=lambda: machine.now)
+    assert watch_until(watch, machine, QUIET_FOR + 2 * READ_EVERY, stall_share=STALL_SHARE / 2)[-1]
+
+
+def test_without_a_pressure_file_the_machine_is_never_quiet(tmp_path: Path) -> None:
+    machine = Machine(tmp_path)
+    watch = MachineWatch(tmp_path / "absent", clock=lambda: machine.now)
+    assert not any(watch_until(watch, machine, 2 * QUIET_FOR, stall_share=0.0))
+
+
+def test_readings_are_rate_limited(tmp_path: Path) -> None:
+    """Called after every step, the watch reads the file at most every READ_EVERY seconds: a
+    crowded stretch shorter than that, between two calls, shows only at the next reading."""
+    machine = Machine(tmp_path)
+    watch = MachineWatch(machine.path, clock=lambda: machine.now)
+    assert watch_until(watch, machine, QUIET_FOR + 2 * READ_EVERY, stall_share=0.0)[-1]
+    machine.run(READ_EVERY / 4, stall_share=1.0)
+    assert watch.quiet()  # not read yet
+    machine.run(READ_EVERY, stall_share=0.0)
+    assert not watch.quiet()  # 0.05 s of stall in 0.25 s: crowded
