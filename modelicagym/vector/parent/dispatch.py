@@ -151,9 +151,13 @@ class Dispatcher:
 
     def _set_go_spin(self) -> None:
         """Write how long the workers poll for their next command (`go_poll_time`)."""
-        workers = sum(party is not self.caller for party in self._stepping_parties)
-        may_poll = self._machine is None or self._machine_quiet
-        spin_time = go_poll_time(self.spin_time, workers, usable_cores()) if may_poll else 0.0
+        workers, cores = sum(party is not self.caller for party in self._stepping_parties), usable_cores()
+        if self._machine is None:
+            spin_time = go_poll_time(self.spin_time, workers, cores)
+        elif self._machine_quiet:
+            spin_time = go_poll_time(self.spin_time, workers, cores, quiet_stand_in=True)
+        else:
+            spin_time = 0.0
         self.buffers.go_spin_ns[0] = round(spin_time * 1e9)
 
     @property
@@ -471,9 +475,10 @@ def options_for(options: dict[str, Any] | None, indices: range) -> dict[str, Any
     return {**options, "options_per_env": options["options_per_env"][indices.start : indices.stop]}
 
 
-def go_poll_time(spin_time: float, stepping_workers: int, cores: int) -> float:
+def go_poll_time(spin_time: float, stepping_workers: int, cores: int, quiet_stand_in: bool = False) -> float:
     """Seconds a worker polls for its next command before it sleeps: ``spin_time`` while the
-    calling process and the workers that step fit the cores, else none.
+    calling process and the workers that step fit the cores, else none; with a stand-in on a quiet
+    machine (``quiet_stand_in``), while the stepping workers alone fit them.
 
     The calling process takes part in every step (it steps its slice, or waits for the workers),
     and between two steps it needs a core for its own part. Where the pollers fit, polling saves
@@ -481,5 +486,10 @@ def go_poll_time(spin_time: float, stepping_workers: int, cores: int) -> float:
     consolidated in one isolated worker ran at 1.5x one env with that worker polling, 0.8x with
     it asleep. Where they do not, the pollers hold the cores the parent needs: on 2 cores under
     load, 100-180 µs a batch of a light env against 16-40 µs with the workers asleep (README,
-    "Speed")."""
-    return spin_time if stepping_workers + 1 <= cores else 0.0
+    "Speed"). On a quiet machine a woken parent gets a poller's core at once, and workers that
+    fill the cores pay when their batches are long: 8 isolated envs of ~70 µs in two workers ran
+    at 1.75x one env polling, 1.39x asleep. Light batches lose (two workers polling: 217 µs a batch
+    of 8 light envs where one consolidated worker took 60 µs), which a stand-in's adaptive layout
+    measures and leaves, so only such a pool's workers fill the cores.
+    """
+    return spin_time if stepping_workers + (not quiet_stand_in) <= cores else 0.0
