@@ -152,12 +152,9 @@ class Dispatcher:
     def _set_go_spin(self) -> None:
         """Write how long the workers poll for their next command (`go_poll_time`)."""
         workers, cores = sum(party is not self.caller for party in self._stepping_parties), usable_cores()
-        if self._machine is None:
-            spin_time = go_poll_time(self.spin_time, workers, cores)
-        elif self._machine_quiet:
-            spin_time = go_poll_time(self.spin_time, workers, cores, quiet_stand_in=True)
-        else:
-            spin_time = 0.0
+        stand_in = self._machine is not None
+        may_poll = not stand_in or self._machine_quiet
+        spin_time = go_poll_time(self.spin_time, workers, cores, quiet_stand_in=stand_in) if may_poll else 0.0
         self.buffers.go_spin_ns[0] = round(spin_time * 1e9)
 
     @property
