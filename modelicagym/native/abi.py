@@ -44,6 +44,7 @@ __all__ = [
     "MgMove",
     "MgPart",
     "MgQLearner",
+    "MgRange",
     "MgRecorder",
     "MgServer",
     "MgSundials",
@@ -380,6 +381,20 @@ class MgPart(ctypes.Structure):
     ]
 
 
+class MgRange(ctypes.Structure):
+    """``mg_range`` (``csrc/actions.h``): one array of a batch of actions to range-check."""
+
+    _fields_ = [
+        ("values", ctypes.c_void_p),
+        ("n", ctypes.c_int64),
+        ("width", ctypes.c_int64),
+        ("is_float", ctypes.c_int32),
+        ("low_int", ctypes.c_int64),
+        ("high_int", ctypes.c_int64),
+        *_pointers("low", "high"),
+    ]
+
+
 class MgWaiter(ctypes.Structure):
     """``mg_waiter`` (``csrc/signal.h``): one waiting party's adaptive state and what its waits did."""
 
@@ -445,6 +460,7 @@ STRUCTS: dict[str, type[ctypes.Structure]] = {
     "mg_env": MgEnv,
     "mg_batch": MgBatch,
     "mg_part": MgPart,
+    "mg_range": MgRange,
     "mg_waiter": MgWaiter,
     "mg_server": MgServer,
     "mg_collector": MgCollector,

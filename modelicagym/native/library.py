@@ -79,6 +79,7 @@ SIGNATURES = {
         ctypes.c_int64,
         (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p),
     ),
+    "mg_first_range_outside": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64)),
     "mg_integrator_open": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_double)),
     "mg_integrator_close": (None, (ctypes.c_void_p,)),
     "mg_integrator_advance": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_double, ctypes.c_double)),

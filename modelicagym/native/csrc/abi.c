@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "actions.h"
 #include "qlearning.h"
 #include "slice.h"
 #include "step.h"
@@ -87,6 +88,9 @@ static const mg_abi_entry entries[] = {
     STRUCT(mg_part),
     FIELD(mg_part, offset), FIELD(mg_part, bytes), FIELD(mg_part, base), FIELD(mg_part, final_base),
     FIELD(mg_part, stride),
+    STRUCT(mg_range),
+    FIELD(mg_range, values), FIELD(mg_range, n), FIELD(mg_range, width), FIELD(mg_range, is_float),
+    FIELD(mg_range, low_int), FIELD(mg_range, high_int), FIELD(mg_range, low), FIELD(mg_range, high),
     STRUCT(mg_waiter),
     FIELD(mg_waiter, ready), FIELD(mg_waiter, spun), FIELD(mg_waiter, slept), FIELD(mg_waiter, blocked),
     FIELD(mg_waiter, long_waits),

@@ -18,3 +18,15 @@ int64_t mg_first_outside_float64(const double *values, int64_t n, int64_t width,
         }
     return -1;
 }
+
+int64_t mg_first_range_outside(const mg_range *ranges, int64_t count) {
+    for (int64_t r = 0; r < count; r++) {
+        const mg_range *range = &ranges[r];
+        int64_t outside = range->is_float
+            ? mg_first_outside_float64(range->values, range->n, range->width, range->low, range->high)
+            : mg_first_outside_int64(range->values, range->n * range->width, range->low_int, range->high_int);
+        if (outside >= 0)
+            return r;
+    }
+    return -1;
+}
