@@ -135,7 +135,8 @@ def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: st
             "--seconds", "0.05"]
     out = run_bench("fmu", args, tmp_path / "result.json")
     result = json.loads((tmp_path / "result.json").read_text())
-    assert {"fmu", "model", "fmi_version", "step_path", "config", "cores", "load_average", "results"} <= set(result)
+    assert {"fmu", "model", "fmi_version", "step_path", "config", "cores", "load_average", "wake_round_trip_us",
+            "guest_halt_poll_ns", "results"} <= set(result)
     assert result["config"]["max_episode_steps"] == 40
     path = result["step_path"]
     assert f"single env: {path['path']} ({path['reason']})" in out
