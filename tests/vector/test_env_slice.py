@@ -11,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from env_slices import env_slice
+from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from vector_envs import CountEnv, FaultyEnv
 
@@ -98,3 +99,39 @@ def test_an_envs_failure_is_a_reply_naming_it_and_calls_reach_every_env() -> Non
         assert part.call(("label", (), {})).data == ["a", "b"]
         failed = part.call(("fail", (), {}))
         assert failed.kind is Kind.CALL_ERROR and failed.data.env_index == 0
+
+
+class KeepsActions(gym.Env):
+    """Keeps every action it is given (a ``Box(shape=(2,))``), and then changes it in place."""
+
+    observation_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+    action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+
+    def __init__(self) -> None:
+        self.kept: list[np.ndarray] = []
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict]:
+        return np.zeros(1, dtype=np.float32), {}
+
+    def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict]:
+        self.kept.append(action)
+        kept = action.copy()
+        action += 1.0
+        return np.zeros(1, dtype=np.float32), float(kept.sum()), False, False, {}
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_each_env_gets_its_own_copy_of_its_action_in_the_dtype_of_the_batch(dtype: type) -> None:
+    """An env may keep its action, or change it: later steps do not change what it kept, and what
+    it changes reaches neither the shared actions nor another env."""
+    batches = [np.array([[0.5, -0.25], [0.125, 1.0]], dtype=dtype) * scale for scale in (1, -1, 0.5)]
+    with env_slice([KeepsActions] * 2, AutoresetMode.NEXT_STEP) as (part, buffers):
+        reset(part, buffers, [1, 2])
+        buffers.action_dtype[0] = 0 if dtype is np.float64 else ord(np.dtype(dtype).char)  # as the parent says it
+        for batch in batches:
+            _, rewards, *_ = step(part, buffers, batch)
+            np.testing.assert_array_equal(rewards, batch.sum(axis=1, dtype=np.float64).astype(np.float32))
+            np.testing.assert_array_equal(buffers.actions.read_batch(copy_out=False), batch)
+        for offset, env in enumerate(part.envs):
+            assert [action.dtype for action in env.kept] == [np.dtype(dtype)] * len(batches)
+            np.testing.assert_array_equal(np.stack(env.kept), [batch[offset] + 1.0 for batch in batches])

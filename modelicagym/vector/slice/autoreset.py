@@ -51,16 +51,18 @@ class Autoreset:
         self.next_step = mode is AutoresetMode.NEXT_STEP
         self.same_step = mode is AutoresetMode.SAME_STEP
 
-    def step(self, offset: int, env: PoolEnv, action: Any) -> StepResult:
-        """Env ``offset``'s part of a vector step: its reset (``NEXT_STEP`` after an ended step), or
-        its step with ``action`` and what follows it (:meth:`after_step`)."""
-        if self.needs_reset[offset] == RESET_THEN_STEP:  # it moved here at an episode boundary
-            env.reset()
-            self.needs_reset[offset] = NO_RESET
-        if self.next_step and self.needs_reset[offset]:
-            observation, info = env.reset()
-            self.needs_reset[offset] = NO_RESET
-            return observation, 0.0, False, False, info
+    def step(self, offset: int, env: PoolEnv, action: Any, mark: int) -> StepResult:
+        """Env ``offset``'s part of a vector step, given its mark in ``needs_reset`` (read by the
+        caller, once for a whole slice): its reset (``NEXT_STEP`` after an ended step), or its step
+        with ``action`` and what follows it (:meth:`after_step`)."""
+        if mark:
+            if mark == RESET_THEN_STEP:  # it moved here at an episode boundary
+                env.reset()
+                self.needs_reset[offset] = NO_RESET
+            elif self.next_step:
+                observation, info = env.reset()
+                self.needs_reset[offset] = NO_RESET
+                return observation, 0.0, False, False, info
         return self.after_step(offset, env, env.step(action))
 
     def after_step(self, offset: int, env: PoolEnv, result: StepResult) -> StepResult:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Callable
+from itertools import islice
 from multiprocessing.reduction import ForkingPickler
 from time import perf_counter_ns
 from typing import Any
@@ -162,8 +163,12 @@ class EnvSlice:
     def attach(self, buffers: SharedBuffers, needs_reset: bool) -> None:
         """Work on ``buffers`` from now on; ``needs_reset``: the envs were never reset."""
         self.buffers = buffers
-        self.needs_reset = buffers.needs_reset[self.first : self.first + len(self.envs)]
+        rows = slice(self.first, self.first + len(self.envs))
+        self.needs_reset = buffers.needs_reset[rows]
         self.needs_reset[:] = needs_reset
+        #: the slice's rows of the step masks, and where its observations go (`_step_python`)
+        self._step_mask, self._in_caller = buffers.step_mask[rows], buffers.in_caller[rows]
+        self._observations = buffers.observations.targets()
         self.autoreset = Autoreset(self.autoreset_mode, self.needs_reset)
         if self.step_path == "native":
             python_endings = has_python_endings(self.envs)
@@ -175,6 +180,7 @@ class EnvSlice:
     def detach(self) -> None:
         """Stop using the shared buffers (the pool released them)."""
         self.buffers = self.native = self.endings = None
+        self._step_mask = self._in_caller = self._observations = None
 
     def step(self) -> Message | None:
         """Step every env with its action from shared memory, with the pool's autoreset."""
@@ -204,31 +210,34 @@ class EnvSlice:
         return Message(Kind.OBSERVATIONS, (self.first, observations.values(self.env_indices), infos))
 
     def _step_python(self, start: int, infos: list[tuple[int, dict[str, Any]]]) -> Message | None:
-        """Step the envs from offset ``start`` on, on the Python path."""
-        buffers = self.buffers
-        observations = buffers.observations
-        rewards, terminations, truncations = buffers.rewards, buffers.terminations, buffers.truncations
-        current_env, step_mask, in_caller = buffers.current_env, buffers.step_mask, buffers.in_caller
-        timed = bool(buffers.timing_enabled[0])
+        """Step the envs from offset ``start`` on, on the Python path. What the batch shares (which
+        envs step, their actions and marks) is read once; each env's results are written as soon as
+        it has them, so an env that raises leaves those of the envs before it in shared memory."""
+        buffers, autoreset, caller, slot, first = self.buffers, self.autoreset, self.caller, self.slot, self.first
+        actions = self._actions(first, first + len(self.envs))
+        observations = self._observations
+        rewards, terminations, truncations, current_env = (
+            buffers.rewards, buffers.terminations, buffers.truncations, buffers.current_env)
+        timed = buffers.timing_enabled.item()
         env_ns = fmu_ns = 0
-        for offset in range(start, len(self.envs)):
-            index = self.first + offset
-            if not step_mask[index] or in_caller[index] != self.caller:
+        rows = zip(range(len(self.envs)), self._step_mask.tolist(), self._in_caller.tolist(), self.needs_reset.tolist())
+        for offset, stepped, in_caller, mark in islice(rows, start, None):
+            if not stepped or in_caller != caller:
                 continue
-            env = self.envs[offset]
-            current_env[self.slot] = index
-            action = self._action(index)
+            index = first + offset
+            current_env[slot] = index
             if timed:
                 fmu_env = self._fmu_envs[offset]
                 fmu_start = 0 if fmu_env is None else fmu_env.fmu_time_ns
                 start_ns = perf_counter_ns()
             try:
-                observation, reward, terminated, truncated, info = self.autoreset.step(offset, env, action)
+                observation, reward, terminated, truncated, info = autoreset.step(
+                    offset, self.envs[offset], actions[offset], mark)
                 if timed:
                     env_ns += perf_counter_ns() - start_ns
                     if fmu_env is not None:
                         fmu_ns += fmu_env.fmu_time_ns - fmu_start
-                observations.write(index, observation)
+                observations[index] = observation
                 rewards[index] = reward
                 terminations[index] = terminated
                 truncations[index] = truncated
@@ -237,17 +246,14 @@ class EnvSlice:
             if info:
                 infos.append((index, info))
         if timed:
-            buffers.timing[self.slot] = (env_ns, fmu_ns)
+            buffers.timing[slot] = (env_ns, fmu_ns)
         return Message(Kind.INFOS, infos) if infos else None
 
-    def _action(self, index: int) -> Any:
-        """Env ``index``'s action, in the dtype the batch was given in, as SyncVectorEnv hands it over."""
-        action = self.buffers.actions.read(index)
-        given = int(self.buffers.action_dtype[0])
-        if given:
-            as_given = np.dtype(chr(given)).type
-            action = as_given(action) if np.ndim(action) == 0 else action.astype(as_given)
-        return action
+    def _actions(self, begin: int, stop: int) -> Any:
+        """The actions of envs ``begin..stop-1`` (item ``i``: env ``begin + i``'s), in the dtype the
+        batch was given in, as SyncVectorEnv hands them over."""
+        given = self.buffers.action_dtype.item()
+        return self.buffers.actions.read_rows(begin, stop, np.dtype(chr(given)) if given else None)
 
     def finish_native_step(self) -> Message | None:
         """Finish, on the Python path, what the last native step left to Python (see ``Flags``)."""
@@ -280,10 +286,12 @@ class EnvSlice:
         autoreset = self.autoreset
         if flags & Flags.FMU_ERROR:
             return autoreset.after_step(offset, env, env.native_step_failure())
-        if self.needs_reset[offset] == RESET_THEN_STEP:  # C could not reset it natively
-            return autoreset.step(offset, env, self._action(self.first + offset))
+        mark = int(self.needs_reset[offset])
+        if mark == RESET_THEN_STEP:  # C could not reset it natively
+            index = self.first + offset
+            return autoreset.step(offset, env, self._actions(index, index + 1)[0], mark)
         if autoreset.next_step and flags & Flags.PYTHON_RESET:
-            return autoreset.step(offset, env, None)
+            return autoreset.step(offset, env, None, mark)
         terminated, truncated, step_info = Flags.ending(flags)
         reward = float(self.buffers.rewards[self.first + offset])
         if not (autoreset.same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):

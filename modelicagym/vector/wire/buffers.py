@@ -198,6 +198,23 @@ class SharedBatch:
         batch = read_from_shared_memory(self.space, self._memory, n=self.n)
         return copy.deepcopy(next(itertools.islice(iterate(self._batch_space, batch), index, None)))
 
+    def read_rows(self, start: int, stop: int, dtype: np.dtype | None = None) -> Any:
+        """The values of envs ``start..stop-1``, copied out of shared memory in one go: item ``i``
+        is env ``start + i``'s value as `read` gives it, in ``dtype`` if given (which only a batch
+        of one array has: `SharedBuffers.action_dtype`). For a loop over the envs of a slice."""
+        if self._array is not None:
+            rows = self._array[start:stop]
+            return rows.copy() if dtype is None else rows.astype(dtype)
+        return [self.read(index) for index in range(start, stop)]
+
+    def targets(self) -> Any:
+        """Where ``targets[index] = value`` stores the value of env ``index``, for a loop over the
+        envs of a slice: the shared array itself for a batch of one array (the fastest), else this
+        batch (`write`)."""
+        return self if self._array is None else self._array
+
+    __setitem__ = write
+
     def read_observation(self, index: int) -> Any:
         """The value of env ``index`` as an env returns it, copied out: a ``Discrete`` value as a
         numpy integer, a ``Box`` of shape ``()`` as a 0-d array (where `read` gives the scalar
@@ -248,6 +265,16 @@ class PickledBatch:
     def read(self, index: int) -> Any:
         """The value of env ``index`` (a copy: the caller may keep it)."""
         return copy.deepcopy(self._values[index])
+
+    def read_rows(self, start: int, stop: int, dtype: np.dtype | None = None) -> list[Any]:
+        """The values of envs ``start..stop-1`` (copies; ``dtype`` is for a batch of one array)."""
+        return [self.read(index) for index in range(start, stop)]
+
+    def targets(self) -> PickledBatch:
+        """Where ``targets[index] = value`` stores the value of env ``index``: this batch (`write`)."""
+        return self
+
+    __setitem__ = write
 
     def read_observation(self, index: int) -> Any:
         """The value of env ``index`` as an env returns it (as stored: a copy)."""
