@@ -177,6 +177,23 @@ def test_a_pool_of_typed_envs_steps_natively_as_sync_over_python(family_fmu: Cal
         assert_same(expected, actual)
 
 
+@pytest.mark.processes
+@pytest.mark.timeout(180)
+def test_a_pool_of_typed_envs_on_the_python_path_steps_as_sync(family_fmu: Callable[[str, int], Path],
+                                                               fmi_version: int) -> None:
+    """A Dict observation written by a slice on the Python path (into its keys' shared views) reads
+    back as the env returned it, every type."""
+    inputs, outputs = (CASES if fmi_version == 2 else CASES3)["every type as a Dict"]
+    python = [partial(probe, family_fmu("probe", fmi_version), inputs, outputs, max_episode_steps=5 + 3 * i,
+                      step_path="python") for i in range(3)]
+    sync = SyncVectorEnv(python, autoreset_mode=AutoresetMode.NEXT_STEP)
+    with PoolVectorEnv(python, num_workers=1, caller_steps=True) as pool:
+        assert {path for path, _ in pool.step_paths} == {"python"}
+        expected, actual = rollout(sync, 40), rollout(pool, 40)
+    sync.close()
+    assert_same(expected, actual)
+
+
 def test_a_float_box_over_typed_inputs_is_cast_as_numpy_casts(family_fmu: Callable[[str, int], Path],
                                                               fmi_version: int) -> None:
     """Fractions into integers truncate, into FMI 2.0's int booleans too, into FMI 3.0's bools: != 0."""

@@ -76,6 +76,19 @@ def _item(batch: Any, index: int) -> Any:
     return tuple(_item(sub, index) for sub in batch)
 
 
+def _put(batch: Any, index: int, value: Any) -> None:
+    """Store ``value`` as element ``index`` of a batch of static views (what Gymnasium's
+    ``write_to_shared_memory`` does, without its per-key buffer views: ~0.3 µs a key, not ~5)."""
+    if type(batch) is np.ndarray:
+        batch[index] = value
+    elif isinstance(batch, dict):
+        for key, sub in batch.items():
+            _put(sub, index, value[key])
+    else:
+        for sub, item in zip(batch, value, strict=True):
+            _put(sub, index, item)
+
+
 def _copied(batch: Any) -> Any:
     """A batch of static views copied out of shared memory, same structure (a dict or tuple of
     arrays): what ``copy.deepcopy`` gives, at a quarter of its cost (it memoizes every node)."""
@@ -185,6 +198,8 @@ class SharedBatch:
         """Store the value of env ``index``."""
         if self._array is not None:
             self._array[index] = value
+        elif self._views is not None:
+            _put(self._views, index, value)
         else:
             write_to_shared_memory(self.space, index, value, self._memory)
 
