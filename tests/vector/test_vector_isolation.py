@@ -23,7 +23,7 @@ import modelicagym
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
 from modelicagym.vector.parent.plan import usable_cores
-from modelicagym.vector.parent.dispatch import go_poll_time
+from modelicagym.vector.parent.dispatch import CROWDED_COLLECT_SPIN, collect_poll_time, go_poll_time
 from modelicagym.vector.wire.sync import futex_library
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
@@ -205,6 +205,13 @@ def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how:
     assert result.returncode == (3 if how == "exit" else -signal.SIGSEGV), result.stderr
 
 
+def test_the_calling_process_polls_briefly_for_workers_that_fill_the_cores() -> None:
+    cores = usable_cores()
+    assert collect_poll_time(1e-4, cores - 1, cores) == 1e-4
+    assert collect_poll_time(1e-4, cores, cores) == CROWDED_COLLECT_SPIN < 1e-4
+    assert collect_poll_time(1e-5, cores + 1, cores) == 1e-5  # never longer than asked
+
+
 def test_workers_poll_for_their_next_command_only_while_the_pollers_fit_the_cores() -> None:
     """Pollers must not outnumber the cores: the calling process takes part in every step, so a
     worker polls for its next command only while it and the other stepping workers leave the
@@ -220,6 +227,8 @@ def test_workers_poll_for_their_next_command_only_while_the_pollers_fit_the_core
     with PoolVectorEnv(fns, adapt_layout=False, spin_time=1e-4) as pool:
         assert pool.num_workers == min(cores, 4)
         assert pool._workers.buffers.go_spin_ns[0] == (0 if pool.num_workers + 1 > cores else 100_000)
+        # the calling process polls for their answers briefly where they fill the cores
+        assert pool._dispatcher._collect_spin_ns[0] == round(collect_poll_time(1e-4, pool.num_workers, cores) * 1e9)
         pool.reset(seed=0)
         assert pool.step(np.zeros(4, dtype=np.int64))[0].shape == (4, 4)  # the sleeping workers are woken
     with PoolVectorEnv(fns, num_workers=1, adapt_layout=False, spin_time=1e-4) as pool:
