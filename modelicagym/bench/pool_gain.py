@@ -13,7 +13,8 @@ where a step costs >= 1 ms, >= 1.5x where it costs >= 20 us, else >= 1.0x; an FM
 instance per process, at n=2: >= 1.0x. Other numbers of envs (``--n``) get no bar.
 
 Built-in cases (``--cases``): ``cartpole-user`` (the bundled cart-pole given as a user gives any
-FMU, so the pool isolates it), ``moody-100us`` and ``moody-1ms`` (the moody test FMU held calm,
+FMU, so the pool isolates it), ``cartpole-user-python`` (the same on the Python step path, as an env
+that overrides ``observation`` would step; users' FMUs: ``--set 'step_path="python"'``), ``moody-100us`` and ``moody-1ms`` (the moody test FMU held calm,
 ``threshold=1e9``, at ``cs_step_size`` 2.5e-5 and 2.5e-6: ~100 us and ~1 ms a step), ``moody-once``
 (the same at ~100 us, allowed one instance per process); the moody FMU is built from the sources of
 a checkout (``tests/fmus/moody``). ``--fmu`` adds users' FMUs, configured as ``modelicagym info``
@@ -85,6 +86,7 @@ def _moody_config(cs_step_size: str, once: bool = False) -> Callable[[], dict[st
 
 CASES = {case.name: case for case in (
     Case("cartpole-user", "the cart-pole as a user's FMU", lambda: users_config({})),
+    Case("cartpole-user-python", "the same on the Python step path", lambda: users_config({"step_path": "python"})),
     Case("moody-100us", "moody held calm, cs_step_size 2.5e-5", _moody_config("2.5e-5")),
     Case("moody-1ms", "moody held calm, cs_step_size 2.5e-6", _moody_config("2.5e-6")),
     Case("moody-once", "moody_once held calm, cs_step_size 2.5e-5", _moody_config("2.5e-5", once=True)),
