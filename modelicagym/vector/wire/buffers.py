@@ -202,6 +202,9 @@ class SharedBatch:
         """Store the value of env ``index``."""
         if self._array is not None:
             self._array[index] = value
+        elif self._scalar_views is not None:
+            for key, view in self._scalar_views:
+                view[index] = value[key]
         elif self._views is not None:
             _put(self._views, index, value)
         else:
