@@ -35,6 +35,13 @@ class PartyCosts:
     #: the stand-in's time, and its envs
     stand_in_us: float
     stand_in_envs: int
+    #: every stepping worker's time, summed (what the stand-in alone would at least take for their envs)
+    workers_total_us: float = 0.0
+
+    @property
+    def total_us(self) -> float:
+        """The parties' stepping times summed: a lower bound of a batch with every env in the stand-in."""
+        return self.workers_total_us + self.stand_in_us
 
 
 def balance_shift(costs: PartyCosts, lent: int, movable: int) -> int:
@@ -85,15 +92,16 @@ class PartyTimes:
         self._countdown = SAMPLE_EVERY
         stepping = self._stepping.astype(bool)
         if stepping.any():
-            workers_ns = self._env_ns[: self._workers]
-            self._samples.append((int(workers_ns[stepping].max()), int(self._env_ns[self._workers])))
+            workers_ns = self._env_ns[: self._workers][stepping]
+            self._samples.append((int(workers_ns.max()), int(self._env_ns[self._workers]), int(workers_ns.sum())))
 
-    def take(self) -> list[tuple[int, int]]:
-        """The samples since the last take: (busiest worker's ns, stand-in's ns) per sampled batch."""
+    def take(self) -> list[tuple[int, int, int]]:
+        """The samples since the last take: (busiest worker's ns, stand-in's ns, all workers' ns)
+        per sampled batch."""
         samples, self._samples = self._samples, []
         return samples
 
-    def costs(self, samples: list[tuple[int, int]]) -> PartyCosts | None:
+    def costs(self, samples: list[tuple[int, int, int]]) -> PartyCosts | None:
         """The medians of ``samples`` (taken in the current layout) with the envs each party
         steps now; ``None`` without samples."""
         if not samples:
@@ -101,4 +109,5 @@ class PartyTimes:
         held = self._in_caller.astype(bool)
         worker_envs = max(int((~held[s.start : s.stop]).sum()) for s in self._worker_slices)
         return PartyCosts(statistics.median(s[0] for s in samples) / 1e3, worker_envs,
-                          statistics.median(s[1] for s in samples) / 1e3, int(held.sum()))
+                          statistics.median(s[1] for s in samples) / 1e3, int(held.sum()),
+                          statistics.median(s[2] for s in samples) / 1e3)

@@ -167,7 +167,10 @@ class ConsolidationPolicy:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
     before the next try (0.5 s up to 30 s), and long enough that failed tries cost at most
-    `TRY_SHARE` of the time. ``target``: the workers' envs the stand-in steps,
+    `TRY_SHARE` of the time. Consolidation is not tried while the parties' own stepping times,
+    summed, fill the spread layout's batch (within `MARGIN`): one worker stepping every env takes
+    at least that, so the try could only lose, and envs move back only at episode boundaries (8
+    envs of ~1 ms a step lost 4-6 s at half speed to the first try). ``target``: the workers' envs the stand-in steps,
     ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
 
     In the spread layout, a window's party costs (`modelicagym.vector.parent.cost_balance`: what the
@@ -199,7 +202,7 @@ class ConsolidationPolicy:
 
     def _window(self) -> None:
         self._parts: list[float] = []
-        self._party_samples: list[tuple[int, int]] = []
+        self._party_samples: list[tuple[int, int, int]] = []
         self._window_start = self._clock()
 
     def observe(
@@ -243,6 +246,10 @@ class ConsolidationPolicy:
                                                    f"{costs.worker_us:.1f} us a batch, the stand-in its "
                                                    f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
         if now - self._switched_at < self._probe_wait:
+            return False
+        if self.target != self.movable and costs is not None and MARGIN * costs.total_us >= batch_us:
+            # the parties' own stepping alone fills the batch: one stand-in for all cannot be faster
+            self._switched_at = now
             return False
         self._left_us, self._try_started = batch_us, now
         return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
