@@ -15,6 +15,7 @@ import time
 from collections.abc import Callable
 
 from modelicagym.vector.parent.cost_balance import PartyTimes, balance_shift
+from modelicagym.vector.parent.machine_watch import MachineWatch
 
 __all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
 
@@ -38,6 +39,10 @@ PROBE_MAX_SECONDS = 30.0
 TRY_SHARE = 0.05
 #: idle cores (averaged since the last look) that make a probe of the workers worth it
 IDLE_CORES_TO_PROBE = 0.5
+#: seconds of a quiet machine after which a consolidation policy trusts its parties' stepping times
+#: (their wall times: on a crowded machine two workers may share a core and each seem to take twice
+#: its time)
+TRUST_QUIET_FOR = 0.3
 
 
 class LayoutPolicy:
@@ -167,10 +172,12 @@ class ConsolidationPolicy:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
     before the next try (0.5 s up to 30 s), and long enough that failed tries cost at most
-    `TRY_SHARE` of the time. Consolidation is not tried while the parties' own stepping times,
+    `TRY_SHARE` of the time. On a quiet machine (``quiet``: no thread waited for a core for
+    `TRUST_QUIET_FOR` seconds), consolidation is not tried while the parties' own stepping times,
     summed, fill the spread layout's batch (within `MARGIN`): one worker stepping every env takes
     at least that, so the try could only lose, and envs move back only at episode boundaries (8
-    envs of ~1 ms a step lost 4-6 s at half speed to the first try). ``target``: the workers' envs the stand-in steps,
+    envs of ~1 ms a step lost 4-6 s at half speed to the first try). On a crowded machine those
+    times are wall times that may include another party's turn on a shared core: tries go on. ``target``: the workers' envs the stand-in steps,
     ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
 
     In the spread layout, a window's party costs (`modelicagym.vector.parent.cost_balance`: what the
@@ -181,10 +188,14 @@ class ConsolidationPolicy:
     Args:
         movable: the other workers' envs; ``home``: the stand-in's own.
         clock: seconds, monotonic (a parameter for tests).
+        quiet: whether the machine has been quiet long enough (a parameter for tests; default reads
+            the CPU pressure, `MachineWatch`).
     """
 
-    def __init__(self, movable: int, home: int, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, movable: int, home: int, clock: Callable[[], float] = time.monotonic,
+                 quiet: Callable[[], bool] | None = None) -> None:
         self.movable, self.home = movable, home
+        self._quiet = quiet or MachineWatch(clock=clock, quiet_for=TRUST_QUIET_FOR).quiet
         self.target = 0
         #: the target of the spread layout, moved by the balance
         self.spread = 0
@@ -228,6 +239,7 @@ class ConsolidationPolicy:
             return False
         batch_us = statistics.median(self._parts)
         costs = None if parties is None else parties.costs(self._party_samples)
+        quiet = self._quiet()  # every window: the watch reads the pressure as it goes
         self._window()
         here, there = self._names(self.target), self._names(self._other())
         if self._left_us is not None:
@@ -247,7 +259,7 @@ class ConsolidationPolicy:
                                                    f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
         if now - self._switched_at < self._probe_wait:
             return False
-        if self.target != self.movable and costs is not None and MARGIN * costs.total_us >= batch_us:
+        if self.target != self.movable and quiet and costs is not None and MARGIN * costs.total_us >= batch_us:
             # the parties' own stepping alone fills the batch: one stand-in for all cannot be faster
             self._switched_at = now
             return False

@@ -30,10 +30,12 @@ PSI_CPU = Path("/proc/pressure/cpu")
 
 class MachineWatch:
     """Reads the CPU pressure at most every `READ_EVERY` seconds; :meth:`quiet` says whether it
-    stayed low for the last `QUIET_FOR` seconds."""
+    stayed low for the last ``quiet_for`` seconds."""
 
-    def __init__(self, path: Path = PSI_CPU, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, path: Path = PSI_CPU, clock: Callable[[], float] = time.monotonic,
+                 quiet_for: float = QUIET_FOR) -> None:
         self._path = path
+        self._quiet_for = quiet_for
         self._clock = clock
         self._read_at = clock()
         self._stall_us = self._read_stall_us()
@@ -41,7 +43,8 @@ class MachineWatch:
         self._low_since: float | None = None
 
     def quiet(self) -> bool:
-        """Whether the machine has been quiet for `QUIET_FOR` seconds (reads the pressure if due)."""
+        """Whether the machine has been quiet for ``quiet_for`` seconds (`QUIET_FOR` unless told;
+        reads the pressure if due)."""
         now = self._clock()
         if now - self._read_at >= READ_EVERY:
             stall_us = self._read_stall_us()
@@ -52,7 +55,7 @@ class MachineWatch:
             elif self._low_since is None:
                 self._low_since = self._read_at
             self._read_at, self._stall_us = now, stall_us
-        return self._low_since is not None and now - self._low_since >= QUIET_FOR
+        return self._low_since is not None and now - self._low_since >= self._quiet_for
 
     def _read_stall_us(self) -> int | None:
         """The total microseconds some thread waited for a core ("some ... total="), or ``None``."""
