@@ -85,7 +85,7 @@ typedef struct {
     const mg_call *get_calls; /* one per FMI type of the outputs */
     int64_t n_get_calls;
     const mg_move *action_moves; /* action row (or action_table row) -> input values, in variable order */
-    int64_t n_inputs;            /* input values (array elements count one each) */
+    int64_t n_inputs;            /* input values (array elements count one each); 0 when Python writes them */
     const char *input_starts;    /* the input buffers' bytes after a reset, in set_calls order */
     const mg_move *observation_moves; /* output values -> the observation, in variable order */
     int64_t n_outputs;
@@ -128,7 +128,11 @@ enum {
 
 /* One step of one env. `action` points to an int64 (discrete) or an action row (action_moves).
  * Returns the flags; the reward is written to *reward. The outputs are in the instance's buffers
- * afterwards, and the observation in env->observation. */
+ * afterwards, and the observation in env->observation.
+ * `action` NULL: the inputs are already in the instance's buffers (Python computed them, e.g. an
+ * overridden action_to_inputs: env/native_step.py); nothing is moved or checked, and in model
+ * exchange Python has already decided whether the solver restarts (new input bytes), as
+ * write_action would. Such an env has no action_moves (n_inputs 0). */
 int32_t mg_env_step(mg_env *env, const void *action, double *reward);
 
 /* Restore the snapshot (a reset on the "snapshot" rung); 0 on success, else MG_FMU_ERROR. */
