@@ -1,11 +1,12 @@
 /* The native step path: config-defined FMU envs stepped in C through the FMU's own functions.
  *
- * An mg_env describes one env of `FMUEnv` whose step is fully defined by its config (see
- * modelicagym/env/native_step.py for when that holds): co-simulation, or model exchange with the
- * native integrator (integrator.h) and continuous inputs; inputs and outputs of every FMI
+ * An mg_env describes one env of `FMUEnv` whose FMU steps in C (see modelicagym/env/native_step.py
+ * for when that holds): co-simulation, or model exchange with the native integrator (integrator.h)
+ * and continuous inputs; inputs and outputs of every FMI
  * type but String/Binary (scalars and FMI 3.0 arrays, one fmiSet/fmiGet call per type), the action
- * converted to the inputs (a Box, MultiDiscrete, MultiBinary, Discrete, or a flattened Dict) or
- * looked up in a table (a Discrete), bound
+ * converted to the inputs (a Box, MultiDiscrete, MultiBinary, Discrete, or a flattened Dict),
+ * looked up in a table (a Discrete), or written into the input buffers by Python (an overridden
+ * action_to_inputs: mg_env_step's action is NULL), bound
  * termination, the paper's positive/negative reward, truncation after max_episode_steps.
  * Python fills it in (pointers into the FMU instance's own value buffers and its clock), so the
  * Python path and the native path read and write the same memory: either may take any step.
