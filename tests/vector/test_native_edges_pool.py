@@ -23,7 +23,8 @@ MODES = [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP]
 
 
 def assert_pool_equals_sync(native: list[Callable], python: list[Callable], mode: AutoresetMode,
-                            steps: int = 120) -> None:
+                            steps: int = 120) -> list:
+    """The default pool over ``native`` gives what SyncVectorEnv over ``python`` gives; returns the latter's results."""
     sync = SyncVectorEnv(python, autoreset_mode=mode)
     with PoolVectorEnv(native, autoreset_mode=mode) as pool:
         for path, reason in pool.step_paths:
@@ -32,6 +33,7 @@ def assert_pool_equals_sync(native: list[Callable], python: list[Callable], mode
     sync.close()
     assert sum(int((result[2] | result[3]).sum()) for result in expected[1:]) > 8, "too few episodes ended"
     assert_same(expected, actual)
+    return expected
 
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
@@ -55,7 +57,9 @@ def test_a_pool_of_typed_probes_with_fmu_errors_steps_as_sync_vector_env(family_
         return [partial(GearboxProbeEndings, path, parameters={"fault": 2, "fault_after": 3 + i}, **config)
                 for i in range(4)]
 
-    assert_pool_equals_sync(fns(), fns(step_path="python"), mode, steps=60)
+    expected = assert_pool_equals_sync(fns(), fns(step_path="python"), mode, steps=60)
+    infos = [result[4] for result in expected[1:]]
+    assert any("fmu_error" in info or "fmu_error" in info.get("final_info", {}) for info in infos), "no FMU error"
 
 
 def test_the_native_slice_says_why_it_does_not_take_them() -> None:
