@@ -19,7 +19,7 @@ The step contract, stated once:
   starts an episode there, and the config's ``start_states`` makes every other reset draw one.
 
 Steps take the native path (one call into our C library, `modelicagym.env.native_step`) unless
-``step`` is overridden or the FMU cannot step in C, else the Python path; both give the same
+``step`` is overridden or the FMU cannot step in C (then the Python path); both give the same
 results. ``env.step_path`` says which, ``env.step_path_reason`` why. What Python computes keeps the
 FMU's step in C around it: an overridden ``action_to_inputs`` (or an action space C cannot map onto
 the inputs) writes the input values before the C step, an overridden ``observation`` (or a space
