@@ -64,7 +64,7 @@ def test_the_cartpole_steps_in_c_with_its_edges_in_python_as_the_python_path(kin
     """In model exchange CVode's numbers differ after a restart, so equal observations pin the
     solver's restart rule: it restarts only when the inputs Python wrote differ from the last step's."""
     cls, edges = CARTPOLES[kind]
-    options = dict(fmi_version=fmi_version, mode=mode, max_episode_steps=25)
+    options = {"fmi_version": fmi_version, "mode": mode, "max_episode_steps": 25}
     native, python = cls(**options), cls(step_path="python", **options)
     for edge in edges:
         assert f"the {edge} (" in native.step_path_reason and f"the {edge} (" in native.python_edges
@@ -91,7 +91,7 @@ def test_an_fmu_error_mid_step_truncates_as_on_the_python_path(family_fmu: Calla
     native.reset(seed=0)
     results = [native.step(action) for action in actions[:4]]
     assert [r[3] for r in results] == [False, False, False, True]
-    observation, reward, terminated, truncated, info = results[-1]
+    _, reward, terminated, _, info = results[-1]
     assert reward == 0.0 and not terminated and "injected fault" in info["fmu_error"]
     assert native.reset()[0][3] == 0.0, "the next reset re-instantiates the FMU"
 
