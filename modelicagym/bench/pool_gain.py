@@ -13,8 +13,10 @@ where a step costs >= 1 ms, >= 1.5x where it costs >= 20 us, else >= 1.0x; an FM
 instance per process, at n=2: >= 1.0x. Other numbers of envs (``--n``) get no bar.
 
 Built-in cases (``--cases``): ``cartpole-user`` (the bundled cart-pole given as a user gives any
-FMU, so the pool isolates it), ``cartpole-user-python`` (the same on the Python step path, as an env
-that overrides ``observation`` would step; users' FMUs: ``--set 'step_path="python"'``), ``moody-100us`` and ``moody-1ms`` (the moody test FMU held calm,
+FMU, so the pool isolates it), ``cartpole-user-observation`` (the same through a subclass that
+overrides ``observation``, the outputs scaled: the FMU steps in C, the observation in Python, and the
+pool steps each env through ``env.step``), ``cartpole-user-python`` (the same on the Python step path;
+users' FMUs: ``--set 'step_path="python"'``), ``moody-100us`` and ``moody-1ms`` (the moody test FMU held calm,
 ``threshold=1e9``, at ``cs_step_size`` 2.5e-5 and 2.5e-6: ~100 us and ~1 ms a step), ``moody-once``
 (the same at ~100 us, allowed one instance per process); the moody FMU is built from the sources of
 a checkout (``tests/fmus/moody``). ``--fmu`` adds users' FMUs, configured as ``modelicagym info``
@@ -35,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 
 import modelicagym
 from modelicagym.bench import conditions, format_table, median, write_json
@@ -44,7 +47,9 @@ from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.fmu import open_fmu
 from modelicagym.fmu.build import build_source_fmu, description_name
 from modelicagym.fmu.description_edits import edited_description
+from modelicagym.registry import EnvFactory
 from modelicagym.try_fmu import try_config
+from modelicagym.vector import PoolVectorEnv
 
 logger = logging.getLogger(__name__)
 
@@ -62,13 +67,27 @@ ONCE_BAR = 1.0
 CALM = "parameters.threshold=1e9"
 
 
+class ScaledObservationEnv(modelicagym.FMUEnv):
+    """An FMUEnv whose ``observation`` is overridden, as users write one: the outputs scaled by one
+    half. Its FMU steps in C, the observation in Python (``cartpole-user-observation``)."""
+
+    def make_observation_space(self) -> gym.Space:
+        shape = super().make_observation_space().shape
+        return gym.spaces.Box(-np.inf, np.inf, shape, np.float64)
+
+    def observation(self) -> np.ndarray:
+        return np.asarray(super().observation(), dtype=np.float64) * 0.5
+
+
 @dataclass(frozen=True)
 class Case:
-    """One FMU to measure: how the table names it, and its config (made when the run starts)."""
+    """One FMU to measure: how the table names it, its config (made when the run starts) and the
+    env class over it."""
 
     name: str
     label: str
     config: Callable[[], dict[str, Any]]
+    env_class: type[modelicagym.FMUEnv] = modelicagym.FMUEnv
 
 
 def _moody(once: bool) -> Path:
@@ -86,6 +105,8 @@ def _moody_config(cs_step_size: str, once: bool = False) -> Callable[[], dict[st
 
 CASES = {case.name: case for case in (
     Case("cartpole-user", "the cart-pole as a user's FMU", lambda: users_config({})),
+    Case("cartpole-user-observation", "the same, its observation overridden", lambda: users_config({}),
+         ScaledObservationEnv),
     Case("cartpole-user-python", "the same on the Python step path", lambda: users_config({"step_path": "python"})),
     Case("moody-100us", "moody held calm, cs_step_size 2.5e-5", _moody_config("2.5e-5")),
     Case("moody-1ms", "moody held calm, cs_step_size 2.5e-6", _moody_config("2.5e-6")),
@@ -149,13 +170,23 @@ def _pool_run(envs: gym.vector.VectorEnv) -> Callable[[float], float]:
     return run
 
 
-def measure(config: Mapping[str, Any], n: int, rounds: int, seconds: float, warm: float) -> dict[str, Any]:
+def _make_vec(config: Mapping[str, Any], n: int, env_class: type[modelicagym.FMUEnv]) -> gym.vector.VectorEnv:
+    """The default pool of ``n`` envs: ``make_vec`` for an FMUEnv config, else the same pool over
+    env fns of ``env_class`` (as a user pools a subclass)."""
+    if env_class is modelicagym.FMUEnv:
+        return modelicagym.make_vec(dict(config), n=n)
+    entry_point = f"{env_class.__module__}:{env_class.__qualname__}"
+    return PoolVectorEnv([EnvFactory(entry_point, dict(config)) for _ in range(n)])
+
+
+def measure(config: Mapping[str, Any], n: int, rounds: int, seconds: float, warm: float,
+            env_class: type[modelicagym.FMUEnv] = modelicagym.FMUEnv) -> dict[str, Any]:
     """The single env's and the pool's rates over interleaved rounds, after the warm-up; the pool's
     layout at the end, and the single env's step path."""
     with ExitStack() as stack:
-        envs = modelicagym.make_vec(dict(config), n=n)  # before the single env, as a user makes them
+        envs = _make_vec(config, n, env_class)  # before the single env, as a user makes them
         stack.callback(envs.close)
-        env = stack.enter_context(modelicagym.FMUEnv(dict(config)))
+        env = stack.enter_context(env_class(dict(config)))
         single, pool = _single_run(env), _pool_run(envs)
         pool(warm)
         single(min(SINGLE_WARM, warm))
@@ -179,7 +210,8 @@ def measure_case(case: Case, config: Mapping[str, Any], ns: list[int] | None, ro
     for n in ns or [default_n(once)]:
         logger.info("measuring %s, n=%d", case.name, n)
         row = {"case": case.name, "label": case.label, "fmu": str(config["fmu"]), "once_per_process": once, "n": n,
-               "config": json.loads(json.dumps(config, default=str)), **measure(config, n, rounds, seconds, warm)}
+               "config": json.loads(json.dumps(config, default=str)),
+               **measure(config, n, rounds, seconds, warm, case.env_class)}
         row["bar"] = bar(row["single_us"], n, once)
         row["met"] = None if row["bar"] is None else row["median"] >= row["bar"]
         rows.append(row)

@@ -52,8 +52,8 @@ def measure(fmu: str | Path, inputs: list[str] | None = None, outputs: list[str]
     native = make_env(fmu, inputs, outputs, "auto", **config)
     python = make_env(fmu, inputs, outputs, "python", **config)
     loop_env = make_env(fmu, inputs, outputs, "auto", **config)
-    if native.native_step is None:
-        raise ConfigError(f"{fmu}: the env steps on the Python path: {native.step_path_reason}")
+    if native.native_step is None or native.python_edges:
+        raise ConfigError(f"{fmu}: the C loop needs the whole step in C: {native.step_path_reason}")
     native.action_space.seed(0)
     actions = [native.action_space.sample() for _ in range(_ACTIONS)]
     cycle = [actions[k % _ACTIONS] for k in range(steps)]

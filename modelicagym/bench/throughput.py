@@ -76,8 +76,8 @@ def single_loop(env: gym.Env, seed: int) -> Run:
 def c_loop(env: gym.Env) -> Run:
     """``mg_loop`` of our native library over the env's own FMU instance (alternating pushes)."""
     native = env.unwrapped.native_step
-    if native is None:
-        raise ConfigError(f"the C loop needs the native step path: {env.unwrapped.step_path_reason}")
+    if native is None or env.unwrapped.python_edges:
+        raise ConfigError(f"the C loop needs the whole step in C: {env.unwrapped.step_path_reason}")
     env.reset(seed=0)
     env.action_space.seed(0)
     env.step(env.action_space.sample())  # a first episode that steps: the reference of the rung's check

@@ -116,8 +116,8 @@ class PythonEndings:
         if self.termination:
             parts.append("the termination ("
                          + ("are_terminal on arrays" if batch_termination else "is_terminal per env") + ")")
-        #: what ``step_path_reason`` says
-        self.reason = f"the FMU steps in C; {' and '.join(parts)} in Python after it"
+        #: what of the step Python computes after C: ``step_path_reason`` names them
+        self.parts = parts
 
     def finish(self, envs: Sequence[gym.Env], observations: np.ndarray, actions: np.ndarray,
                terminated: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

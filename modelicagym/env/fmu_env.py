@@ -18,11 +18,14 @@ The step contract, stated once:
   any process with the same FMU (`modelicagym.env.saved_state`); ``reset(options={"state": s})``
   starts an episode there, and the config's ``start_states`` makes every other reset draw one.
 
-Steps take the native path (one call into our C library, `modelicagym.env.native_step`) when the
-config defines them completely, else the Python path; both give the same results.
-``env.step_path`` says which, ``env.step_path_reason`` why. A reward or termination written in
-Python keeps the native path: C steps the FMU, Python decides how the step ends
-(`modelicagym.env.endings`; a pool calls ``compute_rewards`` / ``are_terminal`` on a slice's arrays).
+Steps take the native path (one call into our C library, `modelicagym.env.native_step`) unless
+``step`` is overridden or the FMU cannot step in C (then the Python path); both give the same
+results. ``env.step_path`` says which, ``env.step_path_reason`` why. What Python computes keeps the
+FMU's step in C around it: an overridden ``action_to_inputs`` (or an action space C cannot map onto
+the inputs) writes the input values before the C step, an overridden ``observation`` (or a space
+laid out otherwise than the outputs) makes the observation after it, and a reward or termination
+written in Python decides how the step ends (`modelicagym.env.endings`; a pool calls
+``compute_rewards`` / ``are_terminal`` on a slice's arrays).
 
 ``render_mode="rgb_array"`` draws the episode's strip chart (`modelicagym.env.strip_chart`: the
 actions and observations over time; matplotlib, the ``plots`` extra), so Gymnasium's
@@ -57,7 +60,14 @@ from modelicagym.env.endings import (
     reward_of_one,
     termination_of_one,
 )
-from modelicagym.env.native_step import NativeStep, python_path_reason
+from modelicagym.env.native_step import (
+    NativeStep,
+    native_path_reason,
+    python_edges,
+    python_inputs_reason,
+    python_observation_reason,
+    python_path_reason,
+)
 from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
@@ -152,12 +162,22 @@ class FMUEnv(gym.Env):
         self.native_endings: PythonEndings | None = None
         self._batch_reward = batch_reward_defined(self, FMUEnv)
         self._batch_termination = batch_termination_defined(self, FMUEnv)
+        #: on the native path, what Python computes around the C step (the inputs, the observation)
+        #: as a phrase; None when C does the step up to its endings (a pool's native slice needs that)
+        self.python_edges: str | None = None
+        self._python_observation = False
         reason = python_path_reason(self, FMUEnv)
         if reason is None:
+            inputs_reason = python_inputs_reason(self, FMUEnv)
+            observation_reason = python_observation_reason(self, FMUEnv)
             self.native_endings = endings = python_endings(self, FMUEnv)
-            self._native = NativeStep(self, python_termination=endings is not None and endings.termination)
+            self._native = NativeStep(self, python_termination=endings is not None and endings.termination,
+                                      python_inputs=inputs_reason is not None)
+            self._python_observation = observation_reason is not None
+            self.python_edges = python_edges(inputs_reason, observation_reason)
             self.step_path = "native"
-            self.step_path_reason = "the config defines the whole step" if endings is None else endings.reason
+            self.step_path_reason = native_path_reason(inputs_reason, observation_reason,
+                                                       [] if endings is None else endings.parts)
         else:
             self.step_path, self.step_path_reason = "python", reason
 
@@ -218,7 +238,7 @@ class FMUEnv(gym.Env):
                 return self.fmu_failure(native.error())
             terminated, truncated, info = Flags.ending(flags)
             endings = self.native_endings
-            observation = native.observation()
+            observation = self.observation() if self._python_observation else native.observation()
             if endings is None:
                 return observation, native.reward, terminated, truncated, info
             # C stepped the FMU; the ending is Python's, as below

@@ -1,16 +1,29 @@
 """The native step path of an `FMUEnv`: one C call per step instead of ~10 µs of Python.
 
-An env takes the native path when its step is fully defined by its config (:func:`python_path_reason`
-says why not, in a sentence a user can act on): co-simulation (FMI 1.0, 2.0, 3.0) or model exchange
-with the native integrator and continuous inputs; `FMUEnv`'s own step, observation and action
-mapping; inputs and outputs (tunable parameters too) of any numeric FMI type (String and Binary
-variables are never actions or observations), scalars and FMI 3.0 arrays; an action space whose
-values map one to one onto the input values (a Box, MultiDiscrete, MultiBinary or Discrete over
-them, a Dict keyed by the inputs' names, or a Discrete over the config's ``action_table``); no strip
-chart to record (``render_mode="rgb_array"``). Everything else stays on the Python path, with the
-same results. A reward or termination written in Python does not keep an env off the native path:
-C steps the FMU and Python ends the step (`modelicagym.env.endings`); C then checks no termination
-bounds when the termination is Python's.
+An env's FMU steps in C (:func:`python_path_reason` says why not, in a sentence a user can act on)
+in co-simulation (FMI 1.0, 2.0, 3.0) or model exchange with the native integrator and continuous
+inputs; with `FMUEnv`'s own ``step``; inputs and outputs (tunable parameters too) of any numeric
+FMI type (String and Binary variables are never actions or observations), scalars and FMI 3.0
+arrays; no strip chart to record (``render_mode="rgb_array"``). Everything else steps on the Python
+path, with the same results.
+
+What Python computes keeps the FMU's step in C around it, each edge by itself:
+
+* the inputs: C moves the action's values into the inputs when the action space maps one to one
+  onto them (a Box, MultiDiscrete, MultiBinary or Discrete over them, a Dict keyed by the inputs'
+  names, or a Discrete over the config's ``action_table``) and ``action_to_inputs`` is `FMUEnv`'s;
+  otherwise (:func:`python_inputs_reason`) Python writes ``action_to_inputs(action)`` into the
+  instance's input buffers as the Python path does, and C steps with no action (in model exchange
+  the solver restarts when those bytes changed, by the Python path's own rule);
+* the observation: C writes it when the observation space is laid out as the outputs' own and
+  ``observation`` is `FMUEnv`'s; otherwise (:func:`python_observation_reason`) the env returns
+  ``observation()`` after the C step (termination bounds are on outputs: C still checks them);
+* the ending: a reward or termination written in Python is computed after the C step
+  (`modelicagym.env.endings`); C then checks no termination bounds when the termination is Python's.
+
+A pool's native slice (one C call for many envs) moves rows of the action and observation spaces,
+so it takes only envs whose inputs and observation C moves; the others step one by one through
+``env.step``, their FMUs still in C.
 
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step. C calls
@@ -31,16 +44,17 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from modelicagym.env.spaces import write_values
 from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
 from modelicagym.native.abi import FailedCall, MgCall, MgEnv, MgMove, ValueType
 from modelicagym.native.library import NativeBuildError, load_library
 
-__all__ = ["NativeStep", "action_storage_dtype", "python_path_reason"]
+__all__ = ["NativeStep", "action_storage_dtype", "native_path_reason", "python_edges", "python_inputs_reason",
+           "python_observation_reason", "python_path_reason"]
 
 logger = logging.getLogger(__name__)
 
-_OVERRIDABLE = ("step", "action_to_inputs", "observation")
 #: the spaces whose values C reads from a flat row (a Dict of them: one row per key, in input order)
 _ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
 #: the function a native reset restores the snapshot with (FMI 1.0 has none)
@@ -102,9 +116,10 @@ def _same_layout(a: spaces.Space, b: spaces.Space) -> bool:
 
 
 def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
-    """Why ``env`` (an `FMUEnv`) must step on the Python path, or ``None`` when it can take the
-    native one; ``base`` is `FMUEnv`, whose step the C library reproduces (an override of any of
-    its step methods keeps the env in Python)."""
+    """Why ``env`` (an `FMUEnv`) must step wholly on the Python path, or ``None`` when its FMU can
+    step in C; ``base`` is `FMUEnv`, whose step the C library reproduces (an override of ``step``
+    keeps the env in Python; its inputs and observation may still be Python's around the C step:
+    `python_inputs_reason`, `python_observation_reason`)."""
     config, fmu = env.config, env.fmu
     cls = type(env)
     if config.step_path == "python":
@@ -117,27 +132,71 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
         for v in fmu.input_variables:
             if v.variability != "continuous":
                 return f"input {v.name!r} is {v.variability}: model exchange sets it in event mode (Python)"
-    for name in _OVERRIDABLE:
-        if getattr(cls, name) is not getattr(base, name):
-            return f"{name} is overridden by {cls.__name__}"
+    if _overridden(cls, base, "step"):
+        return f"step is overridden by {cls.__name__}"
+    try:
+        load_library()
+    except NativeBuildError as error:
+        return f"the native library is not available: {error}"
+    return None
+
+
+def _overridden(cls: type, base: type, name: str) -> bool:
+    return getattr(cls, name) is not getattr(base, name)
+
+
+def python_inputs_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
+    """Why Python computes ``env``'s input values from the action (``action_to_inputs``) before
+    the C step, or ``None`` when C moves the action's values into the inputs itself (the action
+    space maps one to one onto the input values, or is Discrete over the ``action_table``)."""
+    config, fmu, cls = env.config, env.fmu, type(env)
+    if _overridden(cls, base, "action_to_inputs"):
+        return f"action_to_inputs is overridden by {cls.__name__}"
     n_values = sum(v.size for v in fmu.input_variables)
     if config.action_table is not None:
         if env.action_space != spaces.Discrete(len(config.action_table)):
             return f"the action space {env.action_space} is not Discrete({len(config.action_table)}) of 'action_table'"
         if len(config.action_table[0]) != n_values:
             return f"the rows of 'action_table' have {len(config.action_table[0])} values, the inputs {n_values}"
-    else:
-        parts = _action_parts(env.action_space, fmu.input_variables)
-        if isinstance(parts, str):
-            return parts
+        return None
+    parts = _action_parts(env.action_space, fmu.input_variables)
+    return parts if isinstance(parts, str) else None
+
+
+def python_observation_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
+    """Why Python makes ``env``'s observation (``observation()``) after the C step, or ``None``
+    when C writes it (the observation space is laid out as the outputs' own)."""
+    cls = type(env)
+    if _overridden(cls, base, "observation"):
+        return f"observation is overridden by {cls.__name__}"
     if not _same_layout(env.observation_space, env._observer.space):
         return (f"the observation space {env.observation_space} is not laid out as the outputs' own "
                 f"{env._observer.space}")
-    try:
-        load_library()
-    except NativeBuildError as error:
-        return f"the native library is not available: {error}"
     return None
+
+
+def _and(parts: list[str]) -> str:
+    return parts[0] if len(parts) == 1 else f"{', '.join(parts[:-1])} and {parts[-1]}"
+
+
+def python_edges(inputs_reason: str | None, observation_reason: str | None) -> str | None:
+    """What of a native step Python computes around C, as a phrase (``None``: nothing)."""
+    parts = ([f"the inputs ({inputs_reason})"] if inputs_reason else []) + (
+        [f"the observation ({observation_reason})"] if observation_reason else [])
+    return _and(parts) if parts else None
+
+
+def native_path_reason(inputs_reason: str | None, observation_reason: str | None, endings: list[str]) -> str:
+    """``step_path_reason`` of an env on the native path: what runs in C, and what in Python
+    before it (the inputs) and after it (the observation, then ``endings``: its reward and
+    termination written in Python, `modelicagym.env.endings.PythonEndings.parts`)."""
+    before = [f"the inputs ({inputs_reason})"] if inputs_reason else []
+    after = ([f"the observation ({observation_reason})"] if observation_reason else []) + endings
+    if not (before or after):
+        return "the config defines the whole step"
+    said = ([f"{_and(before)} in Python before it"] if before else []) + (
+        [f"{_and(after)} in Python after it"] if after else [])
+    return f"the FMU steps in C; {'; '.join(said)}"
 
 
 def _address(array: np.ndarray | ctypes.Array) -> int:
@@ -177,10 +236,13 @@ class NativeStep:
 
     Call :meth:`bind` after every reset the Python path did (the instance, its functions or its
     snapshot may have changed). ``python_termination``: the env's termination is Python's, so C
-    checks no bounds (it still reports the model ending the simulation).
+    checks no bounds (it still reports the model ending the simulation). ``python_inputs``: the
+    env's ``action_to_inputs`` computes the input values in Python (`python_inputs_reason`);
+    :meth:`step` writes them into the instance's buffers as the Python path does and C steps
+    from there (``mg_env_step`` with no action).
     """
 
-    def __init__(self, env: gym.Env, python_termination: bool = False) -> None:
+    def __init__(self, env: gym.Env, python_termination: bool = False, python_inputs: bool = False) -> None:
         self.env = env
         self.library = load_library()
         fmu, config = env.fmu, env.config
@@ -199,7 +261,11 @@ class NativeStep:
             "bound_low": np.array([low for _, low, _ in bounds], dtype=np.float64),
             "bound_high": np.array([high for _, _, high in bounds], dtype=np.float64),
         }
-        self._discrete = config.action_table is not None
+        self._discrete = config.action_table is not None and not python_inputs
+        #: the input values are Python's: then C moves no action and checks no action bounds
+        self.python_inputs = python_inputs
+        #: model exchange with Python's inputs: the solver's restart rule, as the Python path applies it
+        self._note_inputs = fmu.note_written_inputs if python_inputs and fmu.mode == "me" else None
         #: a Dict action's entries in the action row C reads: ``(name, byte offset, bytes, dtype)``
         self.action_layout: list[tuple[str, int, int, np.dtype]] | None = None
         #: a Dict observation's entries in the row C writes: ``{name: (byte offset, bytes)}``
@@ -211,6 +277,8 @@ class NativeStep:
             sources = [(8 * k, ValueType.F64) for k in range(len(inputs))]
             self._action_index = ctypes.c_int64(0)
             self._action_ref = ctypes.byref(self._action_index)
+        elif python_inputs:
+            sources, self._action_ref, self.action_row_bytes = [], None, 0
         else:
             sources = self._action_row(_action_parts(env.action_space, fmu.input_variables))
         self._keep["action_moves"] = _moves([(*source, *target) for source, target in zip(sources, inputs)])
@@ -220,7 +288,7 @@ class NativeStep:
         self._keep["observation_moves"] = _moves(self._observation_pairs)
         for field, array in self._keep.items():
             setattr(state, field, _address(array))
-        state.n_inputs, state.n_outputs, state.n_bounds = len(inputs), len(outputs), len(bounds)
+        state.n_inputs, state.n_outputs, state.n_bounds = len(sources), len(outputs), len(bounds)
         state.observation_bytes = observation.nbytes
         self._calls = {"set": self._make_calls(fmu.inputs), "get": self._make_calls(fmu.outputs)}
         state.set_calls, state.n_set_calls = ctypes.addressof(self._calls["set"][0]), len(self._calls["set"][1])
@@ -339,6 +407,11 @@ class NativeStep:
 
     def step(self, action: Any) -> int:
         """One step with a checked action; returns the flags (the reward is in :attr:`reward`)."""
+        if self.python_inputs:
+            write_values(self.env.fmu.inputs, self.env.action_to_inputs(action))  # as the Python path
+            if self._note_inputs is not None:
+                self._note_inputs()
+            return self._step(self._state_ref, None, self._reward_ref)
         if self._discrete:
             self._action_index.value = action
         elif self._single is not None:

@@ -275,10 +275,7 @@ class FMUInstance:
             if status:
                 self._step_status(status)
         else:
-            written = self.inputs.snapshot()
-            if written != self._written_inputs:  # the solver restarts after new input values
-                self._integrator.continuous = False
-                self._written_inputs = written
+            self.note_written_inputs()
             try:
                 clock.terminated = self._integrator.advance(now, target)
             except Exception:
@@ -295,6 +292,17 @@ class FMUInstance:
         if self._recording is not None:
             self._recording.record(dt, self.inputs, self.outputs)
         return bool(clock.terminated)
+
+    def note_written_inputs(self) -> None:
+        """Model exchange: restart the solver at the next step when the input values now in
+        ``inputs`` differ, bit for bit, from the last step's (as `step` does). The native step path
+        calls it when Python wrote the inputs and C takes the step; co-simulation: nothing to do."""
+        if self._integrator is None:
+            return
+        written = self.inputs.snapshot()
+        if written != self._written_inputs:
+            self._integrator.continuous = False
+            self._written_inputs = written
 
     def _check_log_errors(self) -> None:
         """An error loop (more error messages in a step than the limit) fails the step, as C does."""

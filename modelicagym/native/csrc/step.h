@@ -1,11 +1,12 @@
 /* The native step path: config-defined FMU envs stepped in C through the FMU's own functions.
  *
- * An mg_env describes one env of `FMUEnv` whose step is fully defined by its config (see
- * modelicagym/env/native_step.py for when that holds): co-simulation, or model exchange with the
- * native integrator (integrator.h) and continuous inputs; inputs and outputs of every FMI
+ * An mg_env describes one env of `FMUEnv` whose FMU steps in C (see modelicagym/env/native_step.py
+ * for when that holds): co-simulation, or model exchange with the native integrator (integrator.h)
+ * and continuous inputs; inputs and outputs of every FMI
  * type but String/Binary (scalars and FMI 3.0 arrays, one fmiSet/fmiGet call per type), the action
- * converted to the inputs (a Box, MultiDiscrete, MultiBinary, Discrete, or a flattened Dict) or
- * looked up in a table (a Discrete), bound
+ * converted to the inputs (a Box, MultiDiscrete, MultiBinary, Discrete, or a flattened Dict),
+ * looked up in a table (a Discrete), or written into the input buffers by Python (an overridden
+ * action_to_inputs: mg_env_step's action is NULL), bound
  * termination, the paper's positive/negative reward, truncation after max_episode_steps.
  * Python fills it in (pointers into the FMU instance's own value buffers and its clock), so the
  * Python path and the native path read and write the same memory: either may take any step.
@@ -85,7 +86,7 @@ typedef struct {
     const mg_call *get_calls; /* one per FMI type of the outputs */
     int64_t n_get_calls;
     const mg_move *action_moves; /* action row (or action_table row) -> input values, in variable order */
-    int64_t n_inputs;            /* input values (array elements count one each) */
+    int64_t n_inputs;            /* input values (array elements count one each); 0 when Python writes them */
     const char *input_starts;    /* the input buffers' bytes after a reset, in set_calls order */
     const mg_move *observation_moves; /* output values -> the observation, in variable order */
     int64_t n_outputs;
@@ -128,7 +129,11 @@ enum {
 
 /* One step of one env. `action` points to an int64 (discrete) or an action row (action_moves).
  * Returns the flags; the reward is written to *reward. The outputs are in the instance's buffers
- * afterwards, and the observation in env->observation. */
+ * afterwards, and the observation in env->observation.
+ * `action` NULL: the inputs are already in the instance's buffers (Python computed them, e.g. an
+ * overridden action_to_inputs: env/native_step.py); nothing is moved or checked, and in model
+ * exchange Python has already decided whether the solver restarts (new input bytes), as
+ * write_action would. Such an env has no action_moves (n_inputs 0). */
 int32_t mg_env_step(mg_env *env, const void *action, double *reward);
 
 /* Restore the snapshot (a reset on the "snapshot" rung); 0 on success, else MG_FMU_ERROR. */

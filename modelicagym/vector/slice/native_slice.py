@@ -61,14 +61,20 @@ _AUTORESET_CODES = {AutoresetMode.NEXT_STEP: AutoresetCode.NEXT_STEP, AutoresetM
 
 def batch_path_reason(envs: list[PoolEnv]) -> str | None:
     """Why a slice of ``envs`` must step on the Python path, or ``None`` when it can be a
-    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces,
-    array spaces: one row of shared memory per env)."""
+    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path whose inputs and observation
+    C moves itself — no ``python_edges`` —, all with the same spaces, array spaces: one row of
+    shared memory per env). On the Python path of the slice each env steps through ``env.step``,
+    which may still step its FMU in C."""
     for offset, env in enumerate(envs):
         if env is not env.unwrapped:
             return f"env {offset} of the slice is wrapped in {type(env).__name__} (the native path steps bare FMUEnvs)"
         if getattr(env, "step_path", None) != "native":
             reason = getattr(env, "step_path_reason", "it is not an FMUEnv")
             return f"env {offset} of the slice steps on the Python path: {reason}"
+        edges = getattr(env, "python_edges", None)
+        if edges:
+            return (f"env {offset} of the slice computes {edges} in Python around its FMU's C step, and a native "
+                    "slice moves the action and observation spaces' rows in C: each env steps through env.step")
         for role, space in (("action", env.action_space), ("observation", env.observation_space)):
             entries = space.items() if isinstance(space, Dict) else [(None, space)]
             for name, sub in entries:
