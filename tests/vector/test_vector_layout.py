@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from cpu_pressure import Machine
 from step_paths import cartpole_fns
 from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_layouts
 
@@ -342,33 +345,55 @@ def test_the_balance_moves_half_the_excess_of_the_busier_party() -> None:
     assert balance_shift(PartyCosts(4000.0, 4, 0.0, 4), lent=0, movable=4) == 2  # an idle stand-in: half of them
 
 
-@pytest.mark.parametrize("quiet", [True, False])
-def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs(quiet: bool) -> None:
-    now = [0.0]
-    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0], quiet=lambda: quiet)
+def _windows_of(policy: ConsolidationPolicy, machine: Machine, stall_share: float) -> Callable[..., bool]:
+    """A window of measurements for ``policy``: five parts of 64 batches, 0.1 s each, in which some
+    thread waited for a core ``stall_share`` of the time; ``True`` when the target changed."""
 
     def window(batch_us: float, worker_us: float, stand_in_us: float) -> bool:
         changed = False
         for _ in range(WINDOW_PARTS):
-            now[0] += 0.01
+            machine.run(0.1, stall_share)
             parties = _party_times(worker_us, stand_in_us, policy.target)
             changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, 8, True, parties=parties)
         return changed
 
+    return window
+
+
+@pytest.mark.parametrize("quiet", [True, False])
+def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs(quiet: bool, tmp_path: Path) -> None:
+    machine = Machine(tmp_path)
+    policy = ConsolidationPolicy(4, 4, clock=lambda: machine.now, pressure=machine.path)
+    window = _windows_of(policy, machine, stall_share=0.0 if quiet else 0.3)  # 0.3: a busy process beside
+
     assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
     assert "400.0 us" in policy.last_decision and "20.0 us" in policy.last_decision
     assert not window(220.0, 210.0, 220.0) and policy.target == 2  # balanced: stays
-    now[0] += PROBE_FIRST_SECONDS
+    machine.run(PROBE_FIRST_SECONDS, 0.0 if quiet else 0.3)
     if quiet:  # the parties' stepping fills the batch (210 + 220 us of 220): one worker for all would take 430 us
         assert not window(220.0, 210.0, 220.0) and policy.target == 2, "a try that could only lose was made"
     else:  # they may have shared a core, each counting the other's turn: the try is made
         assert window(220.0, 210.0, 220.0) and policy.target == 4
         assert window(420.0, 0.0, 420.0) and policy.target == 2
         assert not window(220.0, 210.0, 220.0)  # back: what the try cost is known
-    now[0] += 4 * PROBE_FIRST_SECONDS  # past any back-off
+    machine.run(40.0, 0.0 if quiet else 0.3)  # past any back-off (a failed try of 1 s waits 19 s)
     # the batch is mostly waking up (50 + 50 us of 220): consolidation is tried ...
     assert window(220.0, 50.0, 50.0) and policy.target == 4
     assert window(420.0, 0.0, 420.0) and policy.target == 2  # ... and loses: back to the balanced spread
+
+
+def test_a_consolidation_try_waits_until_the_machine_watch_can_tell(tmp_path: Path) -> None:
+    """The pool's start-up crowds the machine; the policy's watch starts at its first window, and a
+    try that the party costs rule out waits until the watch has seen the machine for a while."""
+    machine = Machine(tmp_path)
+    policy = ConsolidationPolicy(4, 4, clock=lambda: machine.now, pressure=machine.path)
+    machine.run(PROBE_FIRST_SECONDS, 0.5)  # start-up: workers spawned, FMUs instantiated
+    window = _windows_of(policy, machine, stall_share=0.0)
+    assert not window(220.0, 210.0, 220.0)  # the first window: the watch starts, cannot tell yet
+    assert not window(220.0, 210.0, 220.0) and policy.target == 0  # quiet: the try that cannot win is skipped
+    machine.run(PROBE_FIRST_SECONDS, 0.3)  # a busy process starts beside the pool
+    crowded = _windows_of(policy, machine, stall_share=0.3)
+    assert crowded(220.0, 210.0, 220.0) and policy.target == 4, policy.last_decision  # tried
 
 
 def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:

@@ -13,9 +13,10 @@ import os
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 from modelicagym.vector.parent.cost_balance import PartyTimes, balance_shift
-from modelicagym.vector.parent.machine_watch import MachineWatch
+from modelicagym.vector.parent.machine_watch import PSI_CPU, READ_EVERY, MachineWatch
 
 __all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
 
@@ -41,8 +42,10 @@ TRY_SHARE = 0.05
 IDLE_CORES_TO_PROBE = 0.5
 #: seconds of a quiet machine after which a consolidation policy trusts its parties' stepping times
 #: (their wall times: on a crowded machine two workers may share a core and each seem to take twice
-#: its time)
+#: its time), and the share of the time some thread may wait for a core on such a machine (the
+#: pool's own hand-overs make ~3%: 8 envs of ~1 ms in two workers; a busy process beside, 30% and more)
 TRUST_QUIET_FOR = 0.3
+TRUST_STALL_SHARE = 0.1
 
 
 class LayoutPolicy:
@@ -172,9 +175,10 @@ class ConsolidationPolicy:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
     before the next try (0.5 s up to 30 s), and long enough that failed tries cost at most
-    `TRY_SHARE` of the time. On a quiet machine (``quiet``: no thread waited for a core for
-    `TRUST_QUIET_FOR` seconds), consolidation is not tried while the parties' own stepping times,
-    summed, fill the spread layout's batch (within `MARGIN`): one worker stepping every env takes
+    `TRY_SHARE` of the time. On a quiet machine (``quiet``: threads waited for a core less than
+    `TRUST_STALL_SHARE` of the last `TRUST_QUIET_FOR` seconds), consolidation is not tried while
+    the parties' own stepping times, summed, fill the spread layout's batch (within `MARGIN`): one
+    worker stepping every env takes
     at least that, so the try could only lose, and envs move back only at episode boundaries (8
     envs of ~1 ms a step lost 4-6 s at half speed to the first try). On a crowded machine those
     times are wall times that may include another party's turn on a shared core: tries go on. ``target``: the workers' envs the stand-in steps,
@@ -188,14 +192,17 @@ class ConsolidationPolicy:
     Args:
         movable: the other workers' envs; ``home``: the stand-in's own.
         clock: seconds, monotonic (a parameter for tests).
-        quiet: whether the machine has been quiet long enough (a parameter for tests; default reads
-            the CPU pressure, `MachineWatch`).
+        pressure: the CPU pressure file the policy's `MachineWatch` reads (started at its first
+            window, after the pool's start-up; a parameter for tests).
     """
 
     def __init__(self, movable: int, home: int, clock: Callable[[], float] = time.monotonic,
-                 quiet: Callable[[], bool] | None = None) -> None:
+                 pressure: Path = PSI_CPU) -> None:
         self.movable, self.home = movable, home
-        self._quiet = quiet or MachineWatch(clock=clock, quiet_for=TRUST_QUIET_FOR).quiet
+        self._pressure = pressure
+        self._quiet: Callable[[], bool] | None = None
+        #: when the policy's own watch started (it cannot tell a quiet machine for a while)
+        self._watch_started: float | None = None
         self.target = 0
         #: the target of the spread layout, moved by the balance
         self.spread = 0
@@ -239,7 +246,7 @@ class ConsolidationPolicy:
             return False
         batch_us = statistics.median(self._parts)
         costs = None if parties is None else parties.costs(self._party_samples)
-        quiet = self._quiet()  # every window: the watch reads the pressure as it goes
+        quiet = self._machine_quiet(now)  # every window: the watch reads the pressure as it goes
         self._window()
         here, there = self._names(self.target), self._names(self._other())
         if self._left_us is not None:
@@ -259,13 +266,27 @@ class ConsolidationPolicy:
                                                    f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
         if now - self._switched_at < self._probe_wait:
             return False
-        if self.target != self.movable and quiet and costs is not None and MARGIN * costs.total_us >= batch_us:
-            # the parties' own stepping alone fills the batch: one stand-in for all cannot be faster
-            self._switched_at = now
-            return False
+        if self.target != self.movable and costs is not None and MARGIN * costs.total_us >= batch_us:
+            # the parties' own stepping alone fills the batch: on a quiet machine, one stand-in for all
+            # cannot be faster; until the watch can tell, the try waits
+            if quiet is not False:
+                if quiet:
+                    self._switched_at = now
+                return False
         self._left_us, self._try_started = batch_us, now
         return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
                                                 "are tried")
+
+    def _machine_quiet(self, now: float) -> bool | None:
+        """Whether the machine has been quiet for `TRUST_QUIET_FOR` seconds; ``None`` while the
+        policy's own watch, started at its first window, cannot tell yet."""
+        if self._quiet is None:
+            watch = MachineWatch(self._pressure, self._clock, quiet_for=TRUST_QUIET_FOR, stall_share=TRUST_STALL_SHARE)
+            self._quiet, self._watch_started = watch.quiet, now
+        quiet = self._quiet()
+        if not quiet and now - self._watch_started < TRUST_QUIET_FOR + READ_EVERY:
+            return None
+        return quiet
 
     def _other(self) -> int:
         """The target of the layout not running now."""

@@ -30,12 +30,14 @@ PSI_CPU = Path("/proc/pressure/cpu")
 
 class MachineWatch:
     """Reads the CPU pressure at most every `READ_EVERY` seconds; :meth:`quiet` says whether it
-    stayed low for the last ``quiet_for`` seconds."""
+    stayed under ``stall_share`` of the time (`STALL_SHARE` unless told) for the last ``quiet_for``
+    seconds."""
 
     def __init__(self, path: Path = PSI_CPU, clock: Callable[[], float] = time.monotonic,
-                 quiet_for: float = QUIET_FOR) -> None:
+                 quiet_for: float = QUIET_FOR, stall_share: float = STALL_SHARE) -> None:
         self._path = path
         self._quiet_for = quiet_for
+        self._stall_share = stall_share
         self._clock = clock
         self._read_at = clock()
         self._stall_us = self._read_stall_us()
@@ -50,7 +52,7 @@ class MachineWatch:
             stall_us = self._read_stall_us()
             if stall_us is None or self._stall_us is None:
                 self._low_since = None
-            elif (stall_us - self._stall_us) * 1e-6 > STALL_SHARE * (now - self._read_at):
+            elif (stall_us - self._stall_us) * 1e-6 > self._stall_share * (now - self._read_at):
                 self._low_since = None
             elif self._low_since is None:
                 self._low_since = self._read_at
