@@ -269,9 +269,9 @@ class ConsolidationPolicy:
         if self.target != self.movable and costs is not None and MARGIN * costs.total_us >= batch_us:
             # the parties' own stepping alone fills the batch: on a quiet machine, one stand-in for all
             # cannot be faster; until the watch can tell, the try waits
+            if quiet:
+                self._switched_at = now
             if quiet is not False:
-                if quiet:
-                    self._switched_at = now
                 return False
         self._left_us, self._try_started = batch_us, now
         return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
