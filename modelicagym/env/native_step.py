@@ -1,8 +1,9 @@
 """The native step path of an `FMUEnv`: one C call per step instead of ~10 µs of Python.
 
 An env's FMU steps in C (:func:`python_path_reason` says why not, in a sentence a user can act on)
-in co-simulation (FMI 1.0, 2.0, 3.0) or model exchange with the native integrator and continuous
-inputs; with `FMUEnv`'s own ``step``; inputs and outputs (tunable parameters too) of any numeric
+in co-simulation (FMI 1.0, 2.0, 3.0) or model exchange with the native integrator (discrete inputs
+included: C sets them in event mode and settles the event iteration at every step, as the Python
+path does); with `FMUEnv`'s own ``step``; inputs and outputs (tunable parameters too) of any numeric
 FMI type (String and Binary variables are never actions or observations), scalars and FMI 3.0
 arrays; no strip chart to record (``render_mode="rgb_array"``). Everything else steps on the Python
 path, with the same results.
@@ -129,9 +130,6 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     if fmu.mode == "me":
         if fmu.integrator_path != "native":
             return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
-        for v in fmu.input_variables:
-            if v.variability != "continuous":
-                return f"input {v.name!r} is {v.variability}: model exchange sets it in event mode (Python)"
     if _overridden(cls, base, "step"):
         return f"step is overridden by {cls.__name__}"
     try:
@@ -248,6 +246,7 @@ class NativeStep:
         fmu, config = env.fmu, env.config
         self.state = state = MgEnv()
         state.fmi_version = fmu.description.fmi_version
+        state.event_mode_inputs = fmu.event_mode_inputs
         inputs = [pair for v in fmu.input_variables for pair in _value_addresses(fmu.inputs, v)]
         outputs = [pair for v in fmu.output_variables for pair in _value_addresses(fmu.outputs, v)]
         names = [v.name for v in fmu.output_variables]

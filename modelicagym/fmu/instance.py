@@ -360,6 +360,12 @@ class FMUInstance:
         return self._snapshot_next_event if self._snapshot is not None else None
 
     @property
+    def event_mode_inputs(self) -> bool:
+        """Model exchange with discrete inputs (or tunable parameters as inputs): every step sets
+        the inputs in event mode, the only mode FMI allows them in, and settles the event iteration."""
+        return self._event_mode_inputs
+
+    @property
     def native_integrator(self) -> NativeIntegrator | None:
         """Model exchange: the integrator when its solver loop runs in C (the native step path drives it)."""
         return self._integrator if isinstance(self._integrator, NativeIntegrator) else None

@@ -317,6 +317,7 @@ class MgEnv(ctypes.Structure):
         ("fmi_version", ctypes.c_int32),
         ("discrete", ctypes.c_int32),
         *_pointers("component", "do_step", "get_boolean_status", "set_state", "snapshot", "integrator"),
+        ("event_mode_inputs", ctypes.c_int32),
         ("snapshot_has_next_event", ctypes.c_int32),
         ("snapshot_next_event_time", ctypes.c_double),
         ("set_calls", ctypes.c_void_p),

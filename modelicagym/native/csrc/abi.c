@@ -66,7 +66,7 @@ static const mg_abi_entry entries[] = {
     STRUCT(mg_env),
     FIELD(mg_env, fmi_version), FIELD(mg_env, discrete), FIELD(mg_env, component), FIELD(mg_env, do_step),
     FIELD(mg_env, get_boolean_status), FIELD(mg_env, set_state), FIELD(mg_env, snapshot), FIELD(mg_env, integrator),
-    FIELD(mg_env, snapshot_has_next_event), FIELD(mg_env, snapshot_next_event_time), FIELD(mg_env, set_calls),
+    FIELD(mg_env, event_mode_inputs), FIELD(mg_env, snapshot_has_next_event), FIELD(mg_env, snapshot_next_event_time), FIELD(mg_env, set_calls),
     FIELD(mg_env, n_set_calls), FIELD(mg_env, get_calls), FIELD(mg_env, n_get_calls), FIELD(mg_env, action_moves),
     FIELD(mg_env, n_inputs), FIELD(mg_env, input_starts), FIELD(mg_env, observation_moves),
     FIELD(mg_env, n_outputs), FIELD(mg_env, observation), FIELD(mg_env, observation_bytes),

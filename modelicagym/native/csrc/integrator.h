@@ -103,4 +103,12 @@ void mg_integrator_close(mg_integrator *integrator);
  * terminate the simulation. */
 int32_t mg_integrator_advance(mg_integrator *integrator, double time, double stop);
 
+/* An event of the caller's at `time`, as ModelExchangeIntegrator.event: mg_integrator_enter_event
+ * sets the time and enters event mode (the next advance restarts CVode), the caller then sets what
+ * FMI lets it set there only (discrete inputs), and mg_integrator_settle_event runs the event
+ * iteration and returns to continuous-time mode. MG_INTEGRATOR_TERMINATE: the model asked to
+ * terminate the simulation (it stays in event mode). */
+int32_t mg_integrator_enter_event(mg_integrator *integrator, double time);
+int32_t mg_integrator_settle_event(mg_integrator *integrator, double time);
+
 #endif

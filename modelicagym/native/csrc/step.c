@@ -186,7 +186,25 @@ static void record_values(char *row, const mg_call *calls, int64_t n) {
     }
 }
 
-/* FMUInstance.step: set inputs, doStep to origin + (steps + 1) * dt, get outputs. */
+/* Model exchange with discrete inputs, as FMUInstance.step: FMI lets a step set them in event mode
+ * only, so it sets the time, enters event mode, sets the inputs, settles the event iteration
+ * (`ended`: the model asked to terminate) and returns to continuous-time mode. */
+static int32_t set_inputs_in_event_mode(mg_env *env, double now, bool *ended) {
+    mg_integrator *integrator = env->integrator;
+    int32_t outcome = mg_integrator_enter_event(integrator, now);
+    if (outcome == MG_INTEGRATOR_OK) {
+        int status = set_inputs(env);
+        if (status > WARNING)
+            return fail(env, MG_CALL_SET_INPUTS, status);
+        outcome = mg_integrator_settle_event(integrator, now);
+    }
+    if (outcome == MG_INTEGRATOR_FAILED)
+        return fail(env, MG_CALL_INTEGRATE, 0);
+    *ended = outcome == MG_INTEGRATOR_TERMINATE;
+    return 0;
+}
+
+/* FMUInstance.step: set inputs, doStep (or integrate) to origin + (steps + 1) * dt, get outputs. */
 static int32_t advance(mg_env *env) {
     mg_clock *clock = env->clock;
     double dt = env->time_step;
@@ -198,22 +216,28 @@ static int32_t advance(mg_env *env) {
     double now = clock->time;
     double target = clock->origin + (double)(clock->steps + 1) * dt;
     int64_t started = mg_now_ns();
-    int status = set_inputs(env);
-    if (status > WARNING)
+    bool ended = false;
+    int status;
+    if (env->event_mode_inputs) {
+        int32_t flags = set_inputs_in_event_mode(env, now, &ended);
+        if (flags)
+            return flags;
+    } else if ((status = set_inputs(env)) > WARNING) {
         return fail(env, MG_CALL_SET_INPUTS, status);
-    bool ended;
-    if (env->integrator) {
+    }
+    /* ended already: the model ended the simulation in the inputs' event; no integration, as the Python path */
+    if (!ended && env->integrator) {
         int32_t outcome = mg_integrator_advance(env->integrator, now, target);
         if (outcome == MG_INTEGRATOR_FAILED)
             return fail(env, MG_CALL_INTEGRATE, 0);
         ended = outcome == MG_INTEGRATOR_TERMINATE;
-    } else {
+    } else if (!ended) {
         status = do_step(env, now, target - now, &ended);
         if (status != OK)
             return fail(env, MG_CALL_DO_STEP, status);
     }
-    if (ended)
-        clock->terminated = 1;
+    if (ended || env->integrator) /* model exchange, as FMUInstance.step: each step says anew (a step past the end too) */
+        clock->terminated = ended;
     clock->steps += 1;
     clock->time = target;
     status = get_outputs(env);

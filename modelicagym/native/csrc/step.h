@@ -1,8 +1,8 @@
 /* The native step path: config-defined FMU envs stepped in C through the FMU's own functions.
  *
  * An mg_env describes one env of `FMUEnv` whose FMU steps in C (see modelicagym/env/native_step.py
- * for when that holds): co-simulation, or model exchange with the native integrator (integrator.h)
- * and continuous inputs; inputs and outputs of every FMI
+ * for when that holds): co-simulation, or model exchange with the native integrator (integrator.h),
+ * its discrete inputs set in event mode at every step as the Python path does; inputs and outputs of every FMI
  * type but String/Binary (scalars and FMI 3.0 arrays, one fmiSet/fmiGet call per type), the action
  * converted to the inputs (a Box, MultiDiscrete, MultiBinary, Discrete, or a flattened Dict),
  * looked up in a table (a Discrete), or written into the input buffers by Python (an overridden
@@ -79,6 +79,7 @@ typedef struct {
     void *do_step, *get_boolean_status, *set_state;
     void *snapshot; /* FMU state taken after initialization (NULL: no native reset) */
     mg_integrator *integrator;       /* model exchange: the solver loop; NULL: co-simulation (doStep) */
+    int32_t event_mode_inputs;       /* model exchange with discrete inputs: a step sets them in event mode */
     int32_t snapshot_has_next_event; /* model exchange: the time event pending when the snapshot was taken */
     double snapshot_next_event_time;
     const mg_call *set_calls; /* one per FMI type of the inputs */
