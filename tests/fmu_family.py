@@ -132,7 +132,7 @@ VARIANTS: dict[str, Variant] = {
     # ... allowed one instance per process (one env per worker), its cost set by cs_step_size (and a
     # threshold no x reaches): a pool of such FMUs of a realistic cost (issue 32: ~100 us a step)
     "moody_once": Variant(FMUS_DIR / "moody", once_per_process=True),
-    # model exchange only, Integer / Enumeration / Boolean / discrete Real inputs (FMI 3.0: Int64 and UInt8
+    # for model exchange: Integer / Enumeration / Boolean / discrete Real inputs (FMI 3.0: Int64 and UInt8
     # too) that change the dynamics and the events, a stop input that ends the simulation in the inputs'
     # event, and a jam_gear parameter that makes an event update fail (tests/fmus/me_discrete)
     "me_discrete": Variant(FMUS_DIR / "me_discrete"),

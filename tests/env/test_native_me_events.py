@@ -43,7 +43,7 @@ def inputs_of(version: int) -> list[str]:
 
 def config(path: Path, version: int, solver: str = "cvode", **options: Any) -> dict[str, Any]:
     return {"fmu": path, "inputs": inputs_of(version), "outputs": OUTPUTS, "time_step": 0.1,
-            "max_episode_steps": 23, "solver": solver, **SOLVERS[solver], **options}
+            "max_episode_steps": 23, "mode": "me", "solver": solver, **SOLVERS[solver], **options}
 
 
 def both_paths(cfg: dict[str, Any]) -> tuple[FMUEnv, FMUEnv]:
