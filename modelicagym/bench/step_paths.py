@@ -110,6 +110,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--inputs", help="comma-separated inputs (default: every numeric input)")
     parser.add_argument("--outputs", help="comma-separated outputs (default: every numeric output)")
     parser.add_argument("--time-step", type=float, help="seconds per step (default: the model's)")
+    parser.add_argument("--mode", choices=("cs", "me"), help="co-simulation or model exchange (default: the FMU's first)")
     parser.add_argument("--steps", type=int, default=20_000, help="steps per round")
     parser.add_argument("--repeats", type=int, default=7, help="interleaved rounds (median reported)")
     parser.add_argument("--json", default="bench-results/step_paths.json", help="where to write the JSON")
@@ -121,6 +122,8 @@ def _split(text: str | None) -> list[str] | None:
 
 def run(args: argparse.Namespace) -> int:
     config = {"time_step": args.time_step} if args.time_step else {}
+    if args.mode:
+        config["mode"] = args.mode
     result = measure(args.fmu, _split(args.inputs), _split(args.outputs), args.steps, args.repeats, **config)
     print(report(result))
     print(f"\nwrote {write_json(args.json, result)}")
