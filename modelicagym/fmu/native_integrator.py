@@ -4,7 +4,9 @@
 SUNDIALS 7 libraries fmpy ships, the same binaries the Python path drives) or a fixed-step scheme,
 with right-hand-side and root functions that call the FMU's own functions, and the event
 iteration in C. Initialization events, ``event`` and snapshots stay with the parent class: they
-happen once per episode or on a user's call, not inside the hot loop.
+happen once per episode or on a user's call; the native step path sets a step's discrete inputs
+in event mode with C's own counterpart of ``event`` (``mg_integrator_enter_event`` /
+``mg_integrator_settle_event``).
 
 :func:`python_integrator_reason` says when an instance must keep the Python loop.
 """
