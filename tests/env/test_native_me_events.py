@@ -125,6 +125,19 @@ def test_an_event_update_failing_in_the_inputs_event_truncates_as_in_python(shif
     native.close(), python.close()
 
 
+@pytest.mark.parametrize("inputs", [["gear", "mode", "enable", "boost", "force"], ["force", "gain"]],
+                         ids=["typed inputs", "a tunable parameter"])
+def test_the_probe_in_model_exchange_steps_natively_as_in_python(family_fmu: Callable[[str, int], Path],
+                                                                 fmi_version: int, inputs: list[str]) -> None:
+    """Integer, enumeration and Boolean inputs, or a tunable parameter as an input: set in event mode."""
+    native, python = both_paths({"fmu": family_fmu("probe", fmi_version), "inputs": inputs, "mode": "me",
+                                 "outputs": ["position", "speed", "moving"], "time_step": 0.1, "max_episode_steps": 17,
+                                 "parameters": {} if "gear" in inputs else {"gear": 2, "enable": True}})
+    native.action_space.seed(3)
+    assert_same_steps(native, python, [native.action_space.sample() for _ in range(60)])
+    native.close(), python.close()
+
+
 class OutOfRangeDirection(FMUEnv):
     """Writes a direction the FMU's Int64 enumeration cannot hold: setting the inputs fails in event mode."""
 
