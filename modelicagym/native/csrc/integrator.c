@@ -158,6 +158,7 @@ static int update_discrete_states(mg_integrator *integrator, bool *needs_update,
     return status;
 }
 
+/* FMI 2.0/3.0: enter event mode (FMI 1.0 has none: fmiEventUpdate handles the event). */
 static int32_t enter_event_mode(mg_integrator *integrator, double time) {
     if (integrator->enter_event_mode)
         CALL(MG_FMU_CALL_ENTER_EVENT_MODE, time, ((enter_mode_t)integrator->enter_event_mode)(integrator->component));
@@ -165,7 +166,7 @@ static int32_t enter_event_mode(mg_integrator *integrator, double time) {
 }
 
 /* In event mode: update discrete states until they settle, return to continuous-time mode. */
-static int32_t settle_event(mg_integrator *integrator, double time) {
+int32_t mg_integrator_settle_event(mg_integrator *integrator, double time) {
     bool needs_update = true, terminate = false;
     while (needs_update) {
         CALL(MG_FMU_CALL_UPDATE_DISCRETE_STATES, time, update_discrete_states(integrator, &needs_update, &terminate));
@@ -181,7 +182,7 @@ static int32_t settle_event(mg_integrator *integrator, double time) {
 /* Enter event mode, update discrete states until they settle, return to continuous-time mode. */
 static int32_t handle_event(mg_integrator *integrator, double time) {
     int32_t outcome = enter_event_mode(integrator, time);
-    return outcome ? outcome : settle_event(integrator, time);
+    return outcome ? outcome : mg_integrator_settle_event(integrator, time);
 }
 
 int32_t mg_integrator_enter_event(mg_integrator *integrator, double time) {
@@ -189,8 +190,6 @@ int32_t mg_integrator_enter_event(mg_integrator *integrator, double time) {
     CALL(MG_FMU_CALL_SET_TIME, time, set_time(integrator, time));
     return enter_event_mode(integrator, time);
 }
-
-int32_t mg_integrator_settle_event(mg_integrator *integrator, double time) { return settle_event(integrator, time); }
 
 /* -- CVode ------------------------------------------------------------------------------------------ */
 
