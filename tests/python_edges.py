@@ -108,3 +108,23 @@ class GearboxProbeEndings(GearboxProbe):
 
     def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
         return float(observation[0] - observation[1] + int(action) - 5.0 * terminated)
+
+
+class CountingBothCartPole(BothCartPole):
+    """Both edges in Python, counting how often each hook runs (``calls``); ``fail_at`` (an
+    ``action_to_inputs`` call number) makes that call raise, as a user's bug would."""
+
+    def __init__(self, fail_at: int | None = None, **config: Any) -> None:
+        self.calls = {"action_to_inputs": 0, "observation": 0}
+        self.fail_at = fail_at
+        super().__init__(**config)
+
+    def action_to_inputs(self, action: Any) -> list[float]:
+        self.calls["action_to_inputs"] += 1
+        if self.calls["action_to_inputs"] == self.fail_at:
+            raise RuntimeError(f"action_to_inputs failed at call {self.fail_at}")
+        return super().action_to_inputs(action)
+
+    def observation(self) -> np.ndarray:
+        self.calls["observation"] += 1
+        return super().observation()

@@ -1,73 +1,144 @@
 """A pool of envs whose inputs or observation are Python's around a native FMU step (an overridden
-``action_to_inputs`` / ``observation``) steps each of them through ``env.step`` — its FMU still in
-C — with the results of `SyncVectorEnv` over the same envs on the Python path, to the last bit:
-the calling process's slice and workers', both autoreset modes, FMU errors mid-episode."""
+``action_to_inputs`` / ``observation``) steps each slice natively: one C call for its FMUs, the
+Python edges per env around it (`modelicagym.vector.slice.slice_edges`), with the results of
+`SyncVectorEnv` over the same envs on the Python path, to the last bit, and its hooks called as
+often: the calling process's slice and workers', every autoreset mode, co-simulation and model
+exchange, FMI 2.0 and 3.0, with and without Python endings, FMU errors mid-episode, a bad action
+and a hook that raises."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from python_edges import CARTPOLES, GearboxProbeEndings
+from python_edges import CARTPOLES, BothCartPole, CountingBothCartPole, GearboxProbe, GearboxProbeEndings
 from vector_rollouts import assert_same, rollout
 
 from modelicagym.vector import PoolVectorEnv
+from modelicagym.vector.errors import PoolError
 from modelicagym.vector.slice.native_slice import batch_path_reason
 
 pytestmark = pytest.mark.timeout(180)
 
-MODES = [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP]
+MODES = [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED]
 
 
 def assert_pool_equals_sync(native: list[Callable], python: list[Callable], mode: AutoresetMode,
-                            steps: int = 120) -> list:
-    """The default pool over ``native`` gives what SyncVectorEnv over ``python`` gives; returns the latter's results."""
+                            steps: int = 120, **pool_options: Any) -> list:
+    """The pool over ``native`` (every slice native, with its Python edges) gives what SyncVectorEnv
+    over ``python`` gives; returns the latter's results."""
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, **pool_options) as pool:
         for path, reason in pool.step_paths:
-            assert path == "python" and "in Python around its FMU's C step" in reason, reason
+            assert path == "native" and "in Python" in reason, reason
         expected, actual = rollout(sync, steps), rollout(pool, steps)
     sync.close()
-    assert sum(int((result[2] | result[3]).sum()) for result in expected[1:]) > 8, "too few episodes ended"
+    assert sum(int((result[2] | result[3]).sum()) for result in expected[1:] if len(result) == 5) > 8, \
+        "too few episodes ended"
     assert_same(expected, actual)
     return expected
 
 
+#: kind, FMI version, FMU mode, envs, pool options: each edge, alone and with Python endings, over
+#: both FMI versions and modes, a default layout (the calling process steps a slice, adaptive)
+#: and one with every env in workers
+CARTPOLE_CASES = [
+    ("observation", 2, "cs", 4, {}),
+    ("inputs", 3, "me", 8, {}),
+    ("both", 3, "cs", 8, {"caller_steps": False}),
+    ("observation+endings", 3, "me", 4, {"caller_steps": False}),
+    ("inputs+endings", 2, "cs", 4, {}),
+    ("both+endings", 2, "me", 8, {}),
+]
+
+
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
-@pytest.mark.parametrize("kind, fmu_mode", [("observation", "cs"), ("inputs+endings", "me"), ("both", "cs"),
-                                            ("both+endings", "me")])
-def test_a_pool_of_cartpoles_with_python_edges_steps_as_sync_vector_env(kind: str, fmu_mode: str,
-                                                                        mode: AutoresetMode) -> None:
+@pytest.mark.parametrize("kind, fmi_version, fmu_mode, n, options", CARTPOLE_CASES,
+                         ids=[f"{c[0]}-fmi{c[1]}-{c[2]}-n{c[3]}{'-workers' if c[4] else ''}" for c in CARTPOLE_CASES])
+def test_a_pool_of_cartpoles_with_python_edges_steps_natively_as_sync_vector_env(
+        kind: str, fmi_version: int, fmu_mode: str, n: int, options: dict, mode: AutoresetMode) -> None:
     cls, _ = CARTPOLES[kind]
-    native = [partial(cls, mode=fmu_mode, max_episode_steps=5 + 4 * i) for i in range(4)]
-    python = [partial(cls, mode=fmu_mode, max_episode_steps=5 + 4 * i, step_path="python") for i in range(4)]
-    assert_pool_equals_sync(native, python, mode)
+    config = {"fmi_version": fmi_version, "mode": fmu_mode}
+    native = [partial(cls, max_episode_steps=5 + 3 * i, **config) for i in range(n)]
+    python = [partial(cls, max_episode_steps=5 + 3 * i, step_path="python", **config) for i in range(n)]
+    assert_pool_equals_sync(native, python, mode, **options)
 
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
-def test_a_pool_of_typed_probes_with_fmu_errors_steps_as_sync_vector_env(family_fmu: Callable[[str, int], Path],
-                                                                         fmi_version: int, mode: AutoresetMode) -> None:
-    """Workers' slices (the probe is a user's FMU); env i's doStep fails after 3 + i steps of an episode."""
+@pytest.mark.parametrize("cls, n, options", [(GearboxProbeEndings, 4, {}), (GearboxProbe, 8, {"caller_steps": True})],
+                         ids=["endings-n4-workers", "n8-caller"])
+def test_a_pool_of_typed_probes_with_fmu_errors_steps_natively_as_sync_vector_env(
+        family_fmu: Callable[[str, int], Path], fmi_version: int, mode: AutoresetMode, cls: type, n: int,
+        options: dict) -> None:
+    """The probe is a user's FMU (workers' slices by default; ``caller_steps=True`` adds the
+    calling process's); env i's doStep fails after 3 + i % 4 steps of an episode."""
     path = family_fmu("probe", fmi_version)
 
     def fns(**config: object) -> list[Callable]:
-        return [partial(GearboxProbeEndings, path, parameters={"fault": 2, "fault_after": 3 + i}, **config)
-                for i in range(4)]
+        return [partial(cls, path, parameters={"fault": 2, "fault_after": 3 + i % 4}, **config) for i in range(n)]
 
-    expected = assert_pool_equals_sync(fns(), fns(step_path="python"), mode, steps=60)
-    infos = [result[4] for result in expected[1:]]
+    expected = assert_pool_equals_sync(fns(), fns(step_path="python"), mode, steps=60, **options)
+    infos = [result[4] for result in expected[1:] if len(result) == 5]
     assert any("fmu_error" in info or "fmu_error" in info.get("final_info", {}) for info in infos), "no FMU error"
 
 
-def test_the_native_slice_says_why_it_does_not_take_them() -> None:
-    cls, _ = CARTPOLES["inputs"]
-    envs = [cls(), cls()]
-    reason = batch_path_reason(envs)
-    assert reason == ("env 0 of the slice computes the inputs (action_to_inputs is overridden by ThreeForceCartPole) "
-                      "in Python around its FMU's C step, and a native slice moves the action and observation "
-                      "spaces' rows in C: each env steps through env.step")
+@pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
+def test_the_hooks_run_as_often_as_in_sync_vector_env(mode: AutoresetMode) -> None:
+    """None for an env whose step is its reset (``NEXT_STEP``), one ``observation()`` per step or reset."""
+    native = [partial(CountingBothCartPole, max_episode_steps=4 + 3 * i) for i in range(4)]
+    python = [partial(CountingBothCartPole, max_episode_steps=4 + 3 * i, step_path="python") for i in range(4)]
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, autoreset_mode=mode, adapt_layout=False) as pool:
+        assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
+        assert_same(rollout(sync, 60), rollout(pool, 60))
+        counted = pool.get_attr("calls")
+    expected = sync.get_attr("calls")
+    sync.close()
+    assert counted == expected
+    assert expected[0]["action_to_inputs"] < 60 if mode is AutoresetMode.NEXT_STEP else True
+
+
+def test_an_action_outside_the_space_fails_as_on_the_per_env_path() -> None:
+    """The pool refuses it with the same error, whichever path its slices take, and steps on."""
+    errors = []
+    for step_path in ("auto", "python"):
+        with PoolVectorEnv([partial(BothCartPole, step_path=step_path) for _ in range(4)]) as pool:
+            pool.reset(seed=0)
+            with pytest.raises((ValueError, PoolError)) as error:
+                pool.step(np.array([0, 1, 3, 2]))
+            errors.append(str(error.value))
+            pool.reset(seed=0)
+            pool.step(np.array([0, 1, 2, 2]))
+    assert errors[0] == errors[1], errors
+
+
+def test_a_hook_that_raises_names_its_env_as_on_the_per_env_path() -> None:
+    errors = []
+    for step_path in ("auto", "python"):
+        fns = [partial(CountingBothCartPole, fail_at=3 if i == 2 else None, step_path=step_path) for i in range(4)]
+        with PoolVectorEnv(fns, adapt_layout=False) as pool:
+            assert pool.step_paths[0][0] == ("native" if step_path == "auto" else "python")
+            pool.reset(seed=0)
+            pool.step(np.zeros(4, dtype=np.int64))
+            pool.step(np.zeros(4, dtype=np.int64))
+            with pytest.raises(PoolError) as error:
+                pool.step(np.zeros(4, dtype=np.int64))
+            errors.append(str(error.value))
+    assert "env 2" in errors[0] and "action_to_inputs failed at call 3" in errors[0], errors[0]
+    assert errors[0] == errors[1], errors
+
+
+def test_a_slice_whose_envs_disagree_on_their_edges_says_so() -> None:
+    envs = [CARTPOLES["inputs"][0](), CARTPOLES["both"][0]()]
+    assert batch_path_reason(envs[:1]) is None
+    assert batch_path_reason(envs) == (
+        "env 1 of the slice computes the inputs (action_to_inputs is overridden by BothCartPole) and the observation "
+        "(observation is overridden by BothCartPole) in Python around its FMU's C step, env 0 the inputs "
+        "(action_to_inputs is overridden by ThreeForceCartPole): a native slice's envs agree on that")
     for env in envs:
         env.close()
