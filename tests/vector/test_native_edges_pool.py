@@ -18,10 +18,11 @@ import pytest
 from env_slices import env_slice
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from python_edges import CARTPOLES, BothCartPole, CountingBothCartPole, GearboxProbe, GearboxProbeEndings
-from vector_rollouts import assert_same, rollout
+from vector_rollouts import assert_same, flipping, rollout, rollout_recording_layouts
 
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.errors import PoolError
+from modelicagym.vector.parent import placement
 from modelicagym.vector.slice.native_slice import batch_path_reason
 from modelicagym.vector.wire.protocol import Kind
 
@@ -87,6 +88,47 @@ def test_a_pool_of_typed_probes_with_fmu_errors_steps_natively_as_sync_vector_en
     expected = assert_pool_equals_sync(fns(), fns(step_path="python"), mode, steps=60, **options)
     infos = [result[4] for result in expected[1:] if len(result) == 5]
     assert any("fmu_error" in info or "fmu_error" in info.get("final_info", {}) for info in infos), "no FMU error"
+
+
+@pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
+@pytest.mark.parametrize("kind", ["both", "observation"])
+def test_envs_with_python_edges_move_between_processes_and_keep_sync_results(
+        monkeypatch: pytest.MonkeyPatch, kind: str, mode: AutoresetMode) -> None:
+    """The adaptive layout moves them at episode boundaries (``SAME_STEP``: reset before their
+    next step, inputs written after it) between their worker and the calling process's copies."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    cls, _ = CARTPOLES[kind]
+    native = [partial(cls, max_episode_steps=5 + 3 * i) for i in range(6)]
+    python = [partial(cls, max_episode_steps=5 + 3 * i, step_path="python") for i in range(6)]
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+        assert pool.layout.adaptive and {path for path, _ in pool.step_paths} == {"native"}, pool.layout
+        policy = flipping(pool, every=7)
+        actual, in_caller = rollout_recording_layouts(pool, 200)
+    expected, _ = rollout_recording_layouts(sync, 200)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 20 and min(in_caller) == 3 and max(in_caller) == 6, in_caller
+
+
+@pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
+def test_probes_with_python_edges_moving_to_the_stand_in_worker_keep_sync_results(
+        monkeypatch: pytest.MonkeyPatch, family_fmu: Callable[[str, int], Path], mode: AutoresetMode) -> None:
+    """A user's FMU: a worker stands in for the calling process with a copy of every env."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 1)
+    path = family_fmu("probe", 3)
+    native = [partial(GearboxProbe, path, max_episode_steps=5 + 2 * i) for i in range(6)]
+    python = [partial(GearboxProbe, path, max_episode_steps=5 + 2 * i, step_path="python") for i in range(6)]
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+        assert pool.layout.adaptive and pool.layout.envs_in_stand_in == 3, pool.layout
+        assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
+        policy = flipping(pool, every=7)
+        actual, in_stand_in = rollout_recording_layouts(pool, 200)
+    expected, _ = rollout_recording_layouts(sync, 200)
+    sync.close()
+    assert_same(expected, actual)
+    assert policy.switches >= 20 and max(in_stand_in) == 6, in_stand_in
 
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
