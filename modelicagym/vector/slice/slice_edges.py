@@ -10,7 +10,9 @@ as the per-env path (``env.step``) would, hook call for hook call:
    ``in_caller`` this party's, and not reset instead in ``NEXT_STEP``), its action is read from
    shared memory as ``SyncVectorEnv`` hands it over, checked as ``env.step`` checks it, and
    ``action_to_inputs(action)`` is written into its FMU's input buffers; C then steps it with no
-   action move (``mg_env.python_inputs``). Every action is checked before any hook runs: an action
+   action move (``mg_env.python_inputs``). Every action is checked before any hook runs (first the
+   slice's rows at once in C, ``mg_first_range_outside``, as a native slice checks its actions'
+   bounds; where that cannot tell, each action as ``env.step`` checks it): an action
    outside the space steps the whole slice on the per-env path instead, which raises ``env.step``'s
    error at that env after stepping those before it. An env that moved here to be reset before its
    step (``RESET_THEN_STEP``) is reset by ``env.reset()`` first, as the per-env path does.
@@ -28,14 +30,17 @@ Rewards, terminations (bounds are on outputs), truncations, flags and timing sta
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Callable
 from time import perf_counter_ns
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 from gymnasium.vector import AutoresetMode
 
-from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags
+from modelicagym.action_checks import element_bounds
+from modelicagym.native.abi import NO_RESET, RESET_THEN_STEP, Flags, MgRange
 from modelicagym.vector.slice.native_slice import NEEDS_PYTHON, NativeBatch
 from modelicagym.vector.slice.slice_endings import SliceEndings
 from modelicagym.vector.wire.buffers import SharedBuffers
@@ -43,6 +48,51 @@ from modelicagym.vector.wire.buffers import SharedBuffers
 __all__ = ["SliceEdges"]
 
 _BAD_ACTION, _RESET_DONE, _NEEDS_PYTHON = int(Flags.BAD_ACTION), int(Flags.RESET_DONE), int(NEEDS_PYTHON)
+_ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
+
+
+def _range(view: np.ndarray, space: spaces.Space) -> tuple[MgRange, tuple[np.ndarray, ...]] | None:
+    """The C range check of ``view`` (a slice's rows of one array of actions) against ``space``'s
+    bounds, and the bound arrays it reads; ``None`` when C cannot check it (another dtype, bounds
+    that differ per element for integers, infinite bounds for floats)."""
+    if type(space) not in _ARRAY_SPACES:
+        return None
+    if type(space) is spaces.Discrete:
+        low, high = np.array([space.start]), np.array([space.start + space.n - 1])
+    else:
+        low, high = element_bounds(space)
+    n, width = len(view), int(np.prod(view.shape[1:], dtype=np.int64))
+    if view.dtype == np.int64 and low.min() == low.max() and high.min() == high.max():
+        return MgRange(values=view.ctypes.data, n=n, width=width, is_float=0, low_int=int(low.min()),
+                       high_int=int(high.max())), ()
+    if view.dtype == np.float64 and np.isfinite(low).all() and np.isfinite(high).all():
+        lows, highs = (np.ascontiguousarray(bound, dtype=np.float64) for bound in (low, high))
+        return MgRange(values=view.ctypes.data, n=n, width=width, is_float=1, low=lows.ctypes.data,
+                       high=highs.ctypes.data), (lows, highs)
+    return None
+
+
+class _RowsInside:
+    """Whether every action in a slice's rows of shared memory lies within the action space's
+    bounds, in one C call (``mg_first_range_outside``): the check a native slice makes in C."""
+
+    def __init__(self, library: ctypes.CDLL, ranges: list[tuple[MgRange, tuple[np.ndarray, ...]]]) -> None:
+        self._table = (MgRange * len(ranges))(*(range_ for range_, _ in ranges))
+        self._bounds = [bounds for _, bounds in ranges]  # what the table points into lives as long as it
+        self._first_outside = library.mg_first_range_outside
+        self._args = (ctypes.addressof(self._table), len(ranges))
+
+    @classmethod
+    def of(cls, library: ctypes.CDLL, space: spaces.Space, actions: Any, rows: slice) -> _RowsInside | None:
+        """The check of ``rows`` of the shared ``actions`` (an array, or a Dict's arrays), or
+        ``None`` when C cannot check some part of ``space``."""
+        parts = ([(actions[key][rows], sub) for key, sub in space.items()] if isinstance(space, spaces.Dict)
+                 else [(actions[rows], space)])
+        ranges = [_range(view, sub) for view, sub in parts] if isinstance(actions, (np.ndarray, dict)) else [None]
+        return None if any(range_ is None for range_ in ranges) else cls(library, ranges)
+
+    def __call__(self) -> bool:
+        return self._first_outside(*self._args) < 0
 
 
 class SliceEdges:
@@ -77,6 +127,9 @@ class SliceEdges:
         self._terminations, self._truncations = buffers.terminations[rows], buffers.truncations[rows]
         self._caller = int(native.state.caller)
         self._checks = [env.check_action for env in envs]
+        #: the slice's actions all inside their bounds, in one C call (``None``: C cannot tell)
+        self._rows_inside = _RowsInside.of(native.library, envs[0].action_space,
+                                           buffers.actions.read_batch(copy_out=False), rows) if self._inputs else None
         self._writes = [env.native_step.write_inputs for env in envs] if self._inputs else []
         self._observe = [env.observation for env in envs]
         self._observations = buffers.observations.targets()
@@ -133,11 +186,12 @@ class SliceEdges:
             return True
         actions = self._actions(self.first, self.first + len(self.envs))
         checks, writes, envs, needs_reset = self._checks, self._writes, self.envs, self._needs_reset
-        try:
-            for offset in offsets:
-                checks[offset](actions[offset])
-        except Exception:  # the per-env path raises it, at that env
-            return False
+        if self._rows_inside is None or not self._rows_inside():
+            try:
+                for offset in offsets:
+                    checks[offset](actions[offset])
+            except Exception:  # the per-env path raises it, at that env
+                return False
         offset = offsets[0]
         try:
             for offset in offsets:
