@@ -31,6 +31,7 @@ Rewards, terminations (bounds are on outputs), truncations, flags and timing sta
 from __future__ import annotations
 
 import ctypes
+import math
 from collections.abc import Callable
 from time import perf_counter_ns
 from typing import Any
@@ -51,16 +52,18 @@ _BAD_ACTION, _RESET_DONE, _NEEDS_PYTHON = int(Flags.BAD_ACTION), int(Flags.RESET
 _ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
 
 
-def _range(view: np.ndarray, space: spaces.Space) -> tuple[MgRange, tuple[np.ndarray, ...]] | None:
-    """The C range check of ``view`` (a slice's rows of one array of actions) against ``space``'s
-    bounds, and the bound arrays it reads; ``None`` when C cannot check it (another dtype, bounds
-    that differ per element for integers, infinite bounds for floats)."""
+def _bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray] | None:
+    """Each element's lowest and highest valid value for an array ``space`` (else ``None``)."""
     if type(space) not in _ARRAY_SPACES:
         return None
     if type(space) is spaces.Discrete:
-        low, high = np.array([space.start]), np.array([space.start + space.n - 1])
-    else:
-        low, high = element_bounds(space)
+        return np.array([space.start]), np.array([space.start + space.n - 1])
+    return element_bounds(space)
+
+
+def _c_range(view: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[MgRange, tuple[np.ndarray, ...]] | None:
+    """The C range check of ``view`` (a slice's rows of one array of actions) and the bound arrays
+    it reads: int64 values within one range, float64 values within finite bounds; else ``None``."""
     n, width = len(view), int(np.prod(view.shape[1:], dtype=np.int64))
     if view.dtype == np.int64 and low.min() == low.max() and high.min() == high.max():
         return MgRange(values=view.ctypes.data, n=n, width=width, is_float=0, low_int=int(low.min()),
@@ -72,27 +75,57 @@ def _range(view: np.ndarray, space: spaces.Space) -> tuple[MgRange, tuple[np.nda
     return None
 
 
+def _python_range(view: np.ndarray, low: np.ndarray, high: np.ndarray) -> Callable[[], bool] | None:
+    """The range check of ``view`` in Python, for other dtypes (a few values: Python compares them
+    exactly, faster than numpy reduces them): one range for every element, finite for floats;
+    else ``None``."""
+    if low.min() != low.max() or high.min() != high.max() or not view.flags.c_contiguous:
+        return None
+    lowest, highest = low.min().item(), high.max().item()
+    if view.dtype.kind == "f" and not (math.isfinite(lowest) and math.isfinite(highest)):
+        return None  # NaN and infinities fail finite bounds
+    flat = view.reshape(-1)
+    return lambda: all(lowest <= value <= highest for value in flat.tolist())
+
+
 class _RowsInside:
     """Whether every action in a slice's rows of shared memory lies within the action space's
-    bounds, in one C call (``mg_first_range_outside``): the check a native slice makes in C."""
+    bounds (what a native slice checks in C): the int64 and float64 arrays in one C call
+    (``mg_first_range_outside``), the other arrays' few values in Python."""
 
-    def __init__(self, library: ctypes.CDLL, ranges: list[tuple[MgRange, tuple[np.ndarray, ...]]]) -> None:
-        self._table = (MgRange * len(ranges))(*(range_ for range_, _ in ranges))
+    def __init__(self, library: ctypes.CDLL, ranges: list[tuple[MgRange, tuple[np.ndarray, ...]]],
+                 python_checks: list[Callable[[], bool]]) -> None:
+        self._table = (MgRange * max(len(ranges), 1))(*(range_ for range_, _ in ranges))
         self._bounds = [bounds for _, bounds in ranges]  # what the table points into lives as long as it
         self._first_outside = library.mg_first_range_outside
         self._args = (ctypes.addressof(self._table), len(ranges))
+        self._python_checks = python_checks
 
     @classmethod
     def of(cls, library: ctypes.CDLL, space: spaces.Space, actions: Any, rows: slice) -> _RowsInside | None:
         """The check of ``rows`` of the shared ``actions`` (an array, or a Dict's arrays), or
-        ``None`` when C cannot check some part of ``space``."""
+        ``None`` when some part of ``space`` cannot be checked so."""
+        if not isinstance(actions, (np.ndarray, dict)):
+            return None
         parts = ([(actions[key][rows], sub) for key, sub in space.items()] if isinstance(space, spaces.Dict)
                  else [(actions[rows], space)])
-        ranges = [_range(view, sub) for view, sub in parts] if isinstance(actions, (np.ndarray, dict)) else [None]
-        return None if any(range_ is None for range_ in ranges) else cls(library, ranges)
+        ranges, python_checks = [], []
+        for view, sub in parts:
+            bounds = _bounds(sub)
+            if bounds is None:
+                return None
+            c_range = _c_range(view, *bounds)
+            check = None if c_range is not None else _python_range(view, *bounds)
+            if c_range is None and check is None:
+                return None
+            if c_range is not None:
+                ranges.append(c_range)
+            else:
+                python_checks.append(check)
+        return cls(library, ranges, python_checks)
 
     def __call__(self) -> bool:
-        return self._first_outside(*self._args) < 0
+        return self._first_outside(*self._args) < 0 and all(check() for check in self._python_checks)
 
 
 class SliceEdges:
