@@ -128,3 +128,15 @@ class CountingBothCartPole(BothCartPole):
     def observation(self) -> np.ndarray:
         self.calls["observation"] += 1
         return super().observation()
+
+
+class DictProbe(GearboxProbe):
+    """The probe's own ``Dict`` action space (one entry per input; the force a float32 ``Box``)
+    mapped in Python: the gear shifted, the force halved; its observation derived as `GearboxProbe`'s."""
+
+    def make_action_space(self) -> spaces.Space:
+        own = FMUEnv.make_action_space(self)
+        return spaces.Dict({**own.spaces, "force": spaces.Box(-10.0, 10.0, (), np.float32)})
+
+    def action_to_inputs(self, action: Any) -> dict[str, Any]:
+        return {**action, "gear": (int(action["gear"]) + 1) % 5, "force": 0.5 * float(action["force"])}

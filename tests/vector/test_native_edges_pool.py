@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from env_slices import env_slice
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from python_edges import CARTPOLES, BothCartPole, CountingBothCartPole, GearboxProbe, GearboxProbeEndings
+from python_edges import CARTPOLES, BothCartPole, CountingBothCartPole, DictProbe, GearboxProbe, GearboxProbeEndings
 from vector_rollouts import assert_same, flipping, rollout, rollout_recording_layouts
 
 from modelicagym.vector import PoolVectorEnv
@@ -73,8 +73,9 @@ def test_a_pool_of_cartpoles_with_python_edges_steps_natively_as_sync_vector_env
 
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
-@pytest.mark.parametrize("cls, n, options", [(GearboxProbeEndings, 4, {}), (GearboxProbe, 8, {"caller_steps": True})],
-                         ids=["endings-n4-workers", "n8-caller"])
+@pytest.mark.parametrize("cls, n, options", [(GearboxProbeEndings, 4, {}), (GearboxProbe, 8, {"caller_steps": True}),
+                                             (DictProbe, 4, {"caller_steps": True})],
+                         ids=["endings-n4-workers", "n8-caller", "dict-actions-n4-caller"])
 def test_a_pool_of_typed_probes_with_fmu_errors_steps_natively_as_sync_vector_env(
         family_fmu: Callable[[str, int], Path], fmi_version: int, mode: AutoresetMode, cls: type, n: int,
         options: dict) -> None:
@@ -182,6 +183,26 @@ def test_a_slice_given_an_action_outside_the_space_steps_as_the_per_env_path(mod
     message = "invalid action np.int64(7): out of range [0, 2]; the action space is Discrete(3)"
     assert results[0][0] == (2, "ActionError", message)
     assert_same(results[0], results[1])
+
+
+def test_a_dict_action_outside_the_space_fails_as_on_the_per_env_path(family_fmu: Callable[[str, int], Path]) -> None:
+    path = family_fmu("probe", 2)
+    errors = []
+    for step_path in ("auto", "python"):
+        with env_slice([partial(DictProbe, path, step_path=step_path)] * 3, AutoresetMode.NEXT_STEP) as (part, buffers):
+            assert part.step_path == ("native" if step_path == "auto" else "python"), part.step_path_reason
+            buffers.reset_mask[:] = True
+            part.reset([0, 1, 2], None)
+            buffers.step_mask[:] = True
+            actions = {"boost": np.array([0, 1, 0]), "enable": np.array([1, 1, 0]), "force": np.array([1.0, 2.0, 20.0], np.float32),
+                       "gear": np.array([0, 4, 2]), "mode": np.array([1, 3, 2])}
+            buffers.actions.write_batch(actions)
+            reply = part.step()
+            assert reply.kind is Kind.ERROR
+            errors.append((reply.data.env_index, reply.data.type_name, reply.data.message,
+                           buffers.observations.read_batch(copy_out=True)[:2]))
+    assert errors[0][:2] == (2, "ActionError") and "force" in errors[0][2], errors[0]
+    assert_same(errors[0], errors[1])
 
 
 def test_a_hook_that_raises_names_its_env_as_on_the_per_env_path() -> None:
