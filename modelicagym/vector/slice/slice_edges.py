@@ -165,6 +165,8 @@ class SliceEdges:
                                            buffers.actions.read_batch(copy_out=False), rows) if self._inputs else None
         self._writes = [env.native_step.write_inputs for env in envs] if self._inputs else []
         self._observe = [env.observation for env in envs]
+        #: the offsets of every env of the slice (the common case of a step: all opened)
+        self._every = list(range(len(envs)))
         self._observations = buffers.observations.targets()
         self._finals = buffers.final_observations.targets()
         self._timing, self._timing_enabled = buffers.timing[slot], buffers.timing_enabled
@@ -186,7 +188,8 @@ class SliceEdges:
         else:
             opened = native.step_open()
             started = perf_counter_ns() if timed else 0
-            opens = np.flatnonzero(native.open).tolist() if opened else []
+            opens = self._every if opened == len(self.envs) else [
+                offset for offset, is_open in enumerate(native.open.tolist()) if is_open]
             observed = self._observe_rows(opens) if self._observation else []
             python_ns += perf_counter_ns() - started if timed else 0
             if opened and self.endings is not None:
