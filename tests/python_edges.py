@@ -140,3 +140,19 @@ class DictProbe(GearboxProbe):
 
     def action_to_inputs(self, action: Any) -> dict[str, Any]:
         return {**action, "gear": (int(action["gear"]) + 1) % 5, "force": 0.5 * float(action["force"])}
+
+
+class CountingProbe(GearboxProbe):
+    """`GearboxProbe` counting how often each of its hooks runs (``calls``)."""
+
+    def __init__(self, path: Path, **config: Any) -> None:
+        self.calls = {"action_to_inputs": 0, "observation": 0}
+        super().__init__(path, **config)
+
+    def action_to_inputs(self, action: Any) -> dict[str, Any]:
+        self.calls["action_to_inputs"] += 1
+        return super().action_to_inputs(action)
+
+    def observation(self) -> np.ndarray:
+        self.calls["observation"] += 1
+        return super().observation()

@@ -17,7 +17,15 @@ import numpy as np
 import pytest
 from env_slices import env_slice
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
-from python_edges import CARTPOLES, BothCartPole, CountingBothCartPole, DictProbe, GearboxProbe, GearboxProbeEndings
+from python_edges import (
+    CARTPOLES,
+    BothCartPole,
+    CountingBothCartPole,
+    CountingProbe,
+    DictProbe,
+    GearboxProbe,
+    GearboxProbeEndings,
+)
 from vector_rollouts import assert_same, flipping, rollout, rollout_recording_layouts
 
 from modelicagym.vector import PoolVectorEnv
@@ -161,6 +169,29 @@ def test_an_action_outside_the_space_fails_as_on_the_per_env_path() -> None:
             pool.reset(seed=0)
             pool.step(np.array([0, 1, 2, 2]))
     assert errors[0] == errors[1], errors
+
+
+@pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
+@pytest.mark.parametrize("fault", [1, 2], ids=["the model ends", "doStep fails"])
+def test_fmu_errors_and_model_ends_run_the_hooks_as_often_as_in_sync_vector_env(
+        family_fmu: Callable[[str, int], Path], mode: AutoresetMode, fault: int) -> None:
+    """What C leaves to Python (an FMU error, the model's end: an info) is finished with the
+    observation Python wrote, not a second call of the hook."""
+    path = family_fmu("probe", 2)
+    fns = [partial(CountingProbe, path, parameters={"fault": fault, "fault_after": 3 + i}) for i in range(4)]
+    python = [partial(CountingProbe, path, parameters={"fault": fault, "fault_after": 3 + i}, step_path="python")
+              for i in range(4)]
+    sync = SyncVectorEnv(python, autoreset_mode=mode)
+    with PoolVectorEnv(fns, autoreset_mode=mode, adapt_layout=False, caller_steps=True) as pool:
+        assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
+        expected, actual = rollout(sync, 50), rollout(pool, 50)
+        counted = pool.get_attr("calls")
+    sync.close()
+    assert_same(expected, actual)
+    assert counted == sync.get_attr("calls")
+    infos = [result[4] for result in expected[1:] if len(result) == 5]
+    key = "fmu_terminated" if fault == 1 else "fmu_error"
+    assert any(key in info or key in info.get("final_info", {}) for info in infos), f"no {key}"
 
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
