@@ -163,7 +163,7 @@ class FMUEnv(gym.Env):
         self._batch_reward = batch_reward_defined(self, FMUEnv)
         self._batch_termination = batch_termination_defined(self, FMUEnv)
         #: on the native path, what Python computes around the C step (the inputs, the observation)
-        #: as a phrase; None when C does the step up to its endings (a pool's native slice needs that)
+        #: as a phrase; None when C does the step up to its endings
         self.python_edges: str | None = None
         self._python_observation = False
         reason = python_path_reason(self, FMUEnv)
