@@ -12,7 +12,8 @@ reset the reset ladder must do, an info to report) is finished here, on the Pyth
 whose reward or termination is written in Python step natively too, their endings computed here
 between two C calls (:class:`~modelicagym.vector.slice.slice_endings.SliceEndings`), and so do
 envs whose inputs or observations are Python's, those computed here around the C calls
-(:class:`~modelicagym.vector.slice.slice_edges.SliceEdges`). The results are the same either way. ``step_path`` and ``step_path_reason`` say which path a slice takes.
+(:class:`~modelicagym.vector.slice.slice_edges.SliceEdges`). The results are the same either way.
+``step_path`` and ``step_path_reason`` say which path a slice takes.
 """
 
 from __future__ import annotations

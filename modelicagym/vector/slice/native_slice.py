@@ -91,14 +91,15 @@ def batch_path_reason(envs: list[PoolEnv]) -> str | None:
                     return (f"{what} is not a Box, Discrete, MultiDiscrete or MultiBinary (a native slice moves "
                             "rows of shared memory)")
         native, first = env.native_step, envs[0].native_step
-        if sides[0]:  # Python computes the inputs from the action as SyncVectorEnv hands it over
-            continue
+        # C's layouts matter only for the rows C moves (Python reads and writes the user's spaces)
+        layouts = [(mine, env_0) for python, mine, env_0 in (
+            (sides[0], native.action_layout, first.action_layout),
+            (sides[1], native.observation_layout, first.observation_layout)) if not python]
         for name, _, _, dtype in native.action_layout or ():
             if env.action_space[name].dtype != dtype:
                 return (f"entry {name!r} of the action space is a {env.action_space[name].dtype} Box over "
                         f"{dtype} values: the pool's shared memory holds it as {env.action_space[name].dtype}")
-        observation_layouts = (None, None) if sides[1] else (native.observation_layout, first.observation_layout)
-        if (native.action_layout, observation_layouts[0]) != (first.action_layout, observation_layouts[1]):
+        if any(mine != env_0 for mine, env_0 in layouts):
             return f"env {offset} lays out its Dict action or observation otherwise than env 0 (another input order)"
     return None
 
