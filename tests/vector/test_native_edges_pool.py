@@ -261,3 +261,15 @@ def test_a_slice_whose_envs_disagree_on_their_edges_says_so() -> None:
         "(action_to_inputs is overridden by ThreeForceCartPole): a native slice's envs agree on that")
     for env in envs:
         env.close()
+
+
+def test_timing_of_a_pool_with_python_edges_counts_fmu_time_and_the_python_around_it() -> None:
+    with PoolVectorEnv([partial(BothCartPole) for _ in range(4)], measure_timing=True) as pool:
+        assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
+        pool.reset(seed=0)
+        for _ in range(20):
+            pool.step(pool.action_space.sample())
+        timing = pool.timing()
+    assert timing.steps == 20
+    assert timing.fmu_s > 0 and timing.env_python_s > 0
+    assert timing.wall_s == pytest.approx(timing.fmu_s + timing.env_python_s + timing.pool_overhead_s)
