@@ -161,8 +161,9 @@ class SliceEdges:
         self._caller = int(native.state.caller)
         self._checks = [env.check_action for env in envs]
         #: the slice's actions all inside their bounds, in one C call (``None``: C cannot tell)
+        shared = self._inputs and not buffers.actions.pickled  # views of shared memory, read by C at every step
         self._rows_inside = _RowsInside.of(native.library, envs[0].action_space,
-                                           buffers.actions.read_batch(copy_out=False), rows) if self._inputs else None
+                                           buffers.actions.read_batch(copy_out=False), rows) if shared else None
         self._writes = [env.native_step.write_inputs for env in envs] if self._inputs else []
         self._observe = [env.observation for env in envs]
         #: the offsets of every env of the slice (the common case of a step: all opened)
