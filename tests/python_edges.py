@@ -156,3 +156,17 @@ class CountingProbe(GearboxProbe):
     def observation(self) -> np.ndarray:
         self.calls["observation"] += 1
         return super().observation()
+
+
+class FailingRewardCartPole(BothCartPoleEndings):
+    """Both edges and the endings in Python; with ``fail``, its reward raises at its third step."""
+
+    def __init__(self, fail: bool = False, **config: Any) -> None:
+        self.fail, self.rewards = fail, 0
+        super().__init__(**config)
+
+    def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
+        self.rewards += 1
+        if self.fail and self.rewards == 3:
+            raise RuntimeError("compute_reward failed at its third call")
+        return super().compute_reward(observation, action, terminated)

@@ -23,6 +23,7 @@ from python_edges import (
     CountingBothCartPole,
     CountingProbe,
     DictProbe,
+    FailingRewardCartPole,
     GearboxProbe,
     GearboxProbeEndings,
 )
@@ -252,6 +253,25 @@ def test_a_hook_that_raises_names_its_env_as_on_the_per_env_path() -> None:
             errors.append(str(error.value))
     assert "env 2" in errors[0] and "action_to_inputs failed at call 3" in errors[0], errors[0]
     assert errors[0] == errors[1], errors
+
+
+def test_an_ending_that_raises_in_a_slice_with_python_edges_is_the_steps_error() -> None:
+    """As for any native slice with Python endings, one call computes the rewards of the slice's
+    envs (`SliceEndings`), so its error names the first of them (env 0 and 1 are worker 0's);
+    the per-env path names env 1 itself."""
+    errors = []
+    for step_path in ("auto", "python"):
+        fns = [partial(FailingRewardCartPole, fail=i == 1, step_path=step_path) for i in range(4)]
+        with PoolVectorEnv(fns, adapt_layout=False) as pool:
+            assert pool.step_paths[0][0] == ("native" if step_path == "auto" else "python")
+            pool.reset(seed=0)
+            pool.step(np.zeros(4, dtype=np.int64))
+            pool.step(np.zeros(4, dtype=np.int64))
+            with pytest.raises(PoolError) as error:
+                pool.step(np.zeros(4, dtype=np.int64))
+            errors.append(str(error.value))
+    message = "raised RuntimeError in step: compute_reward failed at its third call"
+    assert errors == [f"env 0 (worker 0) {message}", f"env 1 (worker 0) {message}"], errors
 
 
 def test_a_slice_whose_envs_disagree_on_their_edges_says_so() -> None:

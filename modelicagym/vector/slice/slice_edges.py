@@ -194,7 +194,11 @@ class SliceEdges:
             observed = self._observe_rows(opens) if self._observation else []
             python_ns += perf_counter_ns() - started if timed else 0
             if opened and self.endings is not None:
-                self.endings.end_open(opened)
+                try:
+                    self.endings.end_open(opened)
+                except BaseException:
+                    self.current_env = self.endings.current_env  # the env whose endings raised
+                    raise
             started = perf_counter_ns() if timed else 0
             if self._same_step and observed:
                 self._observe_finals(opens, observed)
