@@ -108,3 +108,65 @@ class GearboxProbeEndings(GearboxProbe):
 
     def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
         return float(observation[0] - observation[1] + int(action) - 5.0 * terminated)
+
+
+class CountingBothCartPole(BothCartPole):
+    """Both edges in Python, counting how often each hook runs (``calls``); ``fail_at`` (an
+    ``action_to_inputs`` call number) makes that call raise, as a user's bug would."""
+
+    def __init__(self, fail_at: int | None = None, **config: Any) -> None:
+        self.calls = {"action_to_inputs": 0, "observation": 0}
+        self.fail_at = fail_at
+        super().__init__(**config)
+
+    def action_to_inputs(self, action: Any) -> list[float]:
+        self.calls["action_to_inputs"] += 1
+        if self.calls["action_to_inputs"] == self.fail_at:
+            raise RuntimeError(f"action_to_inputs failed at call {self.fail_at}")
+        return super().action_to_inputs(action)
+
+    def observation(self) -> np.ndarray:
+        self.calls["observation"] += 1
+        return super().observation()
+
+
+class DictProbe(GearboxProbe):
+    """The probe's own ``Dict`` action space (one entry per input; the force a float32 ``Box``)
+    mapped in Python: the gear shifted, the force halved; its observation derived as `GearboxProbe`'s."""
+
+    def make_action_space(self) -> spaces.Space:
+        own = FMUEnv.make_action_space(self)
+        return spaces.Dict({**own.spaces, "force": spaces.Box(-10.0, 10.0, (), np.float32)})
+
+    def action_to_inputs(self, action: Any) -> dict[str, Any]:
+        return {**action, "gear": (int(action["gear"]) + 1) % 5, "force": 0.5 * float(action["force"])}
+
+
+class CountingProbe(GearboxProbe):
+    """`GearboxProbe` counting how often each of its hooks runs (``calls``)."""
+
+    def __init__(self, path: Path, **config: Any) -> None:
+        self.calls = {"action_to_inputs": 0, "observation": 0}
+        super().__init__(path, **config)
+
+    def action_to_inputs(self, action: Any) -> dict[str, Any]:
+        self.calls["action_to_inputs"] += 1
+        return super().action_to_inputs(action)
+
+    def observation(self) -> np.ndarray:
+        self.calls["observation"] += 1
+        return super().observation()
+
+
+class FailingRewardCartPole(BothCartPoleEndings):
+    """Both edges and the endings in Python; with ``fail``, its reward raises at its third step."""
+
+    def __init__(self, fail: bool = False, **config: Any) -> None:
+        self.fail, self.rewards = fail, 0
+        super().__init__(**config)
+
+    def compute_reward(self, observation: Any, action: Any, terminated: bool) -> float:
+        self.rewards += 1
+        if self.fail and self.rewards == 3:
+            raise RuntimeError("compute_reward failed at its third call")
+        return super().compute_reward(observation, action, terminated)

@@ -15,7 +15,7 @@ instance per process, at n=2: >= 1.0x. Other numbers of envs (``--n``) get no ba
 Built-in cases (``--cases``): ``cartpole-user`` (the bundled cart-pole given as a user gives any
 FMU, so the pool isolates it), ``cartpole-user-observation`` (the same through a subclass that
 overrides ``observation``, the outputs scaled: the FMU steps in C, the observation in Python, and the
-pool steps each env through ``env.step``), ``cartpole-user-python`` (the same on the Python step path;
+pool's native slice calls it per env around its one C call), ``cartpole-user-python`` (the same on the Python step path;
 users' FMUs: ``--set 'step_path="python"'``), ``moody-100us`` and ``moody-1ms`` (the moody test FMU held calm,
 ``threshold=1e9``, at ``cs_step_size`` 2.5e-5 and 2.5e-6: ~100 us and ~1 ms a step), ``moody-once``
 (the same at ~100 us, allowed one instance per process); the moody FMU is built from the sources of

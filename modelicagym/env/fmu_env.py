@@ -163,7 +163,7 @@ class FMUEnv(gym.Env):
         self._batch_reward = batch_reward_defined(self, FMUEnv)
         self._batch_termination = batch_termination_defined(self, FMUEnv)
         #: on the native path, what Python computes around the C step (the inputs, the observation)
-        #: as a phrase; None when C does the step up to its endings (a pool's native slice needs that)
+        #: as a phrase; None when C does the step up to its endings
         self.python_edges: str | None = None
         self._python_observation = False
         reason = python_path_reason(self, FMUEnv)
@@ -171,9 +171,10 @@ class FMUEnv(gym.Env):
             inputs_reason = python_inputs_reason(self, FMUEnv)
             observation_reason = python_observation_reason(self, FMUEnv)
             self.native_endings = endings = python_endings(self, FMUEnv)
-            self._native = NativeStep(self, python_termination=endings is not None and endings.termination,
-                                      python_inputs=inputs_reason is not None)
             self._python_observation = observation_reason is not None
+            self._native = NativeStep(self, python_termination=endings is not None and endings.termination,
+                                      python_inputs=inputs_reason is not None,
+                                      python_observation=self._python_observation)
             self.python_edges = python_edges(inputs_reason, observation_reason)
             self.step_path = "native"
             self.step_path_reason = native_path_reason(inputs_reason, observation_reason,
@@ -362,6 +363,16 @@ class FMUEnv(gym.Env):
     def native_step(self) -> NativeStep | None:
         """This env's native step (its C struct and single-env step), ``None`` on the Python path."""
         return self._native
+
+    @property
+    def python_observation(self) -> bool:
+        """Whether, on the native path, the observation is ``observation()`` computed in Python
+        after the C step (an overridden ``observation``, or a space laid out otherwise than the outputs)."""
+        return self._python_observation
+
+    def check_action(self, action: Any) -> None:
+        """Raise the ``ValueError`` `step` raises for an action outside the action space."""
+        self._check_action(action)
 
     def native_step_failure(self) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """The step result after the native step reported an FMU error (see `fmu_failure`)."""

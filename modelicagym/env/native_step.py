@@ -22,9 +22,9 @@ What Python computes keeps the FMU's step in C around it, each edge by itself:
 * the ending: a reward or termination written in Python is computed after the C step
   (`modelicagym.env.endings`); C then checks no termination bounds when the termination is Python's.
 
-A pool's native slice (one C call for many envs) moves rows of the action and observation spaces,
-so it takes only envs whose inputs and observation C moves; the others step one by one through
-``env.step``, their FMUs still in C.
+A pool's native slice (one C call for many envs) runs the same edges per env around its one C call
+(`modelicagym.vector.slice.slice_edges`): ``mg_env.python_inputs`` tells C to step the env from
+the inputs Python wrote, ``mg_env.python_observation`` to write none of its observation rows.
 
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step. C calls
@@ -236,17 +236,20 @@ class NativeStep:
     snapshot may have changed). ``python_termination``: the env's termination is Python's, so C
     checks no bounds (it still reports the model ending the simulation). ``python_inputs``: the
     env's ``action_to_inputs`` computes the input values in Python (`python_inputs_reason`);
-    :meth:`step` writes them into the instance's buffers as the Python path does and C steps
-    from there (``mg_env_step`` with no action).
+    :meth:`step` writes them into the instance's buffers as the Python path does (:meth:`write_inputs`)
+    and C steps from there (``mg_env_step`` with no action). ``python_observation``: the env's
+    ``observation()`` is Python's, so a pool's native slice writes none of its observation rows.
     """
 
-    def __init__(self, env: gym.Env, python_termination: bool = False, python_inputs: bool = False) -> None:
+    def __init__(self, env: gym.Env, python_termination: bool = False, python_inputs: bool = False,
+                 python_observation: bool = False) -> None:
         self.env = env
         self.library = load_library()
         fmu, config = env.fmu, env.config
         self.state = state = MgEnv()
         state.fmi_version = fmu.description.fmi_version
         state.event_mode_inputs = fmu.event_mode_inputs
+        state.python_inputs, state.python_observation = python_inputs, python_observation
         inputs = [pair for v in fmu.input_variables for pair in _value_addresses(fmu.inputs, v)]
         outputs = [pair for v in fmu.output_variables for pair in _value_addresses(fmu.outputs, v)]
         names = [v.name for v in fmu.output_variables]
@@ -407,9 +410,7 @@ class NativeStep:
     def step(self, action: Any) -> int:
         """One step with a checked action; returns the flags (the reward is in :attr:`reward`)."""
         if self.python_inputs:
-            write_values(self.env.fmu.inputs, self.env.action_to_inputs(action))  # as the Python path
-            if self._note_inputs is not None:
-                self._note_inputs()
+            self.write_inputs(action)
             return self._step(self._state_ref, None, self._reward_ref)
         if self._discrete:
             self._action_index.value = action
@@ -419,6 +420,13 @@ class NativeStep:
             for name, view in self._views:
                 view[...] = action[name]
         return self._step(self._state_ref, self._action_ref, self._reward_ref)
+
+    def write_inputs(self, action: Any) -> None:
+        """Write ``action_to_inputs(action)`` (a checked action) into the instance's input buffers,
+        as the Python path does, for C to step from (``python_inputs``)."""
+        write_values(self.env.fmu.inputs, self.env.action_to_inputs(action))
+        if self._note_inputs is not None:
+            self._note_inputs()
 
     @property
     def action_pointer(self) -> Any:

@@ -316,6 +316,8 @@ class MgEnv(ctypes.Structure):
     _fields_ = [
         ("fmi_version", ctypes.c_int32),
         ("discrete", ctypes.c_int32),
+        ("python_inputs", ctypes.c_int32),
+        ("python_observation", ctypes.c_int32),
         *_pointers("component", "do_step", "get_boolean_status", "set_state", "snapshot", "integrator"),
         ("event_mode_inputs", ctypes.c_int32),
         ("snapshot_has_next_event", ctypes.c_int32),

@@ -11,9 +11,11 @@ env that offers more gets more, and the pool asks for it by these names only:
   ``observation()`` and ``native_step_failure()``; where its reward or termination is written in
   Python, its ``native_endings`` (``None`` otherwise) computes them after C stepped the FMUs, for
   every env of the slice sharing its ``key`` in one ``finish(envs, observations, actions,
-  terminated)`` call (`~modelicagym.vector.slice.slice_endings`); one whose ``python_edges`` says
-  Python computes its inputs or observation around the C step is stepped one by one through
-  ``env.step`` instead (its FMU still steps in C there);
+  terminated)`` call (`~modelicagym.vector.slice.slice_endings`); where ``python_edges`` says
+  Python computes its inputs or observation around the C step, the slice calls, per env, its
+  ``check_action`` and ``native_step.write_inputs(action)`` before the C call and its
+  ``observation()`` after it (`~modelicagym.vector.slice.slice_edges`; ``python_observation``
+  says which);
 * a `StatefulEnv` gives its whole state as a value (``get_state()``), loads one (``set_state``)
   and says, changing nothing, whether it would (``check_state``, which raises what ``set_state``
   would): the pool's ``get_states`` / ``set_states``, which checks every env before loading any;
@@ -96,8 +98,10 @@ class NativeEnv(PoolEnv, Protocol):
     step_path: str
     step_path_reason: str
     #: what Python computes around the C step (an overridden ``action_to_inputs`` or ``observation``),
-    #: as a phrase; ``None`` when C does the whole step up to its endings (a native slice needs that)
+    #: as a phrase; ``None`` when C does the whole step up to its endings
     python_edges: str | None
+    #: the observation is ``observation()``, computed in Python after the C step
+    python_observation: bool
 
     @property
     def native_step(self) -> Any:
@@ -105,6 +109,9 @@ class NativeEnv(PoolEnv, Protocol):
 
     def observation(self) -> Any:
         """The observation of the FMU's current state."""
+
+    def check_action(self, action: Any) -> None:
+        """Raise what ``step`` raises for an action outside the action space."""
 
     def native_step_failure(self) -> StepResult:
         """The step result of an FMU call that failed in C, raised or handled as the Python path would."""

@@ -20,6 +20,8 @@ static const void *action_row(const mg_batch *b, int64_t i) {
 }
 
 void mg_put_observation(const mg_batch *b, int64_t i, const mg_env *env, bool final) {
+    if (env->python_observation)
+        return;
     if (!b->n_obs_parts) {
         memcpy((final ? b->final_obs : b->observations) + i * b->obs_stride, env->observation,
                (size_t)env->observation_bytes);
@@ -78,7 +80,7 @@ static int64_t step_batch(mg_batch *b) {
             if (f == MG_RESET_DONE)
                 b->needs_reset[i] = MG_NO_RESET;
         } else {
-            f = mg_env_step(env, action_row(b, i), &reward);
+            f = mg_env_step(env, env->python_inputs ? NULL : action_row(b, i), &reward);
             if (f & MG_BAD_ACTION) {
                 b->flags[i] = f;
                 return for_python + 1;

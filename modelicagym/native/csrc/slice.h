@@ -62,7 +62,9 @@ typedef struct {
     char *scratch; /* an action row */
 } mg_batch;
 
-/* One vector step of the slice, with the autoreset of its mode. A native reset that fails becomes
+/* One vector step of the slice, with the autoreset of its mode (an env whose inputs are Python's,
+ * mg_env.python_inputs, steps from what Python wrote into its inputs: its action row is not read;
+ * one whose observation is Python's gets no observation row written). A native reset that fails becomes
  * MG_PYTHON_RESET (Python's reset ladder handles it). An env whose action is outside the space
  * stops the batch there (MG_BAD_ACTION; later envs are not stepped, as on the Python path).
  * Returns how many envs need Python: MG_FMU_ERROR, MG_PYTHON_RESET, MG_BAD_ACTION, or an info to
@@ -70,7 +72,8 @@ typedef struct {
 int64_t mg_step_batch(mg_batch *batch);
 
 /* Copy env i's observation (env->observation) into the shared observations, or the final
- * observations when `final`: its row, or a Dict's entries scattered to their arrays. */
+ * observations when `final`: its row, or a Dict's entries scattered to their arrays. Nothing for
+ * an env whose observation is Python's (env->python_observation: Python writes its rows). */
 void mg_put_observation(const mg_batch *b, int64_t i, const mg_env *env, bool final);
 
 /* A worker's command loop, in C while the commands are steps Python need not see.

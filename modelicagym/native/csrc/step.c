@@ -261,8 +261,8 @@ static int32_t advance(mg_env *env) {
 
 int32_t mg_env_step(mg_env *env, const void *action, double *reward) {
     *reward = 0.0;
-    if (action && !write_action(env, action))
-        return MG_BAD_ACTION; /* NULL: Python wrote the inputs (step.h) */
+    if (action && !env->python_inputs && !write_action(env, action))
+        return MG_BAD_ACTION; /* NULL or python_inputs: Python wrote the inputs (step.h) */
     int32_t flags = advance(env);
     if (flags)
         return flags; /* Python reports the error: truncation with info["fmu_error"] */

@@ -75,6 +75,10 @@ typedef struct {
 typedef struct {
     int32_t fmi_version; /* 1, 2 or 3 */
     int32_t discrete;    /* 1: action is an int64 index into action_table; 0: an action row */
+    int32_t python_inputs;      /* 1: Python writes the input values (action_to_inputs) before each step:
+                                   mg_env_step moves and checks no action, whatever it is given */
+    int32_t python_observation; /* 1: the observation is Python's (observation()): a pool's slice writes
+                                   none of this env's observation rows (slice.h mg_put_observation) */
     void *component;
     void *do_step, *get_boolean_status, *set_state;
     void *snapshot; /* FMU state taken after initialization (NULL: no native reset) */
@@ -131,10 +135,10 @@ enum {
 /* One step of one env. `action` points to an int64 (discrete) or an action row (action_moves).
  * Returns the flags; the reward is written to *reward. The outputs are in the instance's buffers
  * afterwards, and the observation in env->observation.
- * `action` NULL: the inputs are already in the instance's buffers (Python computed them, e.g. an
- * overridden action_to_inputs: env/native_step.py); nothing is moved or checked, and in model
- * exchange Python has already decided whether the solver restarts (new input bytes), as
- * write_action would. Such an env has no action_moves (n_inputs 0). */
+ * `action` NULL, or env->python_inputs: the inputs are already in the instance's buffers (Python
+ * computed them, e.g. an overridden action_to_inputs: env/native_step.py); nothing is moved or
+ * checked, and in model exchange Python has already decided whether the solver restarts (new
+ * input bytes), as write_action would. Such an env has no action_moves (n_inputs 0). */
 int32_t mg_env_step(mg_env *env, const void *action, double *reward);
 
 /* Restore the snapshot (a reset on the "snapshot" rung); 0 on success, else MG_FMU_ERROR. */

@@ -10,8 +10,10 @@ A slice of bare `FMUEnv` instances on the native step path steps in one C call
 (:class:`~modelicagym.vector.slice.native_slice.NativeBatch`); whatever C leaves to Python (an FMU error, a
 reset the reset ladder must do, an info to report) is finished here, on the Python path. Envs
 whose reward or termination is written in Python step natively too, their endings computed here
-between two C calls (:class:`~modelicagym.vector.slice.slice_endings.SliceEndings`). The
-results are the same either way. ``step_path`` and ``step_path_reason`` say which path a slice takes.
+between two C calls (:class:`~modelicagym.vector.slice.slice_endings.SliceEndings`), and so do
+envs whose inputs or observations are Python's, those computed here around the C calls
+(:class:`~modelicagym.vector.slice.slice_edges.SliceEdges`). The results are the same either way.
+``step_path`` and ``step_path_reason`` say which path a slice takes.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.slice.autoreset import Autoreset
 from modelicagym.vector.slice.creation import create_envs
-from modelicagym.vector.slice.native_slice import NativeBatch, batch_path_reason
+from modelicagym.vector.slice.native_slice import NativeBatch, batch_path_reason, python_sides
+from modelicagym.vector.slice.slice_edges import SliceEdges
 from modelicagym.vector.slice.slice_endings import SliceEndings, has_python_endings
 from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import SharedBuffers
@@ -120,8 +123,10 @@ class EnvSlice:
         self.step_path = "python" if reason else "native"
         self.step_path_reason = reason or native_reason(envs)
         self.native: NativeBatch | None = None
-        #: the native slice's Python endings, when its envs' rewards or terminations are Python's
-        self.endings: SliceEndings | None = None
+        #: what Python computes around the native slice's C calls each step: its envs' endings
+        #: (`SliceEndings`), and their inputs or observations with them (`SliceEdges`); ``None``
+        #: when the C call does the whole step (the calling process's hot path, `dispatch`)
+        self.endings: SliceEndings | SliceEdges | None = None
         self._fmu_envs = [env.unwrapped if isinstance(env.unwrapped, TimedEnv) else None for env in envs]
         self.handlers = {
             Kind.STEP: self.step_with,
@@ -172,10 +177,14 @@ class EnvSlice:
         self.autoreset = Autoreset(self.autoreset_mode, self.needs_reset)
         if self.step_path == "native":
             python_endings = has_python_endings(self.envs)
+            python_inputs, python_observation = python_sides(self.envs[0])
             self.native = NativeBatch(self.envs, self.first, self.autoreset_mode, buffers, self.slot, self.caller,
-                                      python_endings)
+                                      python_endings, python_inputs, python_observation)
             if python_endings:
                 self.endings = SliceEndings(self.envs, self.native, buffers, self.first, self.slot)
+            if python_inputs or python_observation:
+                self.endings = SliceEdges(self.envs, self.native, buffers, self.first, self.slot, self.autoreset_mode,
+                                          self.endings, self._actions)
 
     def detach(self) -> None:
         """Stop using the shared buffers (the pool released them)."""
@@ -192,8 +201,10 @@ class EnvSlice:
         else:
             try:
                 to_finish = self.endings.step()
-            except Exception as exc:  # the envs' reward or termination
+            except Exception as exc:  # the envs' reward or termination, inputs or observation
                 return Message(Kind.ERROR, RemoteError.capture(exc, self.endings.current_env))
+            if to_finish is None:  # an action outside the space: the per-env path raises env.step's error
+                return self._step_python(0, [])
         return self.finish_native_step() if to_finish else None
 
     def step_with(self, actions: list[Any]) -> Message | None:
@@ -295,7 +306,10 @@ class EnvSlice:
         terminated, truncated, step_info = Flags.ending(flags)
         reward = float(self.buffers.rewards[self.first + offset])
         if not (autoreset.same_step and flags & (Flags.RESET_DONE | Flags.PYTHON_RESET)):
-            return env.observation(), reward, terminated, truncated, step_info
+            # a Python observation is in its row already (`SliceEdges`): the hook ran once this step
+            observation = (self.buffers.observations.read_observation(self.first + offset) if native.python_observation
+                           else env.observation())
+            return observation, reward, terminated, truncated, step_info
         final_observation = self.buffers.final_observations.read_observation(self.first + offset)
         if flags & Flags.PYTHON_RESET:  # the step ended; C kept its observation, Python resets
             return autoreset.after_step(offset, env, (final_observation, reward, terminated, truncated, step_info))

@@ -6,8 +6,11 @@ every env of the slice with the pool's autoreset and writes observations, reward
 truncations and timing where the parent reads them. What C leaves to Python (an FMU error, a reset
 the reset ladder must do, an info to report, an action outside the space) is in the per-env
 ``flags``; the caller finishes those envs on the Python path. A slice whose envs end their steps in
-Python (``python_endings``: a reward or termination written in Python) steps in two C calls with
-Python's endings between them (`modelicagym.vector.slice.slice_endings`, ``csrc/endings.h``).
+Python (``python_endings``: a reward or termination written in Python) or make their observations
+in Python (``python_observation``: an overridden ``observation``) steps in two C calls with
+Python's part between them (`modelicagym.vector.slice.slice_endings`, ``csrc/endings.h``); one whose
+inputs are Python's (``python_inputs``: an overridden ``action_to_inputs``) has them written before
+its C call (`modelicagym.vector.slice.slice_edges`).
 
 `NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
 steps without returning to Python at all. `NativeCollector` is ``mg_collect``, the parent's side:
@@ -59,22 +62,27 @@ _AUTORESET_CODES = {AutoresetMode.NEXT_STEP: AutoresetCode.NEXT_STEP, AutoresetM
                     AutoresetMode.DISABLED: AutoresetCode.DISABLED}
 
 
+def python_sides(env: NativeEnv) -> tuple[bool, bool]:
+    """Whether ``env`` (on the native path) computes its inputs, and its observation, in Python."""
+    return bool(env.native_step.python_inputs), bool(getattr(env, "python_observation", False))
+
+
 def batch_path_reason(envs: list[PoolEnv]) -> str | None:
     """Why a slice of ``envs`` must step on the Python path, or ``None`` when it can be a
-    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path whose inputs and observation
-    C moves itself — no ``python_edges`` —, all with the same spaces, array spaces: one row of
-    shared memory per env). On the Python path of the slice each env steps through ``env.step``,
-    which may still step its FMU in C."""
+    `NativeBatch` (every env an unwrapped `FMUEnv` on the native path, all with the same spaces,
+    array spaces: one row of shared memory per env, and the same ``python_edges`` sides: inputs
+    or observation in Python for all or none). On the Python path of the slice each env steps
+    through ``env.step``, which may still step its FMU in C."""
     for offset, env in enumerate(envs):
         if env is not env.unwrapped:
             return f"env {offset} of the slice is wrapped in {type(env).__name__} (the native path steps bare FMUEnvs)"
         if getattr(env, "step_path", None) != "native":
             reason = getattr(env, "step_path_reason", "it is not an FMUEnv")
             return f"env {offset} of the slice steps on the Python path: {reason}"
-        edges = getattr(env, "python_edges", None)
-        if edges:
-            return (f"env {offset} of the slice computes {edges} in Python around its FMU's C step, and a native "
-                    "slice moves the action and observation spaces' rows in C: each env steps through env.step")
+        sides, first_sides = python_sides(env), python_sides(envs[0])
+        if sides != first_sides:
+            return (f"env {offset} of the slice computes {env.python_edges or 'nothing'} in Python around its FMU's "
+                    f"C step, env 0 {envs[0].python_edges or 'nothing'}: a native slice's envs agree on that")
         for role, space in (("action", env.action_space), ("observation", env.observation_space)):
             entries = space.items() if isinstance(space, Dict) else [(None, space)]
             for name, sub in entries:
@@ -83,11 +91,15 @@ def batch_path_reason(envs: list[PoolEnv]) -> str | None:
                     return (f"{what} is not a Box, Discrete, MultiDiscrete or MultiBinary (a native slice moves "
                             "rows of shared memory)")
         native, first = env.native_step, envs[0].native_step
+        # C's layouts matter only for the rows C moves (Python reads and writes the user's spaces)
+        layouts = [(mine, env_0) for python, mine, env_0 in (
+            (sides[0], native.action_layout, first.action_layout),
+            (sides[1], native.observation_layout, first.observation_layout)) if not python]
         for name, _, _, dtype in native.action_layout or ():
             if env.action_space[name].dtype != dtype:
                 return (f"entry {name!r} of the action space is a {env.action_space[name].dtype} Box over "
                         f"{dtype} values: the pool's shared memory holds it as {env.action_space[name].dtype}")
-        if (native.action_layout, native.observation_layout) != (first.action_layout, first.observation_layout):
+        if any(mine != env_0 for mine, env_0 in layouts):
             return f"env {offset} lays out its Dict action or observation otherwise than env 0 (another input order)"
     return None
 
@@ -97,7 +109,7 @@ def batch_path_reason(envs: list[PoolEnv]) -> str | None:
 SLICE_FIELDS: dict[str, str] = {
     "envs": "the envs' mg_env structs",
     "n": "how many envs the slice has",
-    "autoreset_mode": "the pool's autoreset (DISABLED in SAME_STEP when Python ends the steps)",
+    "autoreset_mode": "the pool's autoreset (DISABLED in SAME_STEP when Python ends the steps or observes)",
     "caller": "the slice is the calling process's",
     "flags": "per env, what its last step left to Python (this process's array)",
     "first_env": "the pool index of the slice's first env",
@@ -149,6 +161,10 @@ class NativeBatch:
             worker's those not marked).
         python_endings: Python decides how the envs' steps end: :meth:`step_open`, then
             :meth:`end_steps` (in ``SAME_STEP`` the C step then resets nothing itself).
+        python_inputs: Python writes the envs' inputs before the C call (``mg_env.python_inputs``):
+            C reads no action.
+        python_observation: Python writes the envs' observations (``mg_env.python_observation``):
+            C writes no observation row, and the slice steps as with ``python_endings``.
         fields: the declaration ``buffers`` was allocated from; checked to fill every field of
             ``mg_batch`` before any is filled (`check_batch_contract`).
     """
@@ -162,11 +178,18 @@ class NativeBatch:
         slot: int,
         caller: bool,
         python_endings: bool = False,
+        python_inputs: bool = False,
+        python_observation: bool = False,
         fields: Sequence[SharedField] = SHARED_FIELDS,
     ) -> None:
         check_batch_contract(fields)
         self.library = load_library()
         self.python_endings = python_endings
+        self.python_inputs, self.python_observation = python_inputs, python_observation
+        #: Python runs between the C step and the autoreset: :meth:`step_open`, then :meth:`end_steps`
+        self.split = python_endings or python_observation
+        #: Python runs around the C calls of every step (so ``mg_serve`` leaves each step to Python)
+        self.python_phases = self.split or python_inputs
         self.first_env = first_env
         n = len(envs)
         self.natives = [env.native_step for env in envs]
@@ -185,7 +208,7 @@ class NativeBatch:
                 setattr(batch, name, value)
         batch.envs = ctypes.addressof(self._env_pointers)
         batch.n = n
-        batch.autoreset_mode = AutoresetCode.DISABLED if python_endings and same_step else self._autoreset_code
+        batch.autoreset_mode = AutoresetCode.DISABLED if self.split and same_step else self._autoreset_code
         batch.caller = int(caller)
         batch.flags = self.flags.ctypes.data
         batch.first_env = first_env
@@ -216,6 +239,8 @@ class NativeBatch:
     def _action_values(self, actions: np.ndarray | dict[str, np.ndarray]) -> dict[str, Any]:
         """A row of the shared actions per env, or a Dict action's entries gathered into a row per step."""
         first_env = self.first_env
+        if self.python_inputs:  # C reads no action
+            return {"actions": None, "action_stride": 0, "action_parts": None, "n_action_parts": 0, "scratch": None}
         if not isinstance(actions, dict):
             return {"actions": _row_address(actions, first_env), "action_stride": actions.strides[0],
                     "action_parts": None, "n_action_parts": 0, "scratch": None}
@@ -230,6 +255,8 @@ class NativeBatch:
         """The observations' and final observations' fields: a row per env, or a Dict observation's
         entries scattered from the row (each entry's final array beside it, in its part)."""
         first_env = self.first_env
+        if self.python_observation:  # C writes no observation
+            return {"observations": None, "obs_stride": 0, "obs_parts": None, "n_obs_parts": 0, "final_obs": None}
         if isinstance(observations, dict):
             layout = [(offset, size, observations[name], finals[name])
                       for name, (offset, size) in self.natives[0].observation_layout.items()]
@@ -265,8 +292,8 @@ class NativeServer:
     """``mg_serve``: a worker's wait for its next command, and its plain native steps, in C.
 
     Args:
-        batch: the worker's native slice (one with ``python_endings`` steps in Python: every
-            command returns to Python).
+        batch: the worker's native slice (one with ``python_phases`` steps with Python around
+            its C calls: every command returns to Python).
         go, done: addresses of the worker's signals in shared memory.
         command, reply: the worker's command and reply slots (one-element views).
         step_code: the command code of a step.
@@ -291,7 +318,7 @@ class NativeServer:
         self.batch = batch
         self._waiter = waiter
         self.state = server = MgServer()
-        server.batch = None if batch.python_endings else ctypes.addressof(batch.state)
+        server.batch = None if batch.python_phases else ctypes.addressof(batch.state)
         server.go, server.done = go, done
         server.command, server.reply = command.ctypes.data, reply.ctypes.data
         server.step_code = step_code

@@ -69,15 +69,20 @@ class SliceEndings:
         native = self.native
         opened = native.step_open()
         if opened:
-            timed = bool(self._timing_enabled[0])
-            started = perf_counter_ns() if timed else 0
-            if opened == len(self.envs) and self._one_group:  # the common case: every env, one call
-                self._end_group(self._groups[0][0], self._all)
-            else:
-                self._end(np.flatnonzero(native.open))
-            if timed:
-                self._timing[SharedBuffers.ENV_NS] += perf_counter_ns() - started
+            self.end_open(opened)
         return native.end_steps()
+
+    def end_open(self, opened: int) -> None:
+        """Write the rewards and terminations of the ``opened`` envs `NativeBatch.step_open` marked
+        (their observations are in shared memory)."""
+        timed = bool(self._timing_enabled[0])
+        started = perf_counter_ns() if timed else 0
+        if opened == len(self.envs) and self._one_group:  # the common case: every env, one call
+            self._end_group(self._groups[0][0], self._all)
+        else:
+            self._end(np.flatnonzero(self.native.open))
+        if timed:
+            self._timing[SharedBuffers.ENV_NS] += perf_counter_ns() - started
 
     def _end(self, offsets: np.ndarray) -> None:
         """Write the rewards and terminations of the envs at ``offsets`` (stepped by C just now)."""
