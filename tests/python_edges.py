@@ -20,6 +20,8 @@ from modelicagym.models.cartpole.env import UPRIGHT, CartPoleEnv
 class FeatureCartPole(CartPoleEnv):
     """The observation as derived features, float32: x, x_dot, cos(theta), sin(theta), theta_dot."""
 
+    stateless_hooks = True  # its hooks keep no state: a pool may move it between processes
+
     def make_observation_space(self) -> spaces.Space:
         return spaces.Box(-np.inf, np.inf, (5,), np.float32)
 
@@ -30,6 +32,8 @@ class FeatureCartPole(CartPoleEnv):
 
 class ThreeForceCartPole(CartPoleEnv):
     """A ``Discrete(3)`` action: push left, nothing, push right (repeated actions keep the inputs)."""
+
+    stateless_hooks = True
 
     def make_action_space(self) -> spaces.Space:
         return spaces.Discrete(3)
@@ -84,6 +88,8 @@ class GearboxProbe(FMUEnv):
     inputs (an integer, a boolean and a float; ``mode`` and ``boost`` keep their start values), its
     observation derived from outputs of three types; bounds on ``position`` (checked in C)."""
 
+    stateless_hooks = True
+
     def __init__(self, path: Path, **config: Any) -> None:
         config = {"time_step": 0.1, "max_episode_steps": 13, "termination": {"position": (-2.5, 2.5)}, **config}
         super().__init__(fmu=path, inputs=PROBE_INPUTS, outputs=PROBE_OUTPUTS, **config)
@@ -113,6 +119,8 @@ class GearboxProbeEndings(GearboxProbe):
 class CountingBothCartPole(BothCartPole):
     """Both edges in Python, counting how often each hook runs (``calls``); ``fail_at`` (an
     ``action_to_inputs`` call number) makes that call raise, as a user's bug would."""
+
+    stateless_hooks = False  # it counts in the env: the pool keeps it where it is
 
     def __init__(self, fail_at: int | None = None, **config: Any) -> None:
         self.calls = {"action_to_inputs": 0, "observation": 0}
@@ -145,6 +153,8 @@ class DictProbe(GearboxProbe):
 class CountingProbe(GearboxProbe):
     """`GearboxProbe` counting how often each of its hooks runs (``calls``)."""
 
+    stateless_hooks = False
+
     def __init__(self, path: Path, **config: Any) -> None:
         self.calls = {"action_to_inputs": 0, "observation": 0}
         super().__init__(path, **config)
@@ -160,6 +170,8 @@ class CountingProbe(GearboxProbe):
 
 class FailingRewardCartPole(BothCartPoleEndings):
     """Both edges and the endings in Python; with ``fail``, its reward raises at its third step."""
+
+    stateless_hooks = False
 
     def __init__(self, fail: bool = False, **config: Any) -> None:
         self.fail, self.rewards = fail, 0

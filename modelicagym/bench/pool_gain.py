@@ -69,7 +69,11 @@ CALM = "parameters.threshold=1e9"
 
 class ScaledObservationEnv(modelicagym.FMUEnv):
     """An FMUEnv whose ``observation`` is overridden, as users write one: the outputs scaled by one
-    half. Its FMU steps in C, the observation in Python (``cartpole-user-observation``)."""
+    half. Its FMU steps in C, the observation in Python (``cartpole-user-observation``). Its class
+    says its hook keeps no state, so the pool may move it between processes (without that, it would
+    keep its place: ``FMUEnv.stateless_hooks``)."""
+
+    stateless_hooks = True
 
     def make_observation_space(self) -> gym.Space:
         shape = super().make_observation_space().shape

@@ -108,6 +108,11 @@ class FMUEnv(gym.Env):
     #: in the calling process by default (`modelicagym.vector.env_contract`): only the bundled
     #: models say so; an FMUEnv over any FMU a user gives, even a copy of ours, does not
     safe_in_caller: bool = False
+    #: the class's own per-env hooks (an overridden ``observation``, ``action_to_inputs``, ``step``,
+    #: ``compute_reward`` or ``is_terminal``) keep no state in the env from one episode to the next:
+    #: an adaptive pool may then hold a copy of the env in a second process and move it there at an
+    #: episode boundary (`per_env_hooks`); by default such envs keep their place
+    stateless_hooks: bool = False
 
     def __init__(self, config: Mapping[str, Any] | None = None, /, *, render_mode: str | None = None, **options: Any):
         self.config = cfg = FMUEnvConfig.from_mapping({**(config or {}), **options})
@@ -358,6 +363,22 @@ class FMUEnv(gym.Env):
         move the env between processes at an episode boundary (``modelicagym.vector.parent.placement``)."""
         return (type(self).reset is FMUEnv.reset and self.config.start_states is None
                 and not any(callable(v) for v in self.config.parameters.values()))
+
+    @property
+    def per_env_hooks(self) -> list[str]:
+        """The methods of this env's class that run Python per env and step and may keep state in
+        the env (overridden ``step``, ``observation``, ``action_to_inputs``, a reward or termination
+        per env: not their array forms, which get a slice's envs); empty when there are none or the
+        class says they keep no state (`stateless_hooks`). A pool keeps such an env where it is."""
+        if self.stateless_hooks:
+            return []
+        cls = type(self)
+        hooks = [name for name in ("step", "action_to_inputs", "observation")
+                 if getattr(cls, name) is not getattr(FMUEnv, name)]
+        endings = self.native_endings or python_endings(self, FMUEnv)
+        if endings is not None and endings.per_env:
+            hooks.append("compute_reward / is_terminal")
+        return hooks
 
     @property
     def native_step(self) -> NativeStep | None:

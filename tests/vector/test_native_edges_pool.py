@@ -295,3 +295,26 @@ def test_timing_of_a_pool_with_python_edges_counts_fmu_time_and_the_python_aroun
     assert timing.steps == 20
     assert timing.fmu_s > 0 and timing.env_python_s > 0
     assert timing.wall_s == pytest.approx(timing.fmu_s + timing.env_python_s + timing.pool_overhead_s)
+
+
+class _StatefulFeatureCartPole(BothCartPole):
+    """Hooks that could keep state in the env (the class does not say they keep none)."""
+
+    stateless_hooks = False
+
+
+def test_envs_with_hooks_keep_their_place_unless_their_class_says_the_hooks_keep_no_state(
+        family_fmu: Callable[[str, int], Path]) -> None:
+    """An overridden ``observation`` / ``action_to_inputs`` runs on the env itself, which may keep
+    state between episodes (a running mean, a frame stack): a moved env is a second copy whose state
+    would differ, so the pool keeps it where it is; ``stateless_hooks = True`` lets it move."""
+    with PoolVectorEnv([_StatefulFeatureCartPole] * 4, caller_steps=True) as pool:
+        assert not pool.layout.adaptive, pool.layout
+        assert "runs Python per env and step (action_to_inputs, observation of _StatefulFeatureCartPole)" in \
+            pool.layout.reason, pool.layout.reason
+        assert "stateless_hooks = True" in pool.layout.reason
+    with PoolVectorEnv([BothCartPole] * 4, caller_steps=True) as pool:
+        assert pool.layout.adaptive, pool.layout
+    path = family_fmu("probe", 3)
+    with PoolVectorEnv([partial(CountingProbe, path)] * 4) as pool:  # a user's FMU: no stand-in worker either
+        assert not pool.layout.adaptive and "runs Python per env and step" in pool.layout.reason, pool.layout

@@ -160,6 +160,6 @@ def test_a_hook_that_raises_names_an_env_of_its_slice() -> None:
 
 def test_per_env_endings_keep_an_env_where_it_is_array_endings_may_move() -> None:
     with PoolVectorEnv([PerEnvCartPole] * 2, caller_steps=True) as pool:
-        assert "ends its steps in Python per env" in pool.layout.reason
+        assert "runs Python per env and step (compute_reward / is_terminal" in pool.layout.reason
     with PoolVectorEnv([ArrayCartPole] * 2, caller_steps=True) as pool:
         assert pool.layout.adaptive, pool.layout

@@ -54,10 +54,11 @@ def movable_reason(envs: list[gym.Env], name: str, first: int = 0) -> str | None
     for offset, env in enumerate(envs):
         if not getattr(env, "reset_is_deterministic", False):
             return f"{name.format(first + offset)} does not reset deterministically (random parameters or its own reset)"
-        endings = getattr(env, "native_endings", None)
-        if endings is not None and endings.per_env:
-            return (f"{name.format(first + offset)} ends its steps in Python per env (compute_reward / "
-                    "is_terminal), which may keep state in the env itself")
+        hooks = getattr(env, "per_env_hooks", ())
+        if hooks:
+            return (f"{name.format(first + offset)} runs Python per env and step ({', '.join(hooks)} of "
+                    f"{type(env).__name__}), which may keep state in the env itself (set stateless_hooks = True "
+                    "on the class if it keeps none)")
     return None
 
 
