@@ -127,9 +127,8 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
         return "the config asks for step_path='python'"
     if env.strip_chart is not None:
         return "render_mode='rgb_array' records every step for the strip chart, in Python"
-    if fmu.mode == "me":
-        if fmu.integrator_path != "native":
-            return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
+    if fmu.mode == "me" and fmu.integrator_path != "native":
+        return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
     if _overridden(cls, base, "step"):
         return f"step is overridden by {cls.__name__}"
     try:

@@ -397,6 +397,21 @@ class MgRange(ctypes.Structure):
         *_pointers("low", "high"),
     ]
 
+    @classmethod
+    def over(cls, view: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[MgRange, tuple[np.ndarray, ...]] | None:
+        """The check of ``view`` (n rows of actions) against ``[low, high]`` per element, with the
+        bound arrays it points into (keep them alive as long as it): int64 values within one range,
+        float64 values within finite bounds; else ``None`` (C cannot check it)."""
+        n, width = len(view), int(np.prod(view.shape[1:], dtype=np.int64))
+        if view.dtype == np.int64 and low.min() == low.max() and high.min() == high.max():
+            return cls(values=view.ctypes.data, n=n, width=width, is_float=0, low_int=int(low.min()),
+                       high_int=int(high.max())), ()
+        if view.dtype == np.float64 and np.isfinite(low).all() and np.isfinite(high).all():
+            lows, highs = (np.ascontiguousarray(bound, dtype=np.float64) for bound in (low, high))
+            return cls(values=view.ctypes.data, n=n, width=width, is_float=1, low=lows.ctypes.data,
+                       high=highs.ctypes.data), (lows, highs)
+        return None
+
 
 class MgWaiter(ctypes.Structure):
     """``mg_waiter`` (``csrc/signal.h``): one waiting party's adaptive state and what its waits did."""

@@ -239,11 +239,12 @@ def test_a_dict_action_outside_the_space_fails_as_on_the_per_env_path(family_fmu
     assert_same(errors[0], errors[1])
 
 
-def test_a_hook_that_raises_names_its_env_as_on_the_per_env_path() -> None:
+def _third_step_errors(fns_for: Callable[[str], list[Callable[[], Any]]]) -> list[str]:
+    """The error of the third step of a pool of 4 over ``fns_for(step_path)``, on the native path
+    (``"auto"``) then on the Python path (the pool's default layout, fixed)."""
     errors = []
     for step_path in ("auto", "python"):
-        fns = [partial(CountingBothCartPole, fail_at=3 if i == 2 else None, step_path=step_path) for i in range(4)]
-        with PoolVectorEnv(fns, adapt_layout=False) as pool:
+        with PoolVectorEnv(fns_for(step_path), adapt_layout=False) as pool:
             assert pool.step_paths[0][0] == ("native" if step_path == "auto" else "python")
             pool.reset(seed=0)
             pool.step(np.zeros(4, dtype=np.int64))
@@ -251,6 +252,12 @@ def test_a_hook_that_raises_names_its_env_as_on_the_per_env_path() -> None:
             with pytest.raises(PoolError) as error:
                 pool.step(np.zeros(4, dtype=np.int64))
             errors.append(str(error.value))
+    return errors
+
+
+def test_a_hook_that_raises_names_its_env_as_on_the_per_env_path() -> None:
+    errors = _third_step_errors(lambda step_path: [
+        partial(CountingBothCartPole, fail_at=3 if i == 2 else None, step_path=step_path) for i in range(4)])
     assert "env 2" in errors[0] and "action_to_inputs failed at call 3" in errors[0], errors[0]
     assert errors[0] == errors[1], errors
 
@@ -259,17 +266,8 @@ def test_an_ending_that_raises_in_a_slice_with_python_edges_is_the_steps_error()
     """As for any native slice with Python endings, one call computes the rewards of the slice's
     envs (`SliceEndings`), so its error names the first of them (env 0 and 1 are worker 0's);
     the per-env path names env 1 itself."""
-    errors = []
-    for step_path in ("auto", "python"):
-        fns = [partial(FailingRewardCartPole, fail=i == 1, step_path=step_path) for i in range(4)]
-        with PoolVectorEnv(fns, adapt_layout=False) as pool:
-            assert pool.step_paths[0][0] == ("native" if step_path == "auto" else "python")
-            pool.reset(seed=0)
-            pool.step(np.zeros(4, dtype=np.int64))
-            pool.step(np.zeros(4, dtype=np.int64))
-            with pytest.raises(PoolError) as error:
-                pool.step(np.zeros(4, dtype=np.int64))
-            errors.append(str(error.value))
+    errors = _third_step_errors(lambda step_path: [
+        partial(FailingRewardCartPole, fail=i == 1, step_path=step_path) for i in range(4)])
     message = "raised RuntimeError in step: compute_reward failed at its third call"
     assert errors == [f"env 0 (worker 0) {message}", f"env 1 (worker 0) {message}"], errors
 

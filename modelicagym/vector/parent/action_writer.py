@@ -235,7 +235,7 @@ class DictBatch:
             if bounds is None or type(view) is not np.ndarray or not view.flags.c_contiguous:
                 return None
             views.append((name, view))
-            native_range = _native_range(view, *bounds) if library is not None else None
+            native_range = MgRange.over(view, *bounds) if library is not None else None
             if native_range is None:
                 checks.append(_in_range(view, *bounds))
             else:
@@ -280,20 +280,6 @@ def _leaf_bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray] | None:
     if type(space) is spaces.Discrete:
         return np.array([space.start]), np.array([space.start + space.n - 1])
     return element_bounds(space)
-
-
-def _native_range(view: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[MgRange, tuple[np.ndarray, ...]] | None:
-    """The native check of ``view`` (n rows) against ``[low, high]`` per element, with the bound
-    arrays it reads: int64 values with one range, float64 values with finite bounds; else ``None``."""
-    n, width = len(view), int(np.prod(view.shape[1:], dtype=np.int64))
-    if view.dtype == np.int64 and low.min() == low.max() and high.min() == high.max():
-        return MgRange(values=view.ctypes.data, n=n, width=width, is_float=0, low_int=int(low.min()),
-                       high_int=int(high.max())), ()
-    if view.dtype == np.float64 and np.isfinite(low).all() and np.isfinite(high).all():
-        lows, highs = (np.ascontiguousarray(bound, dtype=np.float64) for bound in (low, high))
-        return MgRange(values=view.ctypes.data, n=n, width=width, is_float=1, low=lows.ctypes.data,
-                       high=highs.ctypes.data), (lows, highs)
-    return None
 
 
 def _in_range(view: np.ndarray, low: np.ndarray, high: np.ndarray) -> Callable[[], bool]:

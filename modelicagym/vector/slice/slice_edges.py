@@ -61,20 +61,6 @@ def _bounds(space: spaces.Space) -> tuple[np.ndarray, np.ndarray] | None:
     return element_bounds(space)
 
 
-def _c_range(view: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[MgRange, tuple[np.ndarray, ...]] | None:
-    """The C range check of ``view`` (a slice's rows of one array of actions) and the bound arrays
-    it reads: int64 values within one range, float64 values within finite bounds; else ``None``."""
-    n, width = len(view), int(np.prod(view.shape[1:], dtype=np.int64))
-    if view.dtype == np.int64 and low.min() == low.max() and high.min() == high.max():
-        return MgRange(values=view.ctypes.data, n=n, width=width, is_float=0, low_int=int(low.min()),
-                       high_int=int(high.max())), ()
-    if view.dtype == np.float64 and np.isfinite(low).all() and np.isfinite(high).all():
-        lows, highs = (np.ascontiguousarray(bound, dtype=np.float64) for bound in (low, high))
-        return MgRange(values=view.ctypes.data, n=n, width=width, is_float=1, low=lows.ctypes.data,
-                       high=highs.ctypes.data), (lows, highs)
-    return None
-
-
 def _python_range(view: np.ndarray, low: np.ndarray, high: np.ndarray) -> Callable[[], bool] | None:
     """The range check of ``view`` in Python, for other dtypes (a few values: Python compares them
     exactly, faster than numpy reduces them): one range for every element, finite for floats;
@@ -114,7 +100,7 @@ class _RowsInside:
             bounds = _bounds(sub)
             if bounds is None:
                 return None
-            c_range = _c_range(view, *bounds)
+            c_range = MgRange.over(view, *bounds)
             check = None if c_range is not None else _python_range(view, *bounds)
             if c_range is None and check is None:
                 return None
@@ -231,7 +217,7 @@ class SliceEdges:
             try:
                 for offset in offsets:
                     checks[offset](actions[offset])
-            except Exception:  # the per-env path raises it, at that env
+            except Exception:  # noqa: BLE001 - whatever it is, the per-env path raises it, at that env
                 return False
         offset = offsets[0]
         try:
