@@ -31,11 +31,12 @@ import numpy as np
 
 from modelicagym.errors import ConfigError, ConfigTypeError
 
-__all__ = ["PythonEndings", "batch_reward_defined", "batch_termination_defined", "check_array_hooks", "python_endings",
-           "reward_of_one", "termination_of_one"]
+__all__ = ["PythonEndings", "batch_reward_defined", "batch_termination_defined", "check_array_hooks", "overridden",
+           "python_endings", "reward_of_one", "termination_of_one"]
 
 
-def _overridden(cls: type, base: type, name: str) -> bool:
+def overridden(cls: type, base: type, name: str) -> bool:
+    """Whether ``cls`` overrides ``base``'s method ``name`` (plain, class or static method)."""
     method, original = getattr(cls, name), getattr(base, name)
     return getattr(method, "__func__", method) is not getattr(original, "__func__", original)
 
@@ -45,19 +46,19 @@ def check_array_hooks(cls: type, base: type) -> None:
     slice's envs, not one of them; a plain method is refused when the env is made, in one line."""
     for name in ("compute_rewards", "are_terminal"):
         method = inspect.getattr_static(cls, name)
-        if _overridden(cls, base, name) and not isinstance(method, (classmethod, staticmethod)):
+        if overridden(cls, base, name) and not isinstance(method, (classmethod, staticmethod)):
             raise ConfigTypeError(f"{cls.__name__}.{name} must be a classmethod: it gets the envs of a slice and "
                                   "their arrays, not one env (decorate it with @classmethod)")
 
 
 def batch_reward_defined(env: gym.Env, base: type) -> bool:
     """Whether ``env`` (an `FMUEnv`; ``base`` is `FMUEnv`) has a reward written on arrays."""
-    return _overridden(type(env), base, "compute_rewards") or env.config.batch_reward is not None
+    return overridden(type(env), base, "compute_rewards") or env.config.batch_reward is not None
 
 
 def batch_termination_defined(env: gym.Env, base: type) -> bool:
     """Whether ``env`` has a termination written on arrays."""
-    return _overridden(type(env), base, "are_terminal") or env.config.batch_termination is not None
+    return overridden(type(env), base, "are_terminal") or env.config.batch_termination is not None
 
 
 def one_row(value: Any) -> Any:
@@ -84,8 +85,8 @@ def python_endings(env: gym.Env, base: type) -> PythonEndings | None:
     """How ``env``'s steps end in Python after C stepped its FMU, or ``None`` when its config's
     reward and termination bounds say it all (C decides)."""
     cls, config = type(env), env.config
-    per_env_reward = _overridden(cls, base, "compute_reward") or config.reward is not None
-    per_env_termination = _overridden(cls, base, "is_terminal") or callable(config.termination)
+    per_env_reward = overridden(cls, base, "compute_reward") or config.reward is not None
+    per_env_termination = overridden(cls, base, "is_terminal") or callable(config.termination)
     batch_reward, batch_termination = batch_reward_defined(env, base), batch_termination_defined(env, base)
     if not (per_env_reward or per_env_termination or batch_reward or batch_termination):
         return None

@@ -56,6 +56,7 @@ from modelicagym.env.endings import (
     batch_reward_defined,
     batch_termination_defined,
     check_array_hooks,
+    overridden,
     python_endings,
     reward_of_one,
     termination_of_one,
@@ -373,8 +374,7 @@ class FMUEnv(gym.Env):
         if self.stateless_hooks:
             return []
         cls = type(self)
-        hooks = [name for name in ("step", "action_to_inputs", "observation")
-                 if getattr(cls, name) is not getattr(FMUEnv, name)]
+        hooks = [name for name in ("step", "action_to_inputs", "observation") if overridden(cls, FMUEnv, name)]
         endings = self.native_endings or python_endings(self, FMUEnv)
         if endings is not None and endings.per_env:
             hooks.append("compute_reward / is_terminal")

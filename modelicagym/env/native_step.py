@@ -45,6 +45,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from modelicagym.env.endings import overridden
 from modelicagym.env.spaces import write_values
 from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
@@ -129,7 +130,7 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
         return "render_mode='rgb_array' records every step for the strip chart, in Python"
     if fmu.mode == "me" and fmu.integrator_path != "native":
         return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
-    if _overridden(cls, base, "step"):
+    if overridden(cls, base, "step"):
         return f"step is overridden by {cls.__name__}"
     try:
         load_library()
@@ -138,16 +139,12 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     return None
 
 
-def _overridden(cls: type, base: type, name: str) -> bool:
-    return getattr(cls, name) is not getattr(base, name)
-
-
 def python_inputs_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     """Why Python computes ``env``'s input values from the action (``action_to_inputs``) before
     the C step, or ``None`` when C moves the action's values into the inputs itself (the action
     space maps one to one onto the input values, or is Discrete over the ``action_table``)."""
     config, fmu, cls = env.config, env.fmu, type(env)
-    if _overridden(cls, base, "action_to_inputs"):
+    if overridden(cls, base, "action_to_inputs"):
         return f"action_to_inputs is overridden by {cls.__name__}"
     n_values = sum(v.size for v in fmu.input_variables)
     if config.action_table is not None:
@@ -164,7 +161,7 @@ def python_observation_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     """Why Python makes ``env``'s observation (``observation()``) after the C step, or ``None``
     when C writes it (the observation space is laid out as the outputs' own)."""
     cls = type(env)
-    if _overridden(cls, base, "observation"):
+    if overridden(cls, base, "observation"):
         return f"observation is overridden by {cls.__name__}"
     if not _same_layout(env.observation_space, env._observer.space):
         return (f"the observation space {env.observation_space} is not laid out as the outputs' own "
@@ -176,19 +173,24 @@ def _and(parts: list[str]) -> str:
     return parts[0] if len(parts) == 1 else f"{', '.join(parts[:-1])} and {parts[-1]}"
 
 
+def _edges(inputs_reason: str | None, observation_reason: str | None) -> tuple[list[str], list[str]]:
+    """What Python computes before the C step (the inputs) and after it (the observation), as phrases."""
+    return ([f"the inputs ({inputs_reason})"] if inputs_reason else [],
+            [f"the observation ({observation_reason})"] if observation_reason else [])
+
+
 def python_edges(inputs_reason: str | None, observation_reason: str | None) -> str | None:
     """What of a native step Python computes around C, as a phrase (``None``: nothing)."""
-    parts = ([f"the inputs ({inputs_reason})"] if inputs_reason else []) + (
-        [f"the observation ({observation_reason})"] if observation_reason else [])
-    return _and(parts) if parts else None
+    before, after = _edges(inputs_reason, observation_reason)
+    return _and(before + after) if before or after else None
 
 
 def native_path_reason(inputs_reason: str | None, observation_reason: str | None, endings: list[str]) -> str:
     """``step_path_reason`` of an env on the native path: what runs in C, and what in Python
     before it (the inputs) and after it (the observation, then ``endings``: its reward and
     termination written in Python, `modelicagym.env.endings.PythonEndings.parts`)."""
-    before = [f"the inputs ({inputs_reason})"] if inputs_reason else []
-    after = ([f"the observation ({observation_reason})"] if observation_reason else []) + endings
+    before, after = _edges(inputs_reason, observation_reason)
+    after += endings
     if not (before or after):
         return "the config defines the whole step"
     said = ([f"{_and(before)} in Python before it"] if before else []) + (
