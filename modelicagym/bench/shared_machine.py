@@ -49,7 +49,7 @@ import numpy as np
 
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
 from modelicagym.bench.throughput import EPISODE_STEPS, c_loop, make_vector
-from modelicagym.vector.parent.plan import usable_cores
+from modelicagym.cores import usable_cores
 
 logger = logging.getLogger(__name__)
 

@@ -31,6 +31,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
+from modelicagym.cores import usable_cores
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
 from modelicagym.vector.parent.action_writer import ActionWriter
@@ -84,7 +85,7 @@ _RESERVED_CALLS = frozenset({"reset", "step", "close"})
 POOL_OPTIONS = (
     "num_workers", "start_method", "autoreset_mode", "step_timeout", "restart_dead_workers", "max_envs_per_worker",
     "measure_timing", "copy", "spin_time", "startup_timeout", "caller_steps", "context", "shared_memory", "daemon",
-    "observation_mode", "worker", "batch_size", "adapt_layout", "init", "max_concurrency",
+    "observation_mode", "worker", "batch_size", "adapt_layout", "init", "max_concurrency", "cores",
 )
 
 
@@ -173,6 +174,7 @@ class PoolVectorEnv(VectorEnv):
         adapt_layout: bool | None = None,
         init: str = "each",
         max_concurrency: int | None = None,
+        cores: int | None = None,
     ) -> None:
         """Start the workers, create the envs in them and set up shared memory.
 
@@ -237,6 +239,10 @@ class PoolVectorEnv(VectorEnv):
                 worker, or the calling process) runs its envs one after the other, so the pool's
                 dispatcher lets at most this many parties run a step or reset at once and sends the
                 next as one finishes (`modelicagym.vector.parent.dispatch`).
+            cores: the cores the pool may use: one stepping process per core, the calling
+                process's included, and the layout's cost model plans for them. ``None``
+                (default): ``MODELICAGYM_CORES`` if set, else the CPUs this process may run on,
+                capped by a cgroup CPU quota (a container's ``--cpus``; `modelicagym.cores`).
         """
         #: ``{"thread": ident}`` while a thread is inside a public call (`public_call`)
         self._user: dict[str, int] = {}
@@ -268,9 +274,10 @@ class PoolVectorEnv(VectorEnv):
         self.restart_dead_workers = restart_dead_workers
         self.startup_timeout = startup_timeout
         self.copy = copy
-        layout = plan_layout(
-            self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout, caller_steps, batch_size
-        )
+        #: the usable cores the pool plans for
+        self.cores = usable_cores(cores)
+        layout = plan_layout(self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout,
+                             caller_steps, batch_size, self.cores)
         self.start_method = start_method or default_start_method()
         self._state = AsyncState.DEFAULT
         #: a command is being sent (`_sending`)
@@ -286,6 +293,7 @@ class PoolVectorEnv(VectorEnv):
             startup_timeout=startup_timeout,
             observation_mode="same" if observation_mode == "same" else "different",
             num_envs=self.num_envs,
+            cores=self.cores,
         )
         try:
             parts = assemble(self.env_fns, layout, self.start_method, config, adapt_layout, self.max_concurrency)

@@ -15,7 +15,7 @@ from vector_rollouts import assert_same, rollout
 
 from modelicagym.errors import ConfigError
 from modelicagym.vector import EnvError, PoolVectorEnv
-from modelicagym.vector.parent.plan import usable_cores
+from modelicagym.cores import usable_cores
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -25,13 +25,12 @@ from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.parent import placement
 from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
 from modelicagym.vector.parent.dispatch import go_poll_time
-from modelicagym.vector.parent.plan import usable_cores
+from modelicagym.cores import usable_cores
 from modelicagym.vector.parent.layout_policy import (
     PROBE_FIRST_SECONDS,
     TRY_SHARE,
     WINDOW_PARTS,
     ConsolidationPolicy,
-    LayoutPolicy,
 )
 from modelicagym.vector.wire.sync import futex_library
 
@@ -77,52 +76,6 @@ def test_moves_keep_sync_results_with_per_episode_parameters(monkeypatch: pytest
                 assert_same(sync.step(actions), pool.step(actions))
             assert_same(sync.get_attr("episode_parameters"), pool.get_attr("episode_parameters"))
     sync.close()
-
-
-def _window(policy: LayoutPolicy, now: list[float], batch_ns: int, env_ns: int, local: int, total: int) -> bool:
-    """Feed ``policy`` a window of parts where a batch takes ``batch_ns`` and an env of the
-    caller's ``local`` ones ``env_ns``; whether the target changed."""
-    changed = False
-    for _ in range(WINDOW_PARTS):
-        now[0] += 0.01
-        changed |= policy.observe(64, 64 * env_ns * local, 64 * (batch_ns - env_ns * local), local, total)
-    return changed
-
-
-def test_the_policy_keeps_the_planned_layout_while_the_workers_keep_up() -> None:
-    now = [0.0]
-    policy = LayoutPolicy(4, 4, 2, clock=lambda: now[0], idle_cores=lambda: 0.0)
-    assert not _window(policy, now, 5_000, 1_000, 4, 8)  # the workers' 4 envs take 5 us: about the caller's 4
-    assert policy.target == 0
-
-
-def test_the_policy_moves_light_envs_to_the_caller_and_probes_the_workers_when_a_core_is_idle() -> None:
-    now, idle = [0.0], [0.0]
-    policy = LayoutPolicy(4, 4, 2, clock=lambda: now[0], idle_cores=lambda: idle[0])
-    assert _window(policy, now, 34_000, 1_000, 4, 8)  # waking the workers costs 30 us: 8 us alone wins
-    assert policy.target == 4
-    assert "34.0 us" in policy.last_decision and "8.0 us" in policy.last_decision
-    now[0] += 10.0
-    assert not policy.observe(64, 64 * 8_000, 0, 8, 8)  # no idle core: the caller keeps every env
-    idle[0] = 1.0
-    now[0] += 0.03
-    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == 0
-    # the probe fails: back to the caller, and the next probe waits twice as long
-    assert _window(policy, now, 34_000, 1_000, 4, 8) and policy.target == 4
-    now[0] += 1.5 * PROBE_FIRST_SECONDS
-    assert not policy.observe(64, 64 * 8_000, 0, 8, 8)
-    now[0] += PROBE_FIRST_SECONDS
-    assert policy.observe(64, 64 * 8_000, 0, 8, 8) and policy.target == 0
-
-
-def test_the_policy_balances_heavy_envs_when_the_workers_have_half_a_core() -> None:
-    now = [0.0]
-    policy = LayoutPolicy(4, 4, 2, clock=lambda: now[0], idle_cores=lambda: 0.0)
-    # 95 us an env in the caller; the worker's 4 envs take twice as long (half a core)
-    assert _window(policy, now, 760_000, 95_000, 4, 8)
-    assert policy.target == 1, policy.last_decision  # 5 in the caller, 3 in the worker: 570 us a batch
-    assert "5/8 envs" in policy.last_decision
-    assert not _window(policy, now, 570_000, 95_000, 5, 8)  # balanced: stays
 
 
 def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch) -> None:

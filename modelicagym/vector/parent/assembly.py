@@ -84,7 +84,7 @@ def assemble(
         )
         first = workers.connect(local)
         placement, local = place_envs(
-            list(env_fns), workers, local, config.autoreset_mode, adapt_layout, stand_in_slice, isolated
+            list(env_fns), workers, local, config, adapt_layout, stand_in_slice, isolated
         )
     except BaseException:
         if local is not None:
@@ -92,5 +92,5 @@ def assemble(
         workers.release()
         raise
     dispatcher = Dispatcher(workers.handles, local, workers.buffers, config.spin_time, config.step_timeout,
-                            placement.stepping, max_concurrency)
+                            placement.stepping, max_concurrency, config.cores)
     return PoolParts(workers, placement, dispatcher, first)

@@ -37,6 +37,8 @@ class PartyCosts:
     stand_in_envs: int
     #: every stepping worker's time, summed (what the stand-in alone would at least take for their envs)
     workers_total_us: float = 0.0
+    #: the envs every worker steps, summed
+    all_worker_envs: int = 0
 
     @property
     def total_us(self) -> float:
@@ -68,19 +70,22 @@ class PartyTimes:
     took over the last batch (their ``timing`` rows: written while ``timing_enabled`` is set).
 
     Args:
-        env_ns: the pool's ``timing[:, ENV_NS]``, a row per worker, the stand-in's last.
-        in_caller: the pool's shared array (1: the stand-in steps the env).
+        env_ns: the pool's ``timing[:, ENV_NS]``, a row per worker, then the stand-in's or the
+            calling process's (whose time the parent measures itself: its sample reads 0).
+        in_caller: the pool's shared array (1: the stand-in or the calling process steps the env).
         worker_slices: the envs of each worker (not the stand-in).
         stepping: per worker, whether it steps any env (an idle worker's row is stale).
+        stand_in: the row after the workers' is a stand-in worker's.
     """
 
     def __init__(self, env_ns: np.ndarray, in_caller: np.ndarray, worker_slices: list[range],
-                 stepping: np.ndarray) -> None:
+                 stepping: np.ndarray, stand_in: bool = True) -> None:
         self._env_ns = env_ns
         self._in_caller = in_caller
         self._worker_slices = worker_slices
         self._stepping = stepping[: len(worker_slices)]
         self._workers = len(worker_slices)
+        self._stand_in = stand_in
         self._countdown = SAMPLE_EVERY
         self._samples: list[tuple[int, int]] = []
 
@@ -93,7 +98,8 @@ class PartyTimes:
         stepping = self._stepping.astype(bool)
         if stepping.any():
             workers_ns = self._env_ns[: self._workers][stepping]
-            self._samples.append((int(workers_ns.max()), int(self._env_ns[self._workers]), int(workers_ns.sum())))
+            stand_in_ns = int(self._env_ns[self._workers]) if self._stand_in else 0
+            self._samples.append((int(workers_ns.max()), stand_in_ns, int(workers_ns.sum())))
 
     def take(self) -> list[tuple[int, int, int]]:
         """The samples since the last take: (busiest worker's ns, stand-in's ns, all workers' ns)
@@ -107,7 +113,7 @@ class PartyTimes:
         if not samples:
             return None
         held = self._in_caller.astype(bool)
-        worker_envs = max(int((~held[s.start : s.stop]).sum()) for s in self._worker_slices)
-        return PartyCosts(statistics.median(s[0] for s in samples) / 1e3, worker_envs,
+        envs = [int((~held[s.start : s.stop]).sum()) for s in self._worker_slices]
+        return PartyCosts(statistics.median(s[0] for s in samples) / 1e3, max(envs),
                           statistics.median(s[1] for s in samples) / 1e3, int(held.sum()),
-                          statistics.median(s[2] for s in samples) / 1e3)
+                          statistics.median(s[2] for s in samples) / 1e3, sum(envs))

@@ -30,7 +30,6 @@ from modelicagym.native.abi import COLLECT_DONE, MgWaiter
 from modelicagym.vector.parent.deadline import Deadline
 from modelicagym.vector.parent.machine_watch import MachineWatch
 from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
-from modelicagym.vector.parent.plan import usable_cores
 from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
@@ -63,6 +62,7 @@ class Dispatcher:
         stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.parent.placement`);
             a step wakes only those. Call :meth:`stepping_changed` after it changes.
         max_concurrency: at most this many parties run a step or reset at once (``None``: all).
+        cores: the usable cores the pool plans for (`modelicagym.cores.usable_cores`).
     """
 
     def __init__(
@@ -74,12 +74,14 @@ class Dispatcher:
         step_timeout: float | None,
         stepping: np.ndarray,
         max_concurrency: int | None = None,
+        cores: int = 1,
     ) -> None:
         self.handles = handles
         self.stepping = stepping
         self.local = local
         self.buffers = buffers
         self.spin_time = spin_time
+        self.cores = cores
         self.step_timeout = step_timeout
         self.max_concurrency = max_concurrency
         #: commands sent and not yet received (posted, or held for ``max_concurrency``), in send order
@@ -153,7 +155,7 @@ class Dispatcher:
     def _set_go_spin(self) -> None:
         """Write how long the workers poll for their next command (`go_poll_time`), and how long
         the calling process polls for their answers (`collect_poll_time`)."""
-        workers, cores = sum(party is not self.caller for party in self._stepping_parties), usable_cores()
+        workers, cores = sum(party is not self.caller for party in self._stepping_parties), self.cores
         stand_in = self._machine is not None
         may_poll = not stand_in or self._machine_quiet
         spin_time = go_poll_time(self.spin_time, workers, cores, quiet_stand_in=stand_in) if may_poll else 0.0

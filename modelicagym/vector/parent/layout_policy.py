@@ -13,9 +13,12 @@ import os
 import statistics
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
-from modelicagym.vector.parent.cost_balance import PartyTimes, balance_shift
+from modelicagym.vector.parent.cost_balance import PartyCosts, PartyTimes, balance_shift
+from modelicagym.vector.parent.cost_model import Costs, Shape, best_shape
+from modelicagym.vector.parent.cost_model import batch_us as batch_us_of
 from modelicagym.vector.parent.machine_watch import PSI_CPU, READ_EVERY, MachineWatch
 
 __all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
@@ -52,32 +55,44 @@ class LayoutPolicy:
     """Decides, from what batches cost, how many movable envs the calling process steps.
 
     ``target`` is that number: 0 is the planned layout (every movable env in its worker),
-    ``movable`` is every env in the caller. From a window's median part it estimates the cost of an
-    env in the caller (its own slice's time per env) and in the workers (the batch's time, when the
-    caller waited for them, over their envs: their share of a core and the wake-ups included), and
-    picks the split that balances both sides; every env goes to the caller unless a split is
-    predicted faster by `MARGIN`. A light env on a crowded machine ends there (its workers' time is
-    mostly waking up); a heavy one beside a busy process ends balanced (its worker has half a core).
+    ``movable`` is every env in the caller. Over a window of parts it measures, as medians, one
+    env's step in the caller (its own slice's time), one env's step in the workers (their own
+    stepping times, `modelicagym.vector.parent.cost_balance.PartyTimes`) and the hand-over (what
+    the batch took beyond its busiest worker's stepping, when the caller waited for the workers),
+    and asks the cost model (`modelicagym.vector.parent.cost_model`) which target gives the
+    shortest batch; it moves there when that is faster than the current one by `MARGIN`.
+
+    The workers' costs are their own measurements, never derived from the caller's: a caller that
+    is the bottleneck says nothing about the workers, so its time cannot hold envs in it (the
+    hand-over keeps its last value measured while the caller waited). While every env is in the
+    caller the workers measure nothing: once a core has been idle they are tried again, and a try
+    that loses waits twice as long before the next.
 
     Args:
-        movable: envs that may move (the workers' envs); ``home``: the caller's own.
-        cores: the cores this process may use (for the idle-core reading).
+        shapes: per target, the layout it makes (`Placement.shapes`); ``shapes[0].home_envs`` is
+            the caller's own slice.
+        cores: the usable cores (`modelicagym.cores.usable_cores`).
         clock: seconds, monotonic (a parameter for tests).
         idle_cores: idle cores since the last call (a parameter for tests; default reads ``/proc/stat``).
     """
 
     def __init__(
         self,
-        movable: int,
-        home: int,
+        shapes: list[Shape],
         cores: int,
         clock: Callable[[], float] = time.monotonic,
         idle_cores: Callable[[], float] | None = None,
     ) -> None:
-        self.movable, self.home = movable, home
+        self.shapes = shapes
+        self.movable, self.home = len(shapes) - 1, shapes[0].home_envs
+        self.cores = cores
         self.target = 0
         self.switches = 0
         self.last_decision = ""
+        #: the last hand-over measured while the caller waited for the workers (us; ``None``: none yet)
+        self.handover_us: float | None = None
+        #: the costs measured when every env last moved to the caller
+        self._left: Costs | None = None
         self._clock = clock
         self._idle_cores = idle_cores or IdleCores(cores)
         self._probe_wait = PROBE_FIRST_SECONDS
@@ -86,74 +101,87 @@ class LayoutPolicy:
         self._window()
 
     def _window(self) -> None:
-        #: per part: (microseconds a batch took, microseconds an env took in the caller)
-        self._parts: list[tuple[float, float]] = []
-        self._envs = (0, 0)
+        #: per part, in microseconds: (a batch, an env in the caller, the caller's own slice)
+        self._parts: list[tuple[float, float, float]] = []
+        self._party_samples: list[tuple[int, int, int]] = []
         self._window_start = self._clock()
 
     def observe(
-        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
+        parties: PartyTimes | None = None,
     ) -> bool:
         """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
-        in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all;
-        ``True`` when the target changed. (``settled`` does not matter here: the costs per env it
-        measures hold in a layout that is still moving too.)"""
+        in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all,
+        and the workers' sampled stepping times (``parties``); ``True`` when the target changed.
+        Parts measured while envs still move (not ``settled``) are dropped: the model's shapes are
+        those of settled layouts."""
+        samples = [] if parties is None else parties.take()
+        if not settled:
+            self._window()
+            return False
         if batches and local_envs:
-            self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_ns / (local_envs * batches) / 1e3))
-            self._envs = (local_envs, all_envs)
+            local_us = local_ns / batches / 1e3
+            self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_us / local_envs, local_us))
+            self._party_samples += samples
         now = self._clock()
         in_caller = self.target == self.movable
         if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
             return False
-        changed = self._probe(now) if in_caller else self._balance(now)
+        costs = None if in_caller or parties is None else parties.costs(self._party_samples)
+        changed = self._probe(now) if in_caller else self._decide(now, costs)
         self._window()
         return changed
 
     def _probe(self, now: float) -> bool:
-        """Every env is in the caller: try the workers again once a core has been idle."""
+        """Every env is in the caller: try the workers again once a core has been idle, or once the
+        caller's envs cost so much more than when they moved that the workers, their last costs
+        scaled alike, are predicted faster."""
         if now - self._switched_at < self._probe_wait:
             return False
         idle = self._idle_cores()
+        target, why = 0, f"{idle:.1f} idle cores: the workers are tried again"
         if idle < IDLE_CORES_TO_PROBE:
-            return False
+            if self._left is None or not self._parts:
+                return False
+            home_env_us = statistics.median(part[1] for part in self._parts)
+            scale = home_env_us / self._left.home_env_us
+            costs = replace(self._left, home_env_us=home_env_us, worker_env_us=self._left.worker_env_us * scale)
+            target = best_shape(costs, self.shapes, self.movable, MARGIN)
+            if target == self.movable:
+                return False
+            why = (f"an env takes {home_env_us:.1f} us in the calling process, {scale:.1f} times what it took "
+                   f"when the envs moved there: the workers are tried again")
         self._probing = True
-        return self._switch(0, now, f"{idle:.1f} idle cores: the workers are tried again")
+        return self._switch(target, now, why)
 
-    def _balance(self, now: float) -> bool:
-        """The split of the window's median part's costs that gives the shortest batch."""
-        local_envs, all_envs = self._envs
-        worker_envs = all_envs - local_envs
-        if not self._parts or worker_envs <= 0:
+    def _decide(self, now: float, parties: PartyCosts | None) -> bool:
+        """The target the cost model predicts fastest from the window's medians."""
+        if not self._parts or parties is None or parties.all_worker_envs == 0:
             return False
         batch_us = statistics.median(part[0] for part in self._parts)
-        env_us = statistics.median(part[1] for part in self._parts)
-        local_us = env_us * local_envs
-        # the workers' time per env: the batch's, if the caller waited for them; else at most the caller's
-        worker_env_us = (batch_us if batch_us > 1.05 * local_us else local_us) / worker_envs
-        alone_us = env_us * all_envs
-
-        def batch(in_caller: int) -> float:
-            return max(in_caller * env_us, (all_envs - in_caller) * worker_env_us)
-
-        balanced = all_envs * worker_env_us / (env_us + worker_env_us)
-        in_caller = min(max(round(balanced), self.home), all_envs)
-        if in_caller < all_envs and MARGIN * batch(in_caller) >= alone_us:
-            in_caller = all_envs
-        target = in_caller - self.home
-        if target == self.movable:
-            if self._probing:
-                self._probing, self._probe_wait = False, min(2 * self._probe_wait, PROBE_MAX_SECONDS)
-            self._idle_cores()  # the idle-core reading starts now
-            return self._switch(target, now, f"a batch took {batch_us:.1f} us with the workers; the calling "
-                                             f"process alone would take {alone_us:.1f} us")
+        home_env_us = statistics.median(part[1] for part in self._parts)
+        waited = batch_us > 1.05 * statistics.median(part[2] for part in self._parts)
+        shape = self.shapes[self.target]
+        if waited or self.handover_us is None:
+            self.handover_us = max(batch_us - parties.worker_us, 0.0)
+        costs = Costs(home_env_us, parties.workers_total_us / parties.all_worker_envs, self.handover_us,
+                      cores=self.cores, parties=shape.workers + 1)
+        target = best_shape(costs, self.shapes, self.target, MARGIN)
         if self._probing:
-            self._probing, self._probe_wait = False, PROBE_FIRST_SECONDS
-        current = self.home + self.target
-        if target == self.target or batch(in_caller) > 0.95 * batch(current):
+            self._probing = False
+            self._probe_wait = (min(2 * self._probe_wait, PROBE_MAX_SECONDS) if target == self.movable
+                                else PROBE_FIRST_SECONDS)
+        if target == self.target:
             return False
-        return self._switch(target, now, f"an env takes {env_us:.1f} us in the calling process and "
-                                         f"{worker_env_us:.1f} us in the workers: {in_caller}/{all_envs} envs "
-                                         f"in the calling process balance them")
+        if target == self.movable:
+            self._idle_cores()  # the idle-core reading starts now
+            self._left = costs
+        predicted = batch_us_of(costs, self.shapes[target])
+        return self._switch(target, now, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
+                                         f"{costs.worker_env_us:.1f} us in a worker, a hand-over "
+                                         f"{costs.handover_us:.1f} us: a batch took {batch_us:.1f} us, "
+                                         f"{self.home + target}/{self.home + self.movable} envs in the calling "
+                                         f"process are predicted to take {predicted:.1f} us")
 
     def _switch(self, target: int, now: float, why: str) -> bool:
         self.target, self._switched_at = target, now

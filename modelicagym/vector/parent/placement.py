@@ -22,13 +22,14 @@ is already set); in ``SAME_STEP`` mode the old copy has already reset, so the ne
 silently before its next step (`RESET_THEN_STEP`). ``DISABLED`` moves envs only at resets. Every
 env's trajectory is therefore exactly the one `SyncVectorEnv` gives it, whatever layout runs.
 
-**The policy** (`modelicagym.vector.parent.layout_policy.LayoutPolicy`; docs/design.md, "The adaptive layout", has the measurements): while
-workers step, the parent measures each batch's time stepping its own slice and then waiting for the
-workers, in C. Over a window of batches, the time per env of its own slice predicts what stepping
-every env itself would cost; if the batches took more than that (by a margin), every env moves to
-the calling process. While the caller steps everything, the workers sleep; when a core has been
-idle for a while (``/proc/stat``), the envs move back to their workers on probation: the same
-measurement decides again. A probe that fails waits twice as long before the next.
+**The policy** (`modelicagym.vector.parent.layout_policy.LayoutPolicy`; docs/design.md, "The cost
+model"): while workers step, the parent measures each batch's time stepping its own slice and then
+waiting for the workers, in C, and the workers time their own stepping. Over a window of batches,
+a cost model predicts the batch time of every target (`layout_shapes`: how many envs the caller
+steps, how many the busiest worker, how many workers step) and the pool moves to the fastest by a
+margin. While the caller steps everything, the workers sleep; when a core has been idle for a while
+(``/proc/stat``), the envs move back to their workers on probation: the same measurement decides
+again. A probe that fails waits twice as long before the next.
 """
 
 from __future__ import annotations
@@ -45,15 +46,15 @@ from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
 from modelicagym.vector.parent.cost_balance import PartyTimes
 from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
-from modelicagym.vector.parent.plan import usable_cores
+from modelicagym.vector.parent.cost_model import Shape
 from modelicagym.vector.parent.worker_set import WorkerSet
 from modelicagym.vector.slice.creation import close_envs, create_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
 from modelicagym.vector.wire.buffers import SharedBuffers
-from modelicagym.vector.wire.protocol import EnvDescription
+from modelicagym.vector.wire.protocol import EnvDescription, WorkerConfig
 from modelicagym.vector.wire.sync import futex_library
 
-__all__ = ["LayoutState", "Placement", "place_envs", "stand_in_fixed_reason"]
+__all__ = ["LayoutState", "Placement", "layout_shapes", "move_order", "place_envs", "stand_in_fixed_reason"]
 
 #: the policy's measurements come in parts of this many batches (summed in C)
 PART_BATCHES = 64
@@ -107,8 +108,8 @@ class Placement:
         stand_in: the envs marked ``in_caller`` are stepped by one more worker, after those of
             ``worker_slices``, that holds a copy of every env (`modelicagym.vector.parent.assembly`),
             rather than by the calling process.
-        env_ns: with a stand-in, the pool's ``timing[:, ENV_NS]``: the parties' stepping times are
-            sampled from it for the policy's balance (`modelicagym.vector.parent.cost_balance`).
+        env_ns: for an adaptive layout, the pool's ``timing[:, ENV_NS]``: the parties' stepping
+            times are sampled from it for the policy (`modelicagym.vector.parent.cost_balance`).
     """
 
     def __init__(
@@ -138,10 +139,8 @@ class Placement:
         self.stepping = np.ones(len(worker_slices) + stand_in, dtype=np.uint8)
         self._stand_in = f"worker {len(worker_slices)} (standing in for the calling process)" if stand_in else ""
         self._movable = np.zeros(len(in_caller), dtype=np.bool_)
-        #: the movable envs in the order they go to the caller: the last env of every worker, then
-        #: the one before, ... (so that the workers give up envs evenly)
-        self._order = np.array([s[-1 - k] for k in range(max(map(len, worker_slices), default=0))
-                                for s in worker_slices if k < len(s)], dtype=np.int64)
+        #: the movable envs in the order they go to the caller (`move_order`)
+        self._order = move_order(worker_slices)
         #: per env, 1 where the policy wants it in the caller
         self._want = in_caller.copy()
         if policy is not None:
@@ -152,7 +151,7 @@ class Placement:
         self._countdown = PART_BATCHES if policy is not None else 1 << 62
         self._caller_envs = int(in_caller.sum())
         self._party_times = (None if env_ns is None or policy is None
-                             else PartyTimes(env_ns, in_caller, worker_slices, self.stepping))
+                             else PartyTimes(env_ns, in_caller, worker_slices, self.stepping, stand_in))
 
     @property
     def samples_parties(self) -> bool:
@@ -246,21 +245,42 @@ class Placement:
         return True
 
 
+def move_order(worker_slices: list[range]) -> np.ndarray:
+    """The workers' envs in the order they go to the caller: the last env of every worker, then the
+    one before, ... (so that the workers give up envs evenly and keep stepping in parallel)."""
+    return np.array([s[-1 - k] for k in range(max(map(len, worker_slices), default=0))
+                     for s in worker_slices if k < len(s)], dtype=np.int64)
+
+
+def layout_shapes(worker_slices: list[range], home_envs: int) -> list[Shape]:
+    """Per target of an adaptive layout (envs of `move_order` in the caller, 0 to all), the layout
+    it makes, as the cost model sees it (`modelicagym.vector.parent.cost_model.Shape`)."""
+    held = [len(s) for s in worker_slices]
+    owner = {env: k for k, s in enumerate(worker_slices) for env in s}
+    shapes = [Shape(home_envs, max(held, default=0), sum(n > 0 for n in held))]
+    for moved, env in enumerate(move_order(worker_slices), start=1):
+        held[owner[int(env)]] -= 1
+        shapes.append(Shape(home_envs + moved, max(held), sum(n > 0 for n in held)))
+    return shapes
+
+
 def place_envs(
     env_fns: Sequence[Callable[[], gym.Env]],
     workers: WorkerSet,
     local: EnvSlice | None,
-    autoreset_mode: AutoresetMode,
+    config: WorkerConfig,
     adapt_layout: bool | None,
     stand_in_slice: range | None = None,
     isolated: str | None = None,
 ) -> tuple[Placement, EnvSlice | None]:
-    """The placement of a pool's envs, and the calling process's slice: for an adaptive layout,
+    """The placement of a pool's envs (``config``: the pool's, for its autoreset mode and cores), and
+    the calling process's slice: for an adaptive layout,
     every env (copies of the worker envs, then its own). With a stand-in worker (the last one, for
     envs not safe in the calling process), that worker steps ``stand_in_slice`` instead, and
     consolidates the envs when that is faster. ``isolated`` says why every env is in a worker,
     with no stand-in (given whenever ``local`` is ``None`` without one). Raises `ConfigError` if
     ``adapt_layout=True`` cannot be, saying why."""
+    autoreset_mode = config.autoreset_mode
     if stand_in_slice is not None:
         return _place_with_stand_in(workers, stand_in_slice, autoreset_mode), None
     buffers = workers.buffers
@@ -284,13 +304,15 @@ def place_envs(
             close_envs(copies)
     if reason is not None and adapt_layout:
         raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
-    policy = None
-    if reason is None:
-        policy = LayoutPolicy(len(local.envs) - len(caller_slice), len(caller_slice), usable_cores())
-        reason = "its envs can move between the workers and the calling process at episode boundaries"
     worker_slices = [handle.env_indices for handle in workers.handles]
+    policy = env_ns = None
+    if reason is None:
+        policy = LayoutPolicy(layout_shapes(worker_slices, len(caller_slice)), config.cores)
+        env_ns = buffers.timing[:, SharedBuffers.ENV_NS]
+        reason = "its envs can move between the workers and the calling process at episode boundaries"
     placement = Placement(
-        buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, autoreset_mode, policy, reason
+        buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, autoreset_mode, policy, reason,
+        env_ns=env_ns,
     )
     return placement, local
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import math
 import multiprocessing
-import os
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
+from modelicagym.cores import usable_cores
 from modelicagym.errors import ConfigError
 
-__all__ = ["Layout", "default_start_method", "plan_layout", "plan_workers", "usable_cores"]
+__all__ = ["Layout", "default_start_method", "plan_layout", "plan_workers"]
 
 
 class Layout(NamedTuple):
@@ -35,13 +35,15 @@ def plan_layout(
     step_timeout: float | None,
     caller_steps: bool | None,
     batch_size: int | None = None,
+    cores: int | None = None,
 ) -> Layout:
     """The pool's layout; see `PoolVectorEnv`'s ``caller_steps`` for when the caller steps a slice
     (by default, only a slice of envs safe in the calling process: ``caller_if_safe``). Partial
     batches (``batch_size``) put every env in a worker.
 
     An env fn's ``max_envs_per_process`` attribute caps the envs per worker like
-    ``max_envs_per_worker``; the caller's slice is the last one.
+    ``max_envs_per_worker``; the caller's slice is the last one. ``cores``: the usable cores
+    (`modelicagym.cores.usable_cores`) the default plan has a party for, the caller's included.
     """
     caps = [max_envs_per_worker] + [getattr(fn, "max_envs_per_process", None) for fn in env_fns]
     caps = [cap for cap in caps if cap is not None]
@@ -57,7 +59,7 @@ def plan_layout(
     if caller_steps and restart_dead_workers:
         raise ConfigError("caller_steps=True and restart_dead_workers=True: the calling process cannot be restarted")
     parties = num_workers + 1 if caller_steps and num_workers else num_workers
-    slices = plan_workers(len(env_fns), parties, min(caps) if caps else None)
+    slices = plan_workers(len(env_fns), parties, min(caps) if caps else None, cores)
     if caller_steps:
         return Layout(slices, slices.pop(), not chosen)
     return Layout(slices, None, reason=f"every env is in a worker: {'; '.join(why_not)}")
@@ -110,10 +112,13 @@ def _caller_only_layout(
     return Layout([], range(num_envs))
 
 
-def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: int | None) -> list[range]:
+def plan_workers(
+    num_envs: int, num_workers: int | None, max_envs_per_worker: int | None, cores: int | None = None
+) -> list[range]:
     """Split ``num_envs`` envs into contiguous slices, one per worker.
 
-    ``num_workers`` defaults to the number of usable cores, never more than ``num_envs``; with
+    ``num_workers`` defaults to ``cores`` (default: the usable cores, `modelicagym.cores.usable_cores`),
+    never more than ``num_envs``; with
     ``max_envs_per_worker`` the number of workers grows to ``ceil(num_envs / max_envs_per_worker)``
     if needed (an explicit ``num_workers`` that is too small for it is an error). The first
     ``num_envs % workers`` slices hold one env more than the others.
@@ -124,7 +129,7 @@ def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: in
         raise ConfigError(f"max_envs_per_worker must be >= 1, got {max_envs_per_worker}")
     needed = 1 if max_envs_per_worker is None else math.ceil(num_envs / max_envs_per_worker)
     if num_workers is None:
-        workers = max(min(usable_cores(), num_envs), needed)
+        workers = max(min(usable_cores() if cores is None else cores, num_envs), needed)
     else:
         if num_workers < 1:
             raise ConfigError(f"num_workers must be >= 1, got {num_workers}")
@@ -141,13 +146,6 @@ def plan_workers(num_envs: int, num_workers: int | None, max_envs_per_worker: in
         slices.append(range(start, stop))
         start = stop
     return slices
-
-
-def usable_cores() -> int:
-    """The cores this process may run on (its CPU affinity), at least 1."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def default_start_method() -> str:

@@ -140,6 +140,8 @@ class WorkerConfig:
     #: the pool's envs, created at once by its parties: each may take its part of the memory
     #: the machine has available (`modelicagym.vector.slice.creation`); 0: unchecked
     num_envs: int = 0
+    #: the usable cores the pool plans for (`modelicagym.cores.usable_cores`)
+    cores: int = 1
 
 
 #: what a worker is doing before it serves commands (named in messages; ``startup_timeout`` applies)
