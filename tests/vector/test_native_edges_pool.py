@@ -45,7 +45,7 @@ def assert_pool_equals_sync(native: list[Callable], python: list[Callable], mode
     """The pool over ``native`` (every slice native, with its Python edges) gives what SyncVectorEnv
     over ``python`` gives; returns the latter's results."""
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode, **pool_options) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, **pool_options, cores=2) as pool:
         for path, reason in pool.step_paths:
             assert path == "native" and "in Python" in reason, reason
         expected, actual = rollout(sync, steps), rollout(pool, steps)
@@ -111,7 +111,7 @@ def test_envs_with_python_edges_move_between_processes_and_keep_sync_results(
     native = [partial(cls, max_episode_steps=5 + 3 * i) for i in range(6)]
     python = [partial(cls, max_episode_steps=5 + 3 * i, step_path="python") for i in range(6)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, cores=2) as pool:
         assert pool.layout.adaptive and {path for path, _ in pool.step_paths} == {"native"}, pool.layout
         policy = flipping(pool, every=7)
         actual, in_caller = rollout_recording_layouts(pool, 200)
@@ -130,7 +130,7 @@ def test_probes_with_python_edges_moving_to_the_stand_in_worker_keep_sync_result
     native = [partial(GearboxProbe, path, max_episode_steps=5 + 2 * i) for i in range(6)]
     python = [partial(GearboxProbe, path, max_episode_steps=5 + 2 * i, step_path="python") for i in range(6)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, cores=2) as pool:
         assert pool.layout.adaptive and pool.layout.envs_in_stand_in == 3, pool.layout
         assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
         policy = flipping(pool, every=7)
@@ -147,7 +147,7 @@ def test_the_hooks_run_as_often_as_in_sync_vector_env(mode: AutoresetMode) -> No
     native = [partial(CountingBothCartPole, max_episode_steps=4 + 3 * i) for i in range(4)]
     python = [partial(CountingBothCartPole, max_episode_steps=4 + 3 * i, step_path="python") for i in range(4)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode, adapt_layout=False) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, adapt_layout=False, cores=2) as pool:
         assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
         assert_same(rollout(sync, 60), rollout(pool, 60))
         counted = pool.get_attr("calls")
@@ -162,7 +162,7 @@ def test_an_action_outside_the_space_fails_as_on_the_per_env_path() -> None:
     """The pool refuses it with the same error, whichever path its slices take, and steps on."""
     errors = []
     for step_path in ("auto", "python"):
-        with PoolVectorEnv([partial(BothCartPole, step_path=step_path) for _ in range(4)]) as pool:
+        with PoolVectorEnv([partial(BothCartPole, step_path=step_path) for _ in range(4)], cores=2) as pool:
             pool.reset(seed=0)
             with pytest.raises((ValueError, PoolError)) as error:
                 pool.step(np.array([0, 1, 3, 2]))
@@ -184,7 +184,7 @@ def test_what_c_leaves_to_python_runs_the_hooks_as_often_as_in_sync_vector_env(
     python = [partial(CountingProbe, path, parameters={"fault": fault, "fault_after": 3 + i}, step_path="python")
               for i in range(4)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(fns, autoreset_mode=mode, adapt_layout=False, caller_steps=True) as pool:
+    with PoolVectorEnv(fns, autoreset_mode=mode, adapt_layout=False, caller_steps=True, cores=2) as pool:
         assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
         expected, actual = rollout(sync, 50), rollout(pool, 50)
         counted = pool.get_attr("calls")
@@ -244,7 +244,7 @@ def _third_step_errors(fns_for: Callable[[str], list[Callable[[], Any]]]) -> lis
     (``"auto"``) then on the Python path (the pool's default layout, fixed)."""
     errors = []
     for step_path in ("auto", "python"):
-        with PoolVectorEnv(fns_for(step_path), adapt_layout=False) as pool:
+        with PoolVectorEnv(fns_for(step_path), adapt_layout=False, cores=2) as pool:
             assert pool.step_paths[0][0] == ("native" if step_path == "auto" else "python")
             pool.reset(seed=0)
             pool.step(np.zeros(4, dtype=np.int64))
@@ -284,7 +284,7 @@ def test_a_slice_whose_envs_disagree_on_their_edges_says_so() -> None:
 
 
 def test_timing_of_a_pool_with_python_edges_counts_fmu_time_and_the_python_around_it() -> None:
-    with PoolVectorEnv([partial(BothCartPole) for _ in range(4)], measure_timing=True) as pool:
+    with PoolVectorEnv([partial(BothCartPole) for _ in range(4)], measure_timing=True, cores=2) as pool:
         assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
         pool.reset(seed=0)
         for _ in range(20):
@@ -306,13 +306,13 @@ def test_envs_with_hooks_keep_their_place_unless_their_class_says_the_hooks_keep
     """An overridden ``observation`` / ``action_to_inputs`` runs on the env itself, which may keep
     state between episodes (a running mean, a frame stack): a moved env is a second copy whose state
     would differ, so the pool keeps it where it is; ``stateless_hooks = True`` lets it move."""
-    with PoolVectorEnv([_StatefulFeatureCartPole] * 4, caller_steps=True) as pool:
+    with PoolVectorEnv([_StatefulFeatureCartPole] * 4, caller_steps=True, cores=2) as pool:
         assert not pool.layout.adaptive, pool.layout
         assert "runs Python per env and step (action_to_inputs, observation of _StatefulFeatureCartPole)" in \
             pool.layout.reason, pool.layout.reason
         assert "stateless_hooks = True" in pool.layout.reason
-    with PoolVectorEnv([BothCartPole] * 4, caller_steps=True) as pool:
+    with PoolVectorEnv([BothCartPole] * 4, caller_steps=True, cores=2) as pool:
         assert pool.layout.adaptive, pool.layout
     path = family_fmu("probe", 3)
-    with PoolVectorEnv([partial(CountingProbe, path)] * 4) as pool:  # a user's FMU: no stand-in worker either
+    with PoolVectorEnv([partial(CountingProbe, path)] * 4, cores=2) as pool:  # a user's FMU: no stand-in worker either
         assert not pool.layout.adaptive and "runs Python per env and step" in pool.layout.reason, pool.layout

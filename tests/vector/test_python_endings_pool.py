@@ -104,7 +104,7 @@ def test_envs_ending_their_steps_on_arrays_move_between_processes_and_keep_sync_
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
     native, python = endings_fns("arrays, config", 6)
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, cores=2) as pool:
         assert pool.layout.adaptive, pool.layout
         policy = flipping(pool, every=7)
         actual, in_caller = rollout_recording_layouts(pool, 200)
@@ -139,7 +139,7 @@ def test_the_pendulum_pool_steps_natively_as_sync() -> None:
     def fns(**options: object) -> list:
         return [lambda: PendulumSwingUpEnv(max_episode_steps=6, **options) for _ in range(3)]
 
-    with PoolVectorEnv(fns(), caller_steps=True, autoreset_mode=AutoresetMode.SAME_STEP) as pool:
+    with PoolVectorEnv(fns(), caller_steps=True, autoreset_mode=AutoresetMode.SAME_STEP, cores=2) as pool:
         assert {path for path, _ in pool.step_paths} == {"native"}, pool.step_paths
         sync = SyncVectorEnv(fns(step_path="python"), autoreset_mode=AutoresetMode.SAME_STEP)
         assert_same(rollout(sync, 20), rollout(pool, 20))
@@ -159,7 +159,7 @@ def test_a_hook_that_raises_names_an_env_of_its_slice() -> None:
 
 
 def test_per_env_endings_keep_an_env_where_it_is_array_endings_may_move() -> None:
-    with PoolVectorEnv([PerEnvCartPole] * 2, caller_steps=True) as pool:
+    with PoolVectorEnv([PerEnvCartPole] * 2, caller_steps=True, cores=2) as pool:
         assert "runs Python per env and step (compute_reward / is_terminal" in pool.layout.reason
-    with PoolVectorEnv([ArrayCartPole] * 2, caller_steps=True) as pool:
+    with PoolVectorEnv([ArrayCartPole] * 2, caller_steps=True, cores=2) as pool:
         assert pool.layout.adaptive, pool.layout

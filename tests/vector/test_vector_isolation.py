@@ -84,7 +84,7 @@ def test_an_fmu_calling_exit_is_restarted_with_restart_dead_workers() -> None:
 def test_an_fmu_hanging_under_the_default_pool_is_a_timeout_naming_the_env() -> None:
     probe = build("probe", 2)
     fns = [partial(probe_env, probe)] * 2 + [partial(probe_env, probe, parameters={"fault": 4, "fault_after": 1})]
-    pool = PoolVectorEnv(fns)
+    pool = PoolVectorEnv(fns, cores=2)
     assert not pool.caller_steps
     pool.reset(seed=0)
     actions = np.zeros((3, 1))
@@ -109,7 +109,7 @@ def test_the_bundled_models_keep_the_caller_stepping_layout() -> None:
 def test_the_worker_that_learnt_an_env_is_safe_in_the_caller_is_gone() -> None:
     """The caller's slice is first made in one more worker; once its envs say they are safe there,
     that worker stops and the calling process makes its own."""
-    with PoolVectorEnv([partial(SafeCountEnv, max_len=4 + i) for i in range(4)]) as pool:
+    with PoolVectorEnv([partial(SafeCountEnv, max_len=4 + i) for i in range(4)], cores=2) as pool:
         assert pool.caller_steps and len(pool.worker_pids) == pool.num_workers
         assert os.getpid() in pool.call("pid")
         assert set(pool.call("pid")) - {os.getpid()} == set(pool.worker_pids)
@@ -120,16 +120,16 @@ def test_envs_that_cannot_move_get_plain_workers_and_no_stand_in() -> None:
     """A stand-in's copies serve only a layout that moves envs: for envs that cannot move (here
     toy envs that do not say their reset is deterministic), the pool replaces it by a plain worker of
     the caller's slice."""
-    with PoolVectorEnv([MadeElsewhere(fn, os.getpid()) for fn in count_fns(4)]) as pool:
+    with PoolVectorEnv([MadeElsewhere(fn, os.getpid()) for fn in count_fns(4)], cores=2) as pool:
         layout = pool.layout
         assert not layout.adaptive and layout.envs_in_stand_in == 0 and "standing in" not in str(layout), layout
         assert "does not reset deterministically" in layout.reason
-        assert pool.num_workers == min(usable_cores(), 4) and os.getpid() not in pool.call("pid")
+        assert pool.num_workers == 2 and os.getpid() not in pool.call("pid")  # cores=2: two parties
         assert pool.call("max_len") == (4, 7, 10, 13)
 
 
 def test_a_users_fmu_is_never_made_in_the_calling_process_even_when_it_is_ours_by_path() -> None:
-    with PoolVectorEnv([MadeElsewhere(users_cartpole, os.getpid())] * 4) as pool:
+    with PoolVectorEnv([MadeElsewhere(users_cartpole, os.getpid())] * 4, cores=2) as pool:
         assert not pool.caller_steps and pool.layout.envs_in_caller == 0, pool.layout
         pool.reset(seed=0)
         pool.step(np.zeros(4, dtype=np.int64))
@@ -139,7 +139,7 @@ def test_a_pool_mixing_a_users_fmu_with_ours_makes_no_env_in_the_calling_process
     """The caller's own slice would be the bundled cart-pole, but the adaptive layout would copy
     the workers' envs (a user's FMU) there: a worker stands in for the calling process instead."""
     fns = [MadeElsewhere(users_cartpole, os.getpid())] * 2 + [partial(modelicagym.make, "cartpole")] * 2
-    with PoolVectorEnv(fns) as pool:
+    with PoolVectorEnv(fns, cores=2) as pool:
         layout = pool.layout
         assert not pool.caller_steps and layout.envs_in_caller == 0 and layout.envs_in_stand_in == 2, layout
         pool.reset(seed=0)

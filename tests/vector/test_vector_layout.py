@@ -25,7 +25,6 @@ from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.parent import placement
 from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
 from modelicagym.vector.parent.dispatch import go_poll_time
-from modelicagym.cores import usable_cores
 from modelicagym.vector.parent.layout_policy import (
     PROBE_FIRST_SECONDS,
     TRY_SHARE,
@@ -54,7 +53,7 @@ def test_envs_moving_between_processes_keep_sync_results(monkeypatch: pytest.Mon
     sync.close()
     assert_same(expected, actual)
     assert policy.switches >= 40
-    home = 6 // 2  # the caller's own slice: one worker and the caller on 2 cores
+    home = 6 // 2  # the caller's own slice: cores=2 plans one worker and the caller
     assert min(in_caller) == home and max(in_caller) == 6, in_caller  # every env moved both ways
     assert "scripted" in str(layout)
 
@@ -66,7 +65,7 @@ def test_moves_keep_sync_results_with_per_episode_parameters(monkeypatch: pytest
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
     native, python = cartpole_fns(4)
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, cores=2) as pool:
         flipping(pool, every=1)
         for k in range(6):
             options = {"parameters": {"m_cart": 1.0 + k}}
@@ -81,7 +80,7 @@ def test_moves_keep_sync_results_with_per_episode_parameters(monkeypatch: pytest
 def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
     native, _ = cartpole_fns(4)
-    with PoolVectorEnv(native) as pool:
+    with PoolVectorEnv(native, cores=2) as pool:
         policy = flipping(pool, every=1)
         pool.reset(seed=0)
         pool.step(np.ones(4, dtype=np.int64))
@@ -103,7 +102,7 @@ def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch
 @pytest.mark.parametrize("options", [{"adapt_layout": False}, {}])
 def test_a_worker_waiting_for_a_command_sleeps(options: dict[str, Any]) -> None:
     native, _ = cartpole_fns(4)
-    with PoolVectorEnv(native, **options) as pool:
+    with PoolVectorEnv(native, **options, cores=2) as pool:
         pool.reset(seed=0)
         for _ in range(100):
             pool.step(np.zeros(4, dtype=np.int64))
@@ -117,13 +116,13 @@ def test_the_layout_says_why_it_is_fixed_and_adapt_layout_true_says_why_it_canno
     native, _ = cartpole_fns(4)
     with PoolVectorEnv(native, num_workers=2) as pool:
         assert not pool.layout.adaptive and "in a worker" in pool.layout.reason
-    with PoolVectorEnv(native, adapt_layout=False) as pool:
+    with PoolVectorEnv(native, adapt_layout=False, cores=2) as pool:
         assert not pool.layout.adaptive and pool.layout.envs_in_caller == 2
     random_mass = [partial(modelicagym.make, "cartpole", m_cart=_uniform_mass) for _ in range(4)]
-    with PoolVectorEnv(random_mass) as pool:
+    with PoolVectorEnv(random_mass, cores=2) as pool:
         assert not pool.layout.adaptive and "does not reset deterministically" in pool.layout.reason
     with pytest.raises(ConfigError, match="adapt_layout=True.*does not reset deterministically"):
-        PoolVectorEnv(random_mass, adapt_layout=True)
+        PoolVectorEnv(random_mass, adapt_layout=True, cores=2)
 
 
 def _uniform_mass(rng: np.random.Generator) -> float:
@@ -155,7 +154,7 @@ def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatc
     stepped = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path=step_path) for i in range(6)]
     python = [partial(_users_cartpole, max_episode_steps=5 + 4 * i, step_path="python") for i in range(6)]
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(stepped, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(stepped, autoreset_mode=mode, cores=2) as pool:
         layout = pool.layout
         assert not pool.caller_steps and layout.adaptive and layout.envs_in_caller == 0, layout
         assert layout.envs_in_stand_in == 3 and "standing in for the calling process" in str(layout)
@@ -168,11 +167,11 @@ def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatc
     sync.close()
     assert_same(expected, actual)
     assert policy.switches >= 40
-    home = 6 // 2  # the stand-in's own slice: one worker and the stand-in on 2 cores
+    home = 6 // 2  # the stand-in's own slice: cores=2 plans one worker and the stand-in
     assert min(in_stand_in) == home and max(in_stand_in) == 6, in_stand_in
     assert stepping in (0, 1)
     # a stand-in's workers poll for their next command only on a quiet machine, and then while they fit the cores
-    expected = go_poll_time(DEFAULT_SPIN_TIME, stepping + 1, usable_cores(), quiet_stand_in=True) if quiet else 0.0
+    expected = go_poll_time(DEFAULT_SPIN_TIME, stepping + 1, 2, quiet_stand_in=True) if quiet else 0.0
     assert go_spin_ns == round(expected * 1e9)
 
 
@@ -256,7 +255,7 @@ def test_moody_envs_whose_cost_varies_keep_sync_results_as_they_move(family_fmu:
     fmu = str(family_fmu("moody", 3))
     fns = [partial(_moody, fmu, 0.2 * i, max_episode_steps=6 + 3 * i) for i in range(6)]
     sync = SyncVectorEnv([partial(fn, step_path="python") for fn in fns], autoreset_mode=mode)
-    with PoolVectorEnv(fns, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(fns, autoreset_mode=mode, cores=2) as pool:
         assert pool.layout.adaptive and pool.layout.envs_in_stand_in == 3, pool.layout
         policy = Cycling(pool._placement.policy.movable, every=5)
         pool._placement.policy = policy
@@ -352,7 +351,7 @@ def test_a_consolidation_try_waits_until_the_machine_watch_can_tell(tmp_path: Pa
 def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:
     """The balance's input: the parties time their steps while a stand-in layout adapts, whatever
     the user's ``set_timing`` says (the pool's own timing summary stays off)."""
-    with PoolVectorEnv([partial(_users_cartpole, max_episode_steps=50)] * 4) as pool:
+    with PoolVectorEnv([partial(_users_cartpole, max_episode_steps=50)] * 4, cores=2) as pool:
         assert pool.layout.envs_in_stand_in == 2, pool.layout
         pool.set_timing(False)
         pool.reset(seed=0)
