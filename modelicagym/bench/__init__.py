@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from modelicagym.bench.machine import wake_conditions
+from modelicagym.cores import count_cores
 from modelicagym.disk import atomic_write
 
 logger = logging.getLogger(__name__)
@@ -89,9 +90,11 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
     """The line that says under what conditions a benchmark ran, and the same for its JSON."""
     load_after = os.getloadavg()
     wake_line, wake = wake_conditions()
-    line = (f"cores: {os.cpu_count()}; load average (1 min) before {load_before[0]:.2f}, after {load_after[0]:.2f}; "
+    cores = count_cores()
+    line = (f"cores: {cores}; load average (1 min) before {load_before[0]:.2f}, after {load_after[0]:.2f}; "
             f"medians of {repeats} interleaved rounds of {seconds} s\n{wake_line}")
-    return line, {"cores": os.cpu_count(), "load_average": {"before": load_before, "after": load_after}, **wake}
+    return line, {"cores": cores.cores, "cores_detail": str(cores), "cpu_count": os.cpu_count(),
+                  "load_average": {"before": load_before, "after": load_after}, **wake}
 
 
 def add_arguments(parser: Any) -> None:

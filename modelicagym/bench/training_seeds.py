@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from modelicagym.bench import format_table, write_json
+from modelicagym.cores import usable_cores
 from modelicagym.errors import ModelicaGymError
 
 logger = logging.getLogger(__name__)
@@ -101,7 +102,7 @@ def conditions(load_before: tuple[float, float, float], jobs: int) -> dict[str, 
     """Cores, load, threads, concurrency and versions of a seed study."""
     import torch
 
-    return {"cores": os.cpu_count(), "load_average": {"before": load_before, "after": os.getloadavg()},
+    return {"cores": usable_cores(), "load_average": {"before": load_before, "after": os.getloadavg()},
             "torch_threads": THREADS, "runs_at_once": jobs, "python": sys.version.split()[0],
             "versions": {name: version(name) for name in ("torch", "stable-baselines3", "gymnasium", "numpy")},
             "torch_blas": _blas(torch.__config__.show())}

@@ -5,7 +5,6 @@ test never asserts a duration — only that a benchmark nobody ran lately still 
 from __future__ import annotations
 
 import json
-import os
 import re
 import statistics
 import subprocess
@@ -14,6 +13,8 @@ from pathlib import Path
 
 import pytest
 from extras import requires
+
+from modelicagym.cores import usable_cores
 
 #: benchmark -> tiny arguments, and top-level keys its JSON must hold
 BENCHMARKS = {
@@ -61,7 +62,7 @@ def test_the_training_benchmark_over_seeds_tables_each_preset(tmp_path: Path) ->
     assert all(r["curve"] and len(r["eval_returns"]) == 1 for r in result["runs"])
     assert [(s["algorithm"], s["seeds"]) for s in result["summaries"]] == [("ppo", [0, 1]), ("sac", [0, 1])]
     assert result["torch_threads"] == 1 and {"torch", "stable-baselines3"} <= set(result["versions"])
-    assert result["cores"] == os.cpu_count() and len(result["load_average"]["before"]) == 3
+    assert result["cores"] == usable_cores() and len(result["load_average"]["before"]) == 3
 
 
 def run_bench(name: str, args: list[str], json_path: Path) -> str:

@@ -87,7 +87,6 @@ class SimulatedPool:
         caller, batch, workers = self.machine.batch(shape)
         row = iter(workers)
         self.env_ns[: len(self.worker_slices)] = [round(next(row) * 1e3) if s else 0 for s in self.stepping]
-        changed = False
         for _ in range(WINDOW_PARTS):
             for _ in range(PART_BATCHES // SAMPLE_EVERY * SAMPLE_EVERY):
                 self.parties.count()
