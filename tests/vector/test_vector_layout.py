@@ -44,7 +44,7 @@ def test_envs_moving_between_processes_keep_sync_results(monkeypatch: pytest.Mon
     monkeypatch.setattr(placement, "PART_BATCHES", 1)
     native, python = cartpole_fns(6)
     sync = SyncVectorEnv(python, autoreset_mode=mode)
-    with PoolVectorEnv(native, num_workers=None, autoreset_mode=mode) as pool:
+    with PoolVectorEnv(native, autoreset_mode=mode, cores=2) as pool:
         assert pool.layout.adaptive, pool.layout
         policy = flipping(pool, every=7)
         actual, in_caller = rollout_recording_layouts(pool, 300)
