@@ -253,3 +253,37 @@ def test_ppo_trains_on_the_same_task_file(tmp_path, family_fmu):
     summary = json.loads((tmp_path / "run" / "run.json").read_text())
     assert summary["algorithm"] == "ppo" and summary["env_steps"] == 1024 and len(summary["evaluation_returns"]) == 1
     assert policy.action_space.shape == (1,)
+
+
+CONSUMER_TASK = EXAMPLES / "consumer_task.py"
+
+
+def test_the_consumer_task_is_info_s_config_edited_where_it_says(family_fmu, capsys):
+    """``examples/consumer_task.py``, the README's FMU with many inputs: ``info``'s config with the
+    placeholder filled, a held input drawn per episode and the timing edited; nothing else."""
+    from modelicagym import cli
+
+    fmu = family_fmu("consumer", 2)
+    assert cli.main(["info", str(fmu)]) == 0
+    printed = capsys.readouterr().out
+    namespace = {}
+    start = printed.index("config = {")
+    exec(printed[start:printed.index("\n    }", start) + 6].replace("'valve': None", "'valve': (0.0, 1.0)").replace(
+        "\n    ", "\n"), namespace)
+    printed_config = namespace["config"]
+    task = runpy.run_path(str(CONSUMER_TASK))["config"]
+    edited = {"fmu", "fixed_inputs", "action_bounds", "time_step", "max_episode_steps", "batch_reward"}
+    assert {k: v for k, v in task.items() if k not in edited} == {
+        k: v for k, v in printed_config.items() if k not in edited}
+    assert {k: v for k, v in task["fixed_inputs"].items() if k != "T_amb"} == {
+        k: v for k, v in printed_config["fixed_inputs"].items() if k != "T_amb"}
+    assert task["action_bounds"] == {"valve": (0.0, 1.0)}
+
+    config = {**task, "fmu": fmu, "fixed_inputs": {**task["fixed_inputs"], "T_amb": 303.15}}
+    env = FMUEnv(config)
+    try:
+        env.reset(seed=0)
+        observation, reward, *_ = env.step(np.array([0.0]))  # valve shut: no flow, no pumping cost
+    finally:
+        env.close()
+    assert observation[2] == 0.0 and reward == pytest.approx(-abs(float(observation[0]) - 295.15), abs=1e-4)
