@@ -277,8 +277,8 @@ def infer_bounds(v: Variable, d: FMUDescription) -> InferredBounds:
                 high = max(center + half, low + half)
             reasons.append(why)
         else:
-            said = "; ".join([*reasons, f"start {'none' if v.start is None else repr(v.start)}, no nominal, "
-                                        f"{'no unit' if v.unit in (None, *_NEUTRAL_UNITS) else f'unit {v.unit}'}"])
+            unit = "no unit" if v.unit in (None, *_NEUTRAL_UNITS) else f"unit {v.unit}"
+            said = "; ".join([*reasons, f"start {'none' if v.start is None else repr(v.start)}, no nominal, {unit}"])
             return InferredBounds(None, None, f"nothing in the FMU says its range ({said})", center)
     if quantity is not None and start is not None and start <= quantity.floor:
         start = None  # 0 K or 0 Pa: an exporter's default, not a value the model runs at

@@ -148,7 +148,7 @@ def _episode(config: dict[str, Any], value: float, seed: int) -> tuple[np.ndarra
         env.reset(seed=seed)
         action = np.full(env.action_space.shape, value, dtype=env.action_space.dtype)
         for _ in range(POINTS):
-            *_, terminated, truncated, info = env.step(action)
+            *_, terminated, _, info = env.step(action)
             if "fmu_error" in info or terminated:
                 raise ConfigError(f"{env.description.name}: the step response stopped at t = {env.time:g} s: "
                                   f"{info.get('fmu_error') or 'the FMU ended the simulation'}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import textwrap
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -36,10 +37,10 @@ def run_info(capsys: pytest.CaptureFixture[str], *args: Any) -> tuple[int, str, 
     return status, captured.out, captured.err
 
 
-def pasted(stdout: str) -> tuple[FMUEnv, dict[str, Any]]:
-    """The env (and config) that the config printed in ``stdout`` makes, pasted as is."""
+def pasted(stdout: str, edit: Callable[[str], str] = lambda code: code) -> tuple[FMUEnv, dict[str, Any]]:
+    """The env (and config) that the config printed in ``stdout`` makes, pasted as is (or ``edit``-ed)."""
     namespace: dict[str, Any] = {}
-    exec(textwrap.dedent(stdout[stdout.index(CONFIG_START):]), namespace)
+    exec(edit(textwrap.dedent(stdout[stdout.index(CONFIG_START):])), namespace)
     return namespace["env"], namespace["config"]
 
 
@@ -177,9 +178,7 @@ def test_many_inputs_act_on_the_commands_and_hold_the_conditions(capsys, family_
     assert "action bounds to fill in for valve: nothing in the FMU says its range" in out
     with pytest.raises(ConfigError, match="action_bounds of 'valve' is still None"):
         pasted(out)
-    namespace: dict[str, Any] = {}
-    exec(textwrap.dedent(out[out.index(CONFIG_START):]).replace("'valve': None", "'valve': (0.0, 1.0)"), namespace)
-    env, config = namespace["env"], namespace["config"]
+    env, config = pasted(out, lambda code: code.replace("'valve': None", "'valve': (0.0, 1.0)"))
     assert config["inputs"] == ["valve"] and set(config["fixed_inputs"]) == {"p_supply", "p_return", "T_supply",
                                                                              "T_amb", "Q_gain"}
     assert not any("fmu_error" in info for info in random_episode(env, steps=50))

@@ -70,16 +70,16 @@ def test_a_held_input_may_be_drawn_every_episode(family_fmu):
     ({"fixed_inputs": {**CONDITIONS, "T_ambient": 300.0}},
      r"fixed_inputs names 'T_ambient', which is not an input of this FMU. Did you mean 'T_amb'\?"),
     ({"fixed_inputs": {**CONDITIONS, "valve": 0.5}},
-     r"^'valve' is in both 'inputs' \(driven by the action\) and 'fixed_inputs' \(held at a value\): keep it in one "
-     r"of them$"),
+     (r"^'valve' is in both 'inputs' \(driven by the action\) and 'fixed_inputs' \(held at a value\): keep it in "
+      r"one of them$")),
     ({"fixed_inputs": {**CONDITIONS, "UA": 100.0}},
      r"fixed_inputs names 'UA', which is not an input \(causality 'parameter'\): put it in 'parameters'"),
     ({"fixed_inputs": {**CONDITIONS, "m_flow": 1.0}},
      r"fixed_inputs names 'm_flow', which is not an input \(causality 'output'\): only inputs are held"),
     ({"parameters": {"T_amb": 290.0}}, r"'T_amb' is in both 'parameters'"),
     ({"action_bounds": {"valve": None}},
-     r"^action_bounds of 'valve' is still None, the placeholder `modelicagym info` writes where nothing in the FMU "
-     r"says an input's range: give each a \(low, high\) pair"),
+     (r"^action_bounds of 'valve' is still None, the placeholder `modelicagym info` writes where nothing in the FMU "
+      r"says an input's range: give each a \(low, high\) pair")),
 ])
 def test_mistakes_are_one_line_that_names_them(family_fmu, options, message):
     with pytest.raises(ConfigError, match=message) as raised:

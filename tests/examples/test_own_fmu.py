@@ -53,7 +53,7 @@ def task_config(fmu: Path, **parameters: float) -> dict:
     return config
 
 
-def printed_config(info_output: str) -> dict:
+def printed_config_of(info_output: str) -> dict:
     """The ``config = {...}`` that ``modelicagym info`` printed."""
     start = info_output.index("config = {") + len("config = ")
     end = info_output.index("\n    }", start) + len("\n    }")
@@ -67,7 +67,7 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
     run("-m", "modelicagym.cli", "build", str(ROOT / "tests" / "fmus" / "own_heater"), "--out", "heater.fmu",
         cwd=tmp_path)
     (tmp_path / "heater_task.py").write_text(TASK.read_text())
-    printed = printed_config(run("-m", "modelicagym.cli", "info", "heater.fmu", cwd=tmp_path).stdout)
+    printed = printed_config_of(run("-m", "modelicagym.cli", "info", "heater.fmu", cwd=tmp_path).stdout)
     pasted = runpy.run_path(str(TASK))["config"]
     edited = {"max_episode_steps", "parameters", "batch_reward", "termination"}
     assert {k: v for k, v in pasted.items() if k not in edited} == {k: v for k, v in printed.items() if k not in edited}
@@ -265,19 +265,14 @@ def test_the_consumer_task_is_info_s_config_edited_where_it_says(family_fmu, cap
 
     fmu = family_fmu("consumer", 2)
     assert cli.main(["info", str(fmu)]) == 0
-    printed = capsys.readouterr().out
-    namespace = {}
-    start = printed.index("config = {")
-    exec(printed[start:printed.index("\n    }", start) + 6].replace("'valve': None", "'valve': (0.0, 1.0)").replace(
-        "\n    ", "\n"), namespace)
-    printed_config = namespace["config"]
+    printed_config = printed_config_of(capsys.readouterr().out)
     task = runpy.run_path(str(CONSUMER_TASK))["config"]
     edited = {"fmu", "fixed_inputs", "action_bounds", "time_step", "max_episode_steps", "batch_reward"}
     assert {k: v for k, v in task.items() if k not in edited} == {
         k: v for k, v in printed_config.items() if k not in edited}
     assert {k: v for k, v in task["fixed_inputs"].items() if k != "T_amb"} == {
         k: v for k, v in printed_config["fixed_inputs"].items() if k != "T_amb"}
-    assert task["action_bounds"] == {"valve": (0.0, 1.0)}
+    assert printed_config["action_bounds"] == {"valve": None} and task["action_bounds"] == {"valve": (0.0, 1.0)}
 
     config = {**task, "fmu": fmu, "fixed_inputs": {**task["fixed_inputs"], "T_amb": 303.15}}
     env = FMUEnv(config)
