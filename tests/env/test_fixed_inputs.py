@@ -4,11 +4,14 @@ six inputs, one a command, five the conditions it runs in."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError, ConfigTypeError
+from modelicagym.vector import PoolVectorEnv
 
 OUTPUTS = ["T_room", "T_return", "m_flow", "Q_flow"]
 CONDITIONS = {"p_supply": 3e5, "p_return": 1.2e5, "T_supply": 279.15, "T_amb": 303.15, "Q_gain": 2000.0}
@@ -92,3 +95,24 @@ def test_a_held_value_of_the_wrong_type_is_refused_at_construction(family_fmu):
         consumer(family_fmu("consumer", 2), fixed_inputs={**CONDITIONS, "T_amb": "warm"})
     with pytest.raises(ConfigTypeError, match=r"fixed_inputs must be \{input: value\}"):
         consumer(family_fmu("consumer", 2), fixed_inputs=[("T_amb", 300.0)])
+
+
+@pytest.mark.processes
+@pytest.mark.usefixtures("no_leaks")
+def test_a_pool_holds_the_inputs_as_a_single_env_does(family_fmu):
+    path = family_fmu("consumer", 2)
+    options = {"fixed_inputs": {**CONDITIONS, "T_amb": lambda rng: rng.uniform(283.15, 313.15)}}
+    actions = np.array([[0.0], [1.0]])
+    expected = []
+    for seed, action in zip((5, 6), actions):
+        env = consumer(path, **options)
+        env.reset(seed=seed)
+        expected.append([env.step(action)[0].tolist() for _ in range(3)])
+        env.close()
+    pool = PoolVectorEnv([functools.partial(consumer, path, **options)] * 2, num_workers=2)
+    try:
+        pool.reset(seed=[5, 6])
+        got = [pool.step(actions)[0].tolist() for _ in range(3)]
+    finally:
+        pool.close()
+    assert [[step[k] for step in got] for k in range(2)] == expected
