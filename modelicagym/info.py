@@ -64,6 +64,7 @@ class InferredBounds:
 
     @property
     def placeholder(self) -> bool:
+        """Whether these are no bounds at all, for the user to fill in."""
         return self.low is None
 
 
@@ -175,7 +176,7 @@ def _held_value(v: Variable, d: FMUDescription) -> tuple[Any, str]:
     if v.kind != "float" or (v.min is not None and v.max is not None):
         return v.start, "its start"
     bounds = infer_bounds(v, d)
-    if bounds.placeholder:
+    if bounds.placeholder or bounds.center is None:
         return v.start, f"its start; {bounds.reason}"
     source = "its start"
     quantity = _quantity(v, d)

@@ -17,10 +17,7 @@ from typing import Any
 
 from modelicagym.errors import ConfigError, DataError, NotFoundError
 
-__all__ = ["TASK_SUFFIXES", "load_config_file", "load_task", "relative_to"]
-
-#: the suffixes of a task file (Python) and of a config file (JSON)
-TASK_SUFFIXES = (".py", ".json")
+__all__ = ["load_config_file", "load_task", "relative_to"]
 
 
 def relative_to(config: dict[str, Any], path: Path) -> dict[str, Any]:
