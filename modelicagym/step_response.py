@@ -191,7 +191,8 @@ def step_response(config: Mapping[str, Any], name: str, value: float | None = No
     output that settled within `FINE` points of that run is measured again on a run four times its
     settling time long, so a fast output is not timed on a slow one's grid."""
     start, target = _values(config, name, value, seed)
-    time_step = config.get("time_step") or open_fmu(config["fmu"]).default_experiment.step_size or 0.1
+    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    time_step = config.get("time_step") or description.default_experiment.step_size or 0.1
     horizon = float(time_step) * float(config.get("max_episode_steps") or 100)
     for growth in range(MAX_GROWTHS + 1):
         times, difference, names, settling = _respond(config, name, start, target, horizon, seed)
