@@ -3,25 +3,31 @@ video of it out.
 
 The task file is Python: the config ``modelicagym info MY.fmu`` prints, pasted, plus a reward and
 a termination written in it (``examples/heater_task.py`` is one; the README's "Train on your own
-FMU" goes through it step by step). This script:
+FMU" goes through it step by step). Its ``fmu`` path, when relative, is relative to the task file's
+folder (`modelicagym.task`). This script:
 
 1. makes a pool of the FMU's envs (``modelicagym.make_vec``) and trains Stable-Baselines3's SAC
    (or PPO, ``--algo ppo``) on it, recording every episode's return;
 2. saves the policy (``policy.zip``) and the observation normalization it learned with
    (``normalize.pkl``), then loads both back, as you would later;
-3. evaluates the loaded policy on a single env that draws its strip chart
-   (``render_mode="rgb_array"``), against random actions, and saves the first episode as an
-   animated GIF (Pillow, which matplotlib already brings: Gymnasium's ``RecordVideo`` would need
-   moviepy and an ffmpeg binary for an MP4);
-4. writes the learning curve (``learning_curve.csv``, ``learning_curve.png``) and ``run.json``
-   last (steps, wall time, returns, and each file's size and SHA-256).
+3. evaluates the loaded policy on ``--eval-episodes`` episodes of a single env that records its
+   strip chart (``render_mode="rgb_array"``), against random actions on the same starts, and saves
+   the first episode as an animated GIF of at most ``--gif-frames`` frames (a frame every few
+   steps, the last one always: drawing is what costs, not stepping; ``--gif-frames 0``: no GIF).
+   Pillow makes it, which matplotlib already brings: Gymnasium's ``RecordVideo`` would need
+   moviepy and an ffmpeg binary for an MP4;
+4. writes the learning curve (``learning_curve.csv``, ``learning_curve.png``, with the random
+   actions' mean return as a dashed line; when no training episode ended, the picture and a
+   printed line say so) and ``run.json`` last (steps, wall time, returns, and each file's size
+   and SHA-256).
 
 Every file goes into ``--out`` under a temporary name and is renamed into place when whole.
 
-Run (from the repository root, with the test FMU; see the README)::
+Run (in a folder of your own beside the repository's, with the test FMU; see the README)::
 
-    modelicagym build tests/fmus/own_heater --out heater.fmu
-    python examples/train_own_fmu.py examples/heater_task.py --out runs/heater
+    modelicagym build ../tests/fmus/own_heater --out heater.fmu
+    cp ../examples/heater_task.py .
+    python ../examples/train_own_fmu.py heater_task.py --out runs
 
 (needs ``pip install torch==2.13.0`` for a CPU-only torch, then ``pip install "modelicagym[rl,plots]"``).
 """
@@ -31,7 +37,6 @@ import csv
 import hashlib
 import json
 import pickle
-import runpy
 import sys
 import time
 from pathlib import Path
@@ -51,6 +56,7 @@ from modelicagym.disk import atomic_write
 from modelicagym.errors import ConfigError
 from modelicagym.experiments.plots import plot_learning_curve
 from modelicagym.sb3 import SB3VecEnv, folderless_logger
+from modelicagym.task import load_task
 
 #: each algorithm's class and settings: SAC learns a small control task in a few thousand steps
 #: (one gradient step per env step); PPO needs more steps but each costs less
@@ -63,13 +69,10 @@ ALGORITHMS = {
 }
 
 
-def load_task(path):
-    """The ``config`` dict of the task file ``path`` (Python, run as a script)."""
-    names = runpy.run_path(str(path))
-    config = names.get("config")
-    if not isinstance(config, dict):
-        raise ConfigError(f"{path}: a task file defines config = {{...}}, the FMUEnv config "
-                          "`modelicagym info MY.fmu` prints (plus the task's reward and termination)")
+def read_task(path):
+    """The ``config`` dict of the task file ``path`` (Python, run as a script; ``fmu`` relative to
+    its folder), checked to end its episodes."""
+    config = load_task(path)
     if not config.get("max_episode_steps"):
         raise ConfigError(f"{path}: the config sets no max_episode_steps: an episode would never end")
     return config
@@ -106,16 +109,17 @@ class EpisodeLog(BaseCallback):
         return True
 
 
-def run_episode(env, act, seed, frames=None):
-    """One episode of ``env`` with ``act(observation) -> action``; its return (and its strip chart
-    frames appended to ``frames``, when given)."""
+def run_episode(env, act, seed, frames=None, every=1):
+    """One episode of ``env`` with ``act(observation) -> action``; its return. With ``frames``
+    (a list), the strip chart is drawn into it every ``every`` steps and at the episode's end."""
     observation, _ = env.reset(seed=seed)
-    total, done = 0.0, False
+    total, done, steps = 0.0, False, 0
     while not done:
         observation, reward, terminated, truncated, _ = env.step(act(observation))
         total += reward
+        steps += 1
         done = terminated or truncated
-        if frames is not None:
+        if frames is not None and (done or steps % every == 0):
             frames.append(env.render())
     return total
 
@@ -127,6 +131,22 @@ def save_gif(frames, path, fps):
         images[0].save(f, format="GIF", save_all=True, append_images=images[1:], duration=round(1000 / fps), loop=0)
 
 
+def gif_every(length, frames):
+    """Draw a frame every this many steps, so that an episode of up to ``length`` steps gives at most
+    ``frames`` frames, its last step among them (0: no frames)."""
+    if frames <= 1:
+        return frames and length + 1  # the last step's frame alone, or none
+    return -(-length // (frames - 1))
+
+
+def no_curve_reason(config, args):
+    """Why no training episode ended, and what to change, in one line."""
+    length = config["max_episode_steps"]
+    return (f"no training episode ended in {args.steps} steps: an episode lasts up to {length} steps on each of "
+            f"{args.envs} envs, so at least {length * args.envs} steps are needed; train longer (--steps) or "
+            "shorten the episodes (max_episode_steps)")
+
+
 def save_curve(rows, path):
     with atomic_write(path, "w") as f:
         writer = csv.writer(f)
@@ -136,7 +156,7 @@ def save_curve(rows, path):
 
 def train(args):
     torch.set_num_threads(args.threads)  # the FMUs use the other cores
-    config = load_task(args.task)
+    config = read_task(args.task)
     out = Path(args.out)
     algorithm, settings = ALGORITHMS[args.algo]
 
@@ -165,11 +185,12 @@ def train(args):
     def act(observation):
         return policy.predict(normalize.normalize_obs(observation), deterministic=True)[0]
 
-    # 3. Evaluate it on one env that draws its strip chart; film the first episode.
+    # 3. Evaluate it on one env that records its strip chart; film the first episode in a few frames.
     env = FMUEnv(config, render_mode="rgb_array")
+    every = gif_every(config["max_episode_steps"], args.gif_frames)
     try:
         frames = []
-        returns = [run_episode(env, act, seed=10_000 + i, frames=frames if i == 0 else None)
+        returns = [run_episode(env, act, seed=10_000 + i, frames=frames if i == 0 and every else None, every=every)
                    for i in range(args.eval_episodes)]
         env.action_space.seed(args.seed)
         random_returns = [run_episode(env, lambda _: env.action_space.sample(), seed=10_000 + i)
@@ -178,21 +199,25 @@ def train(args):
         env.close()
     print(f"evaluation, {args.eval_episodes} episodes: the policy's mean return {np.mean(returns):.2f}, "
           f"random actions' {np.mean(random_returns):.2f}")
-    save_gif(frames, out / "evaluation.gif", args.fps)
+    if frames:
+        save_gif(frames, out / "evaluation.gif", args.fps)
 
     # 4. The learning curve, and run.json last: what was run, what came out, which files.
     save_curve(log.rows, out / "learning_curve.csv")
     curve = [(row[0], *np.mean([recent[2:] for recent in log.rows[max(0, i - 19):i + 1]], axis=0))
              for i, row in enumerate(log.rows)]  # the mean return and length of the last 20 episodes
-    if curve:
-        plot_learning_curve(curve, out / "learning_curve.png", f"{args.algo.upper()} on {Path(config['fmu']).name}, "
-                            "last 20 episodes")
+    if not curve:
+        print(no_curve_reason(config, args))
+    plot_learning_curve(curve, out / "learning_curve.png", f"{args.algo.upper()} on {Path(config['fmu']).name}, "
+                        "last 20 episodes", reference=("random actions", float(np.mean(random_returns))),
+                        empty=no_curve_reason(config, args))
     files = {path.name: {"bytes": path.stat().st_size, "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
              for path in sorted(out.iterdir()) if path.is_file() and not path.name.startswith(".") and path.name != "run.json"}
     summary = {
         "task": str(args.task), "fmu": str(config["fmu"]), "algorithm": args.algo, "envs": args.envs, "seed": args.seed,
         "env_steps": model.num_timesteps, "seconds": round(seconds, 1), "training_episodes": len(log.rows),
-        "evaluation_returns": returns, "random_returns": random_returns, "gif_frames": len(frames), "files": files,
+        "evaluation_returns": returns, "random_returns": random_returns, "gif_frames": len(frames),
+        "gif_every": every, "files": files,
     }
     with atomic_write(out / "run.json", "w") as f:
         json.dump(summary, f, indent=2)
@@ -208,13 +233,17 @@ def main():
     parser.add_argument("--steps", type=int, default=5000, help="env steps to train (default: 5000)")
     parser.add_argument("--envs", type=int, default=4, help="envs stepped in parallel (default: 4)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--eval-episodes", type=int, default=5)
+    parser.add_argument("--eval-episodes", type=int, default=5,
+                        help="episodes the saved policy and random actions are evaluated on (default: 5)")
+    parser.add_argument("--gif-frames", type=int, default=40,
+                        help="at most this many frames of the first evaluation episode in evaluation.gif, a frame "
+                             "every few steps (default: 40; 0: no GIF)")
     parser.add_argument("--fps", type=float, default=10.0, help="frames a second of the GIF (default: 10)")
     parser.add_argument("--threads", type=int, default=1, help="torch threads (default: 1)")
     add_debug_flag(parser)
     args = parser.parse_args()
-    if args.eval_episodes < 1 or args.envs < 1 or args.steps < 1 or args.fps <= 0:
-        parser.error("--steps, --envs and --eval-episodes take at least 1, --fps more than 0")
+    if args.eval_episodes < 1 or args.envs < 1 or args.steps < 1 or args.fps <= 0 or args.gif_frames < 0:
+        parser.error("--steps, --envs and --eval-episodes take at least 1, --gif-frames at least 0, --fps more than 0")
     return run_command(train, args)
 
 

@@ -6,9 +6,13 @@ import argparse
 import logging
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from modelicagym.console import add_debug_flag, run_command
 from modelicagym.errors import ArgumentError
+
+if TYPE_CHECKING:
+    from modelicagym.try_fmu import TryConfig
 
 logger = logging.getLogger("modelicagym")
 
@@ -23,13 +27,40 @@ def _info(args: argparse.Namespace) -> int:
 def _try(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from modelicagym.try_fmu import try_config, try_fmu
+    from modelicagym.try_fmu import prepare, try_fmu
 
-    config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
-    out = args.out or f"{Path(args.fmu).stem}-try.png"
-    result = try_fmu(config, out=out, steps=args.steps, seed=args.seed)
+    prepared = prepare(args.target, config_file=args.config, settings=args.set, validate=not args.no_validate)
+    if args.step:
+        return _step_responses(args, prepared)
+    out = args.out or f"{Path(args.target).stem}-try.png"
+    result = try_fmu(prepared.config, out=out, steps=args.steps, seed=args.seed, assumed=prepared.assumed)
     print("\n".join(result.lines()))
     return 1 if result.fmu_error is not None else 0
+
+
+def _step_responses(args: argparse.Namespace, prepared: TryConfig) -> int:
+    """``try --step INPUT``: each input's step response, the outputs' settling times, a timing
+    suggested from them, and the plot."""
+    from pathlib import Path
+
+    from modelicagym.step_response import parse_step, plot_step_responses, step_response, suggest_timing
+    from modelicagym.try_fmu import TRY_BOUNDS
+
+    steps = [parse_step(text) for text in args.step]
+    responses = [step_response(prepared.config, name, value, seed=args.seed) for name, value in steps]
+    for response in responses:
+        print("\n".join(response.lines()))
+    timing = suggest_timing(responses)
+    print(timing or "no output settled: nothing to suggest a time step from")
+    plot, left_out = plot_step_responses(responses, args.out or f"{Path(args.target).stem}-step.png")
+    print(f"plot of the responses over time: {plot}")
+    if left_out:
+        print(f"not drawn (the plot holds the first outputs only): {', '.join(left_out)}")
+    assumed = [name for name, value in steps if value is None and name in prepared.assumed]
+    if assumed:
+        print(f"stepped to the end of {TRY_BOUNDS}, assumed as nothing in the FMU says the range: "
+              f"{', '.join(assumed)} (--step NAME=VALUE steps to a value)")
+    return 0
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -66,15 +97,20 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     info.set_defaults(func=_info)
 
-    try_ = commands.add_parser("try", help="run an FMU's suggested config with random actions and plot what it does")
-    try_.add_argument("fmu", help="path of the .fmu file")
+    try_ = commands.add_parser("try", help="run a config with random actions and plot what the FMU does")
+    try_.add_argument("target", help="what to run: an .fmu (the config `info` prints for it), a JSON config file, "
+                                     "or a task file (Python defining config = {...})")
     try_.add_argument("--steps", type=int, help="steps to run (default: the config's max_episode_steps, 500)")
     try_.add_argument("--seed", type=int, default=0, help="seed of the reset and of the random actions (default: 0)")
-    try_.add_argument("--out", help="where to write the PNG plot (default: <fmu name>-try.png)")
-    try_.add_argument("--config", help="a JSON file of FMUEnv keys that replace the suggested config's")
+    try_.add_argument("--out", help="where to write the PNG plot (default: <target name>-try.png)")
+    try_.add_argument("--config", help="a JSON file of FMUEnv keys that replace the config's")
     try_.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                       help="change one config key, the value read as JSON (e.g. --set time_step=0.01, "
-                           "--set parameters.k=2)")
+                           "--set parameters.k=2, --set fixed_inputs.T_amb=300, --set action_bounds.u=[0,1])")
+    try_.add_argument("--step", action="append", default=[], metavar="INPUT[=VALUE]",
+                      help="instead of random actions: step INPUT from its start value (to VALUE, else to the end of "
+                           "its range) and show how the outputs respond and when they settle, to choose the time "
+                           "step and the episode length (repeat for several inputs)")
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
 

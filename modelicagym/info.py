@@ -2,16 +2,24 @@
 
 Prints the FMI version, interface types, platforms, capabilities, the inputs, outputs and
 parameters with their types, units, ranges and start values, the default experiment, and a
-ready-to-paste `FMUEnv` config that works as pasted (`suggest` chooses it):
+ready-to-paste `FMUEnv` config (`suggest` chooses it) that works as pasted, once any range
+the FMU gives no clue of is filled in:
 
 * actions: the inputs; without inputs, the tunable parameters (FMI lets a master change them
-  between steps);
+  between steps). With `MANY_INPUTS` inputs or more, those without a unit (commands, most likely)
+  are the actions and those with one (a pressure, a temperature: the conditions the model runs in,
+  most likely) go into ``fixed_inputs``, held at their start values; the report says which went where;
 * observations: the outputs; without outputs, the continuous states, else the local variables;
 * parameters at their start values, except FMI 3.0 structural parameters (settable only in
   configuration mode: they stay at their start values unless the user adds them);
 * finite ``action_bounds`` for a float action that declares no min or max, inferred from the model
-  description and marked as inferred in a comment, so random exploration stays near the model's
-  range (an ambient pressure starting at 101325 Pa is not sampled around 0).
+  description (`infer_bounds`: related declared ranges, then what its unit says, then its start)
+  and marked as inferred in a comment, so random exploration stays near the model's range (an
+  ambient pressure starting at 101325 Pa is not sampled around 0, a temperature in K never below
+  0). Where nothing in the FMU says anything about the range, the bounds are ``None``: a
+  placeholder `FMUEnv` refuses until the user gives them. A range made up from nothing would run,
+  and train a policy on inputs the plant never sees without a word; a refusal costs one edit, and
+  ``modelicagym try`` still shows the FMU with an assumed range, saying so.
 
 An FMU that cannot be an environment (nothing to act on, nothing to observe, neither co-simulation
 nor model exchange) gets one line saying why instead of a config.
@@ -34,15 +42,53 @@ _NOT_IN_SPACES = ("binary", "clock", "string")  # no action or observation space
 MAX_LOCALS = 16
 #: units that say nothing about a variable's range
 _NEUTRAL_UNITS = ("", "1")
+#: from this many inputs on, the suggestion acts on the commands and holds the others (`_split_inputs`)
+MANY_INPUTS = 4
 
 
 @dataclass(frozen=True)
 class InferredBounds:
-    """Bounds ``info`` chose for an action without declared ones, and where they come from."""
+    """Bounds ``info`` chose for an action without declared ones, and where they come from.
 
-    low: float
-    high: float
+    ``low`` and ``high`` are None when nothing in the FMU says anything about the range (no
+    declared bound, no related range, no unit it knows, no start or nominal to scale by): the
+    config then holds a placeholder that `FMUEnv` refuses until it is edited, not a blind guess.
+    ``center`` is the value the range is built around (a start, or a unit's typical value when the
+    start cannot be one): the value ``info`` holds the input at when it goes into ``fixed_inputs``.
+    """
+
+    low: float | None
+    high: float | None
     reason: str
+    center: float | None = None
+
+    @property
+    def placeholder(self) -> bool:
+        """Whether these are no bounds at all, for the user to fill in."""
+        return self.low is None
+
+
+@dataclass(frozen=True)
+class _Quantity:
+    """What a unit says about a variable's range: a physical floor, a typical value (for a start
+    that cannot be one), and how far from its start an input plausibly goes."""
+
+    name: str
+    floor: float
+    typical: float
+    spread: float  # half the range: kelvin for a temperature (additive), a fraction of the start otherwise
+    additive: bool
+
+
+#: units whose values have a floor and a typical size (absolute temperatures, absolute pressures);
+#: a quantity naming a difference (``TemperatureDifference``, ``PressureDifference``) is not one of them
+_QUANTITIES = {
+    "K": _Quantity("temperature", 0.0, 293.15, 20.0, additive=True),
+    "degC": _Quantity("temperature", -273.15, 20.0, 20.0, additive=True),
+    "Pa": _Quantity("pressure", 0.0, 101325.0, 0.5, additive=False),
+    "kPa": _Quantity("pressure", 0.0, 101.325, 0.5, additive=False),
+    "bar": _Quantity("pressure", 0.0, 1.01325, 0.5, additive=False),
+}
 
 
 @dataclass
@@ -50,13 +96,20 @@ class Suggestion:
     """The config ``info`` suggests, or the one line saying why there is none.
 
     ``notes`` say which variables were chosen and why, where the choice is not the obvious one;
-    ``inferred`` holds the action bounds that the FMU does not declare.
+    ``inferred`` holds the action bounds that the FMU does not declare; ``held`` says, per fixed
+    input, where its value comes from.
     """
 
     config: dict[str, Any] | None
     refusal: str | None = None
     notes: list[str] = field(default_factory=list)
     inferred: dict[str, InferredBounds] = field(default_factory=dict)
+    held: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def placeholders(self) -> list[str]:
+        """The actions whose bounds are left for the user to fill in (None in ``action_bounds``)."""
+        return [name for name, bounds in self.inferred.items() if bounds.placeholder]
 
 
 def _usable(variables: Iterable[Variable]) -> list[Variable]:
@@ -98,6 +151,40 @@ def _observations(d: FMUDescription) -> tuple[list[Variable], str | None]:
     return [], None
 
 
+def _split_inputs(actions: list[Variable]) -> tuple[list[Variable], list[Variable], str | None]:
+    """With `MANY_INPUTS` inputs or more: the inputs to act on (those without a unit: commands,
+    most likely), the ones to hold (with a unit: the conditions the model runs in, most likely),
+    and the note that says so; all acted on (with a note) when the units do not tell them apart."""
+    if len(actions) < MANY_INPUTS or not actions[0].is_input:
+        return actions, [], None
+    commands = [v for v in actions if (v.unit or "") in _NEUTRAL_UNITS]
+    held = [v for v in actions if (v.unit or "") not in _NEUTRAL_UNITS]
+    if not commands or not held:
+        return actions, [], (f"{len(actions)} inputs, all in the action (their units do not tell commands from "
+                             "conditions): an agent learns faster on the few it controls; move the others to "
+                             "'fixed_inputs' ({name: value}, or a function of the env's generator drawn every episode)")
+    return commands, held, (
+        f"{len(actions)} inputs: acting on {_names(commands)} (no unit: commands, most likely); holding "
+        f"{_names(held)} in 'fixed_inputs' (with units: conditions it runs in, most likely). Move a name between "
+        "'inputs' and 'fixed_inputs' to choose; a fixed input may be a function of the env's generator, drawn "
+        "every episode")
+
+
+def _held_value(v: Variable, d: FMUDescription) -> tuple[Any, str]:
+    """The value to hold input ``v`` at, and the comment that says where it comes from (and the
+    range to give it in ``action_bounds`` should it become an action)."""
+    if v.kind != "float" or (v.min is not None and v.max is not None):
+        return v.start, "its start"
+    bounds = infer_bounds(v, d)
+    if bounds.placeholder or bounds.center is None:
+        return v.start, f"its start; {bounds.reason}"
+    source = "its start"
+    quantity = _quantity(v, d)
+    if bounds.center != _scalar(v.start) and quantity is not None:
+        source = f"a typical {quantity.name} (its start {v.start:g} {v.unit} cannot be one)"
+    return bounds.center, f"{source}; as an action: ({bounds.low!r}, {bounds.high!r})"
+
+
 def _scalar(value: Any) -> float | None:
     return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
 
@@ -131,10 +218,35 @@ def _related_range(v: Variable, d: FMUDescription) -> tuple[float | None, float 
     return None
 
 
+def _quantity(v: Variable, d: FMUDescription) -> _Quantity | None:
+    """What ``v``'s unit says about its range (`_QUANTITIES`), unless its quantity is a difference."""
+    raw = next(r for r in d.raw.modelVariables if r.name == v.name)
+    quantity = raw.quantity or getattr(raw.declaredType, "quantity", None) or ""
+    return None if "difference" in quantity.lower() else _QUANTITIES.get(v.unit or "")
+
+
+def _unit_range(v: Variable, q: _Quantity, start: float | None) -> tuple[float, float, float, str]:
+    """``(low, high, center, reason)`` for ``v`` from what its unit says: around its start when the
+    start can be a value of it (above the floor), else around the unit's typical value."""
+    unit = v.unit
+    if start is not None and start > q.floor:
+        center, around = start, f"its start {start:g} {unit}"
+    else:
+        said = "no start" if start is None else f"its start {start:g} {unit} cannot be a {q.name}"
+        center, around = q.typical, f"{q.typical:g} {unit} ({said}: a typical {q.name} assumed)"
+    half = q.spread if q.additive else abs(center) * q.spread
+    spread = f"+-{q.spread:g} {unit}" if q.additive else f"+-{q.spread:.0%}"
+    low = max(center - half, q.floor)
+    floor = f", not below {q.floor:g} {unit}" if low == q.floor else ""
+    return low, center + half, center, f"a {q.name} in {unit} around {around}, {spread}{floor}"
+
+
 def infer_bounds(v: Variable, d: FMUDescription) -> InferredBounds:
     """Finite bounds for float variable ``v``, which lacks a declared min or max: its declared
-    bound, then the declared range of related variables, then its start +-50% (or +-nominal, or
-    +-1 around 0); the start always inside."""
+    bound, then the declared range of related variables, then what its unit says (a temperature in
+    K around its start +-20 K, a pressure around its start +-50%, never below 0), then its start
+    +-50% (or +-nominal); the start always inside when it can be a value. With none of these, a
+    placeholder (``low`` and ``high`` None): a guess would be blind."""
     low, high = v.min, v.max
     reasons = []
     if low is not None or high is not None:
@@ -146,22 +258,34 @@ def infer_bounds(v: Variable, d: FMUDescription) -> InferredBounds:
             low, high = filled
             reasons.append(related[2])
     start = _scalar(v.start)
+    center = start
+    quantity = _quantity(v, d)
     if low is None or high is None:
-        if start:
-            half, why = abs(start) / 2, f"its start {start:g} (+-50%)"
-        elif v.nominal:
-            half, why = abs(v.nominal), f"its nominal {v.nominal:g}"
+        if quantity is not None:
+            unit_low, unit_high, center, why = _unit_range(v, quantity, start)
+            if low is None:
+                low = unit_low if high is None else min(unit_low, high)
+            if high is None:
+                high = max(unit_high, low)
+            reasons.append(why)
+        elif start or v.nominal:
+            half, why = (abs(start) / 2, f"its start {start:g} (+-50%)") if start else (
+                abs(v.nominal), f"its nominal {v.nominal:g}")
+            center = start or 0.0
+            if low is None:
+                low = min(center - half, high - half) if high is not None else center - half
+            if high is None:
+                high = max(center + half, low + half)
+            reasons.append(why)
         else:
-            half, why = 1.0, "+-1 (it declares no start or nominal to scale by)"
-        center = start or 0.0
-        if low is None:
-            low = min(center - half, high - half) if high is not None else center - half
-        if high is None:
-            high = max(center + half, low + half)
-        reasons.append(why)
+            unit = "no unit" if v.unit in (None, *_NEUTRAL_UNITS) else f"unit {v.unit}"
+            said = "; ".join([*reasons, f"start {'none' if v.start is None else repr(v.start)}, no nominal, {unit}"])
+            return InferredBounds(None, None, f"nothing in the FMU says its range ({said})", center)
+    if quantity is not None and start is not None and start <= quantity.floor:
+        start = None  # 0 K or 0 Pa: an exporter's default, not a value the model runs at
     if start is not None:
         low, high = min(low, start), max(high, start)
-    return InferredBounds(float(low), float(high), "; ".join(reasons))
+    return InferredBounds(float(low), float(high), "; ".join(reasons), center)
 
 
 def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
@@ -184,12 +308,16 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
         return Suggestion(None, f"{d.name} has nothing to observe: no outputs, no continuous states and no local "
                                 "variables of a number type, so there is no config")
     notes = [note for note in (action_note, observation_note) if note]
-    acted = {v.name for v in actions}
     structural = [v for v in d.parameters if v.causality == "structuralParameter"]
     if structural:
         notes.append(f"structural parameters ({_names(structural)}) stay at their start values: FMI lets them change "
                      "only in configuration mode, where the env sets them if you add them to 'parameters'")
+    actions, held, split_note = _split_inputs(actions)
+    if split_note:
+        notes.insert(0, split_note)
+    acted = {v.name for v in actions}
     inferred = {v.name: infer_bounds(v, d) for v in actions if v.kind == "float" and (v.min is None or v.max is None)}
+    fixed = {v.name: _held_value(v, d) for v in held}
     step = d.default_experiment.step_size
     config: dict[str, Any] = {
         "fmu": str(d.path),
@@ -201,12 +329,14 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
             and v.name not in acted
         },
     }
+    if fixed:
+        config["fixed_inputs"] = {name: value for name, (value, _) in fixed.items()}
     if inferred:
-        config["action_bounds"] = {name: (b.low, b.high) for name, b in inferred.items()}
+        config["action_bounds"] = {name: None if b.placeholder else (b.low, b.high) for name, b in inferred.items()}
     config.update({"time_step": step if step else 0.1, "mode": d.default_mode(), "max_episode_steps": 500})
     if not validate:
         config["validate"] = False
-    return Suggestion(config, None, notes, inferred)
+    return Suggestion(config, None, notes, inferred, {name: comment for name, (_, comment) in fixed.items()})
 
 
 # -- the report --------------------------------------------------------------------------------------
@@ -241,10 +371,14 @@ def format_config(suggestion: Suggestion) -> list[str]:
     lines = ["from modelicagym import FMUEnv", "", "config = {"]
     for key, value in suggestion.config.items():
         if key == "action_bounds":
-            items = [f"{name!r}: ({low!r}, {high!r})" for name, (low, high) in value.items()]
-            comments = [f"inferred from {suggestion.inferred[name].reason}: edit to the model's range"
-                        for name in value]
+            items = [f"{name!r}: {None if bounds is None else tuple(bounds)!r}" for name, bounds in value.items()]
+            comments = [f"TO FILL IN with (low, high): {suggestion.inferred[name].reason}" if bounds is None
+                        else f"inferred from {suggestion.inferred[name].reason}: edit to the model's range"
+                        for name, bounds in value.items()]
             text = _collection(items, "{", "}", indent, comments)
+        elif key == "fixed_inputs":
+            items = [f"{name!r}: {held!r}" for name, held in value.items()]
+            text = _collection(items, "{", "}", indent, [suggestion.held[name] for name in value])
         elif isinstance(value, dict):
             text = _collection([f"{k!r}: {v!r}" for k, v in value.items()], "{", "}", indent)
         elif isinstance(value, list):
@@ -338,9 +472,20 @@ def format_info(description: FMUDescription, validate: bool = True) -> str:
         return "\n".join([*lines, f"no config: {suggestion.refusal}"])
     lines.append("a config to start from (Python):")
     lines += [f"  - {note}" for note in suggestion.notes]
-    if suggestion.inferred:
-        lines.append(f"  - action bounds inferred for {', '.join(suggestion.inferred)} (no declared min or max): "
+    guessed = [name for name in suggestion.inferred if name not in suggestion.placeholders]
+    if guessed:
+        lines.append(f"  - action bounds inferred for {', '.join(guessed)} (no declared min or max): "
                      "see the comments in action_bounds")
+    if suggestion.placeholders:
+        names = suggestion.placeholders
+        their = "its" if len(names) == 1 else "their"
+        lines.append(f"  - action bounds to fill in for {', '.join(names)}: nothing in the FMU says {their} range, so "
+                     f"action_bounds holds None there, which the env refuses until you give (low, high): a guess would "
+                     "be explored silently (`modelicagym try` assumes (-1, 1) for a first look)")
+    step, steps = suggestion.config["time_step"], suggestion.config["max_episode_steps"]
+    lines.append(f"  - time_step {step:g} s (the default experiment's, or 0.1 s), {steps} steps an episode "
+                 f"({step * steps:g} s): `modelicagym try {d.path.name} --step INPUT` shows how fast the outputs "
+                 "respond, to choose both")
     lines.append("")
     lines += ["    " + line if line else "" for line in format_config(suggestion)]
     return "\n".join(lines)

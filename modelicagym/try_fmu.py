@@ -1,10 +1,15 @@
 """``modelicagym try``: see an FMU respond to random actions before training on it.
 
-`try_fmu` makes an `FMUEnv` from the config ``modelicagym info`` prints
-(`modelicagym.info.suggest`; a JSON file and ``key=value`` settings may change it), with
-its strip chart on (`modelicagym.env.strip_chart`), runs one episode of actions sampled from the
-action space (the reset and the samples seeded, so a run repeats), and saves the chart of actions
-and observations over time as a PNG. `TryResult` says what happened, one fact a line.
+`try_fmu` makes an `FMUEnv` from any config a user can train (`prepare`): the one ``modelicagym
+info`` prints for an FMU (`modelicagym.info.suggest`), a JSON config file, or a task file (Python,
+with its lambdas and reward: `modelicagym.task`); a JSON file and ``key=value`` settings may change
+it. With its strip chart on (`modelicagym.env.strip_chart`), it runs one episode of actions sampled
+from the action space (the reset and the samples seeded, so a run repeats), and saves the chart of
+actions and observations over time as a PNG. `TryResult` says what happened, one fact a line,
+naming every variable the chart leaves out and every action range it had to assume.
+
+An action whose range nothing in the FMU says (a placeholder, None, in ``action_bounds``) is tried
+in `TRY_BOUNDS`, and the result says so: a first look should not need an edit, a training does.
 """
 
 from __future__ import annotations
@@ -16,11 +21,18 @@ from pathlib import Path
 from typing import Any
 
 from modelicagym.env import FMUEnv
-from modelicagym.errors import ConfigError, DataError
+from modelicagym.env.strip_chart import MAX_PANELS
+from modelicagym.errors import ConfigError
 from modelicagym.fmu import UnsupportedFeatureError, open_fmu
 from modelicagym.info import suggest
+from modelicagym.task import load_config_file, load_task
 
-__all__ = ["TryResult", "parse_setting", "try_config", "try_fmu"]
+__all__ = ["TRY_BOUNDS", "TryConfig", "TryResult", "parse_setting", "prepare", "try_config", "try_fmu"]
+
+#: the range a ``try`` run gives an action whose range nothing in the FMU says
+TRY_BOUNDS = (-1.0, 1.0)
+#: config keys that map names to values: ``--set KEY.NAME=VALUE`` sets one entry
+_MAPPING_KEYS = ("parameters", "fixed_inputs", "action_bounds")
 
 
 @dataclass(frozen=True)
@@ -37,6 +49,8 @@ class TryResult:
     n_actions: int  # lines drawn for actions (array elements count one each)
     n_observations: int
     fmu_error: str | None = None
+    assumed: tuple[str, ...] = ()  # actions tried in TRY_BOUNDS, their range unknown
+    left_out: tuple[str, ...] = ()  # variables the chart does not draw
 
     def lines(self) -> list[str]:
         """One line per fact, as the command prints them."""
@@ -49,6 +63,14 @@ class TryResult:
             lines.append(f"FMU error at t = {self.end_time:g} s: {self.fmu_error}")
         lines.append(f"plot of {_count(self.n_actions, 'action')} and {_count(self.n_observations, 'observation')} "
                      f"over time: {self.plot}")
+        if self.left_out:
+            lines.append(f"not drawn (the chart holds {MAX_PANELS} panels): {', '.join(self.left_out)}; choose what "
+                         "to see with --set outputs='[...]' or --set inputs='[...]'")
+        if self.assumed:
+            their = "its" if len(self.assumed) == 1 else "their"
+            lines.append(f"tried in {TRY_BOUNDS}, as nothing in the FMU says {their} range: "
+                         f"{', '.join(self.assumed)}; give action_bounds before training "
+                         f"(--set action_bounds.{self.assumed[0]}='[low, high]' here, or in the task file)")
         return lines
 
 
@@ -56,9 +78,18 @@ def _count(n: int, thing: str) -> str:
     return f"{n} {thing}" if n == 1 else f"{n} {thing}s"
 
 
+@dataclass(frozen=True)
+class TryConfig:
+    """The config a ``try`` run uses, and the actions it gave `TRY_BOUNDS` (their bounds were placeholders)."""
+
+    config: dict[str, Any]
+    assumed: tuple[str, ...] = ()
+
+
 def parse_setting(text: str) -> tuple[str, Any]:
     """``key=value`` -> ``(key, value)``; the value is read as JSON (``5``, ``null``, ``["u"]``),
-    else kept as a string. ``parameters.k=2`` sets one parameter."""
+    else kept as a string. ``parameters.k=2`` sets one parameter (``fixed_inputs.NAME``,
+    ``action_bounds.NAME`` one entry of those)."""
     key, sep, value = text.partition("=")
     if not sep or not key.strip():
         raise ConfigError(f"--set expects key=value (e.g. max_episode_steps=200), got {text!r}")
@@ -68,38 +99,53 @@ def parse_setting(text: str) -> tuple[str, Any]:
         return key.strip(), value
 
 
-def try_config(fmu: str | Path, *, config_file: str | Path | None = None, settings: Sequence[str] = (),
-               validate: bool = True) -> dict[str, Any]:
-    """The config a ``try`` run uses: ``info``'s suggestion for ``fmu``, updated by the JSON object
-    in ``config_file`` (its keys replace the suggestion's) and then by ``settings`` (``key=value``)."""
-    suggestion = suggest(open_fmu(fmu, validate=validate), validate=validate)
+def _base_config(target: Path, validate: bool) -> dict[str, Any]:
+    """The config ``target`` stands for: a task file's (``.py``), a config file's (``.json``), else
+    the one ``info`` suggests for the FMU."""
+    if target.suffix == ".py":
+        return load_task(target)
+    if target.suffix == ".json":
+        return load_config_file(target)
+    suggestion = suggest(open_fmu(target, validate=validate), validate=validate)
     if suggestion.config is None:
         raise UnsupportedFeatureError(suggestion.refusal)
-    config = suggestion.config
+    return suggestion.config
+
+
+def prepare(target: str | Path, *, config_file: str | Path | None = None, settings: Sequence[str] = (),
+            validate: bool = True) -> TryConfig:
+    """The config a ``try`` run uses: ``target``'s (an FMU, a JSON config or a Python task file),
+    updated by the JSON object in ``config_file`` (its keys replace the config's) and then by
+    ``settings`` (``key=value``); placeholder action bounds become `TRY_BOUNDS`, named in the result."""
+    config = dict(_base_config(Path(target), validate))
+    if not validate:
+        config["validate"] = False
     if config_file is not None:
-        config.update(_read_config(Path(config_file)))
+        config.update(load_config_file(config_file))
     for key, value in map(parse_setting, settings):
         head, _, name = key.partition(".")
-        if head == "parameters" and name:
-            config["parameters"] = {**(config.get("parameters") or {}), name: value}
+        if head in _MAPPING_KEYS and name:
+            config[head] = {**(config.get(head) or {}), name: value}
         else:
             config[key] = value
-    return config
+    bounds = config.get("action_bounds")
+    assumed = tuple(name for name, pair in (bounds or {}).items() if pair is None) if isinstance(bounds, Mapping) else ()
+    if assumed:
+        config["action_bounds"] = {**bounds, **dict.fromkeys(assumed, TRY_BOUNDS)}
+    return TryConfig(config, assumed)
 
 
-def _read_config(path: Path) -> Mapping[str, Any]:
-    try:
-        config = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as error:
-        raise DataError(f"{path}: not JSON ({error})") from error
-    if not isinstance(config, dict):
-        raise DataError(f"{path}: a config is a JSON object of FMUEnv keys, not {type(config).__name__}")
-    return config
+def try_config(fmu: str | Path, *, config_file: str | Path | None = None, settings: Sequence[str] = (),
+               validate: bool = True) -> dict[str, Any]:
+    """`prepare`'s config alone (the benchmarks run an FMU's ``try`` config as it is)."""
+    return prepare(fmu, config_file=config_file, settings=settings, validate=validate).config
 
 
-def try_fmu(config: Mapping[str, Any], *, out: str | Path, steps: int | None = None, seed: int = 0) -> TryResult:
+def try_fmu(config: Mapping[str, Any], *, out: str | Path, steps: int | None = None, seed: int = 0,
+            assumed: Sequence[str] = ()) -> TryResult:
     """Run one episode of ``config`` (an `FMUEnv` config) with random actions and save its strip
-    chart at ``out`` (PNG). ``steps`` caps the episode (else the config's ``max_episode_steps``)."""
+    chart at ``out`` (PNG). ``steps`` caps the episode (else the config's ``max_episode_steps``);
+    ``assumed`` (`TryConfig.assumed`) is passed on to the result."""
     limit = steps if steps is not None else config.get("max_episode_steps")
     if limit is None:
         raise ConfigError("the config sets no max_episode_steps: give the number of steps to run (--steps N)")
@@ -118,7 +164,7 @@ def try_fmu(config: Mapping[str, Any], *, out: str | Path, steps: int | None = N
             model=env.description.model_name, seed=seed, steps=env.elapsed_steps, start_time=float(chart.times[0]),
             end_time=env.time, ending=_ending(terminated, info, limit), plot=plot,
             n_actions=roles.count("action"), n_observations=roles.count("observation"),
-            fmu_error=info.get("fmu_error"),
+            fmu_error=info.get("fmu_error"), assumed=tuple(assumed), left_out=tuple(chart.left_out),
         )
     finally:
         env.close()

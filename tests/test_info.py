@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import textwrap
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -36,10 +37,10 @@ def run_info(capsys: pytest.CaptureFixture[str], *args: Any) -> tuple[int, str, 
     return status, captured.out, captured.err
 
 
-def pasted(stdout: str) -> tuple[FMUEnv, dict[str, Any]]:
-    """The env (and config) that the config printed in ``stdout`` makes, pasted as is."""
+def pasted(stdout: str, edit: Callable[[str], str] = lambda code: code) -> tuple[FMUEnv, dict[str, Any]]:
+    """The env (and config) that the config printed in ``stdout`` makes, pasted as is (or ``edit``-ed)."""
     namespace: dict[str, Any] = {}
-    exec(textwrap.dedent(stdout[stdout.index(CONFIG_START):]), namespace)
+    exec(edit(textwrap.dedent(stdout[stdout.index(CONFIG_START):])), namespace)
     return namespace["env"], namespace["config"]
 
 
@@ -145,7 +146,8 @@ def test_a_structural_parameter_is_set_in_configuration_mode(family_fmu, fmu_mod
 def test_unbounded_input_gets_inferred_bounds_that_keep_the_model_working(capsys, family_fmu, fmi_version):
     status, out, _ = run_info(capsys, family_fmu("unbounded", fmi_version))
     assert status == 0
-    assert "'p_amb': (50662.5, 151987.5),  # inferred from its start 101325 (+-50%)" in out
+    assert ("'p_amb': (50662.5, 151987.5),  # inferred from a pressure in Pa around its start 101325 Pa, +-50%: "
+            "edit to the model's range") in out
     env, config = pasted(out)
     assert env.step_path == "native"  # bounds on a Float64 Box keep the native step
     assert not any("fmu_error" in info for info in random_episode(env, steps=200))
@@ -159,6 +161,43 @@ def test_unbounded_input_gets_inferred_bounds_that_keep_the_model_working(capsys
     *_, truncated, info = unbounded.step(unbounded.action_space.sample())
     assert truncated and "ambient pressure" in info["fmu_error"] and "outside the range" in info["fmu_error"]
     unbounded.close()
+
+
+def test_many_inputs_act_on_the_commands_and_hold_the_conditions(capsys, family_fmu, fmi_version):
+    """The cooling consumer (six inputs, no declared range, in Pa, K, W or without a unit): the
+    command is the action, the others are held; a temperature starting at 0 K is held at a
+    typical one; the command's range, which nothing in the FMU says, is left for the user."""
+    status, out, _ = run_info(capsys, family_fmu("consumer", fmi_version))
+    assert status == 0
+    assert ("6 inputs: acting on valve (no unit: commands, most likely); holding p_supply, p_return, T_supply, T_amb, "
+            "Q_gain in 'fixed_inputs'") in out
+    assert "'p_supply': 300000.0,  # its start; as an action: (150000.0, 450000.0)" in out
+    assert ("'T_amb': 293.15,  # a typical temperature (its start 0 K cannot be one); as an action: "
+            "(273.15, 313.15)") in out
+    assert "'valve': None,  # TO FILL IN with (low, high): nothing in the FMU says its range" in out
+    assert "action bounds to fill in for valve: nothing in the FMU says its range" in out
+    with pytest.raises(ConfigError, match="action_bounds of 'valve' is still None"):
+        pasted(out)
+    env, config = pasted(out, lambda code: code.replace("'valve': None", "'valve': (0.0, 1.0)"))
+    assert config["inputs"] == ["valve"] and set(config["fixed_inputs"]) == {"p_supply", "p_return", "T_supply",
+                                                                             "T_amb", "Q_gain"}
+    assert not any("fmu_error" in info for info in random_episode(env, steps=50))
+    env.close()
+
+
+def test_units_give_bounds_a_user_can_trust(family_fmu):
+    """A pressure or an absolute temperature never goes below 0, and is explored around its start
+    (a temperature +-20 K, not +-50% of 279 K); a start of 0 K is not taken for a temperature."""
+    description = open_fmu(family_fmu("consumer", 3))
+    bounds = {name: infer_bounds(description.variables[name], description)
+              for name in ("p_supply", "T_supply", "T_amb", "Q_gain", "valve")}
+    assert (bounds["p_supply"].low, bounds["p_supply"].high) == (1.5e5, 4.5e5)
+    assert (bounds["T_supply"].low, bounds["T_supply"].high) == pytest.approx((259.15, 299.15))
+    assert (bounds["T_amb"].low, bounds["T_amb"].high, bounds["T_amb"].center) == (273.15, 313.15, 293.15)
+    assert "its start 0 K cannot be a temperature" in bounds["T_amb"].reason
+    assert (bounds["Q_gain"].low, bounds["Q_gain"].high) == (1000.0, 3000.0)  # W says nothing: its start +-50%
+    assert bounds["valve"].placeholder and bounds["valve"].reason == (
+        "nothing in the FMU says its range (start 0.0, no nominal, no unit)")
 
 
 @pytest.mark.processes

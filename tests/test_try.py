@@ -1,5 +1,6 @@
-"""``modelicagym try MY.fmu``: the config ``info`` prints, run for an episode of seeded random
-actions, a PNG of actions and observations over time, and one line per fact; failures are one line."""
+"""``modelicagym try MY.fmu`` (or a task file, or a JSON config): the config run for an episode of
+seeded random actions, a PNG of actions and observations over time, and one line per fact (every
+variable left out of the plot, every action range assumed); failures are one line."""
 
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import pytest
 from extras import imported, requires
 
 from modelicagym.cli import main
+from modelicagym.env.strip_chart import MAX_PANELS, Series, panels_of
+from modelicagym.try_fmu import TryResult
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -121,3 +124,91 @@ def test_without_matplotlib_try_says_which_extra_to_install(family_fmu, tmp_path
     assert result.stderr.strip() == ("error: the strip chart (render_mode='rgb_array', modelicagym try) needs "
                                      "matplotlib: pip install 'modelicagym[plots]'")
     assert not (tmp_path / "x.png").exists()
+
+
+CONSUMER_TASK = """
+import numpy as np
+
+config = {
+    'fmu': 'consumer.fmu',
+    'inputs': ['valve'],
+    'outputs': ['T_room', 'T_return', 'm_flow', 'Q_flow'],
+    'fixed_inputs': {'p_supply': 3e5, 'p_return': 1.2e5, 'T_supply': 279.15, 'Q_gain': 2000.0,
+                     'T_amb': lambda rng: rng.uniform(293.15, 308.15)},
+    'action_bounds': {'valve': (0.0, 1.0)},
+    'time_step': 30.0,
+    'max_episode_steps': 20,
+}
+
+
+def reward(env, observation, action, terminated):
+    return -abs(observation[0] - 295.15)
+
+
+config['reward'] = reward
+"""
+
+
+@requires("plots")
+def test_try_runs_a_task_file_with_its_fmu_beside_it(family_fmu, tmp_path, capsys, monkeypatch):
+    """A task file (Python, with lambdas and a reward), run from another folder: its fmu path is
+    relative to the task file's folder."""
+    task_folder = tmp_path / "task"
+    task_folder.mkdir()
+    (task_folder / "consumer.fmu").write_bytes(family_fmu("consumer", 2).read_bytes())
+    (task_folder / "consumer_task.py").write_text(CONSUMER_TASK)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    status, lines, _ = run_try(capsys, "../task/consumer_task.py")
+    assert status == 0
+    assert lines[0] == "CoolingConsumer: 20 steps of random actions (seed 0), t = 0 s to 600 s"
+    assert lines[2] == "plot of 1 action and 4 observations over time: consumer_task-try.png"
+    assert len(lines) == 3  # no range assumed, nothing left out of the plot
+    assert read_png(elsewhere / "consumer_task-try.png").ndim == 3
+
+
+@requires("plots")
+def test_try_runs_a_json_config_and_names_the_ranges_it_assumed(family_fmu, tmp_path, capsys):
+    (tmp_path / "consumer.fmu").write_bytes(family_fmu("consumer", 3).read_bytes())
+    config = tmp_path / "consumer.json"
+    config.write_text(json.dumps({"fmu": "consumer.fmu", "inputs": ["valve", "Q_gain"], "outputs": ["T_room"],
+                                  "action_bounds": {"valve": None, "Q_gain": [0, 5000]}, "time_step": 10.0,
+                                  "max_episode_steps": 5}))
+    status, lines, _ = run_try(capsys, str(config), "--out", str(tmp_path / "c.png"))
+    assert status == 0
+    assert lines[-1] == ("tried in (-1.0, 1.0), as nothing in the FMU says its range: valve; give action_bounds "
+                         "before training (--set action_bounds.valve='[low, high]' here, or in the task file)")
+    status, lines, _ = run_try(capsys, str(config), "--set", "action_bounds.valve=[0, 1]",
+                               "--set", "fixed_inputs.T_amb=300", "--out", str(tmp_path / "c.png"))
+    assert status == 0 and len(lines) == 3
+
+
+@requires("plots")
+def test_try_on_an_fmu_whose_command_has_no_range_says_what_it_assumed(family_fmu, tmp_path, capsys):
+    status, lines, _ = run_try(capsys, str(family_fmu("consumer", 2)), "--steps", "5", "--out", str(tmp_path / "c.png"))
+    assert status == 0
+    assert lines[-1].startswith("tried in (-1.0, 1.0), as nothing in the FMU says its range: valve;")
+
+
+def test_a_task_file_whose_fmu_sits_in_the_current_folder_is_told_where_paths_start(family_fmu, tmp_path, capsys,
+                                                                                    monkeypatch):
+    (tmp_path / "consumer.fmu").write_bytes(family_fmu("consumer", 2).read_bytes())
+    (tmp_path / "tasks").mkdir()
+    (tmp_path / "tasks" / "consumer_task.py").write_text(CONSUMER_TASK)
+    monkeypatch.chdir(tmp_path)
+    status, lines, err = run_try(capsys, "tasks/consumer_task.py")
+    assert status == 1 and lines == []
+    assert err.strip() == ("error: tasks/consumer_task.py: its fmu 'consumer.fmu' is relative to the file's folder, "
+                           "and there is no tasks/consumer.fmu (it is in the current folder: write '../consumer.fmu' "
+                           "or an absolute path)")
+
+
+def test_the_result_names_every_variable_left_out_of_the_plot(tmp_path):
+    series = [Series(f"y{k}", f"unit{k}", "observation", "float") for k in range(13)]
+    panels, left_out = panels_of(series)
+    assert len(panels) == MAX_PANELS and [series[i].name for i in left_out] == ["y10", "y11", "y12"]
+    result = TryResult("M", 0, 1, 0.0, 1.0, "truncated", tmp_path / "x.png", 0, 13,
+                       left_out=tuple(series[i].name for i in left_out))
+    assert result.lines()[-1] == ("not drawn (the chart holds 10 panels): y10, y11, y12; choose what to see with "
+                                  "--set outputs='[...]' or --set inputs='[...]'")

@@ -15,7 +15,13 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from modelicagym.env.config_checks import check_action_bounds, check_batch_hooks, check_numbers, check_termination
+from modelicagym.env.config_checks import (
+    check_action_bounds,
+    check_batch_hooks,
+    check_fixed_inputs,
+    check_numbers,
+    check_termination,
+)
 from modelicagym.env.saved_state import EnvState, StartStates
 from modelicagym.errors import ConfigError, ConfigTypeError
 from modelicagym.fmu.library_copies import check_instances_per_process
@@ -35,6 +41,10 @@ class FMUEnvConfig:
         inputs: input variables driven by the action, in order.
         outputs: variables observed after every step, in order.
         parameters: values (or callables ``f(np_random) -> value``) applied at every reset.
+        fixed_inputs: ``{input: value}`` for the inputs the agent does not drive: each is held at its
+            value for the episode (a callable ``f(np_random) -> value`` is drawn at every reset, as a
+            parameter's: a boundary condition that varies from one episode to the next). An input is
+            in ``inputs`` (the action) or here, not both; an FMU's input in neither keeps its start value.
         time_step: seconds per environment step; default: the model's ``defaultExperiment stepSize``.
         start_time: default: the model's ``defaultExperiment startTime``.
         max_episode_steps: truncate an episode after this many steps (None: never).
@@ -76,6 +86,7 @@ class FMUEnvConfig:
     inputs: Sequence[str] = ()
     outputs: Sequence[str] = ()
     parameters: Mapping[str, Any] = field(default_factory=dict)
+    fixed_inputs: Mapping[str, Any] = field(default_factory=dict)
     time_step: float | None = None
     start_time: float | None = None
     max_episode_steps: int | None = None
@@ -100,6 +111,12 @@ class FMUEnvConfig:
     instances_per_process: str = "copies"
     start_states: Sequence[EnvState] | StartStates | None = None
 
+    @property
+    def reset_values(self) -> dict[str, Any]:
+        """What every reset applies before the episode starts: the parameters and the fixed inputs
+        (values, or callables drawn per episode)."""
+        return {**self.parameters, **self.fixed_inputs}
+
     @classmethod
     def from_mapping(cls, mapping: Mapping[str, Any]) -> FMUEnvConfig:
         """Build a config from a dict, with a clear error for unknown or missing keys."""
@@ -115,6 +132,8 @@ class FMUEnvConfig:
         config.inputs = list([config.inputs] if isinstance(config.inputs, str) else config.inputs)
         config.outputs = list([config.outputs] if isinstance(config.outputs, str) else config.outputs)
         config.parameters = dict(config.parameters)
+        check_fixed_inputs(config)
+        config.fixed_inputs = dict(config.fixed_inputs)
         check_numbers(config)
         check_termination(config.termination)
         check_batch_hooks(config)

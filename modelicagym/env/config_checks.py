@@ -19,8 +19,8 @@ import numpy as np
 
 from modelicagym.errors import ConfigError, ConfigTypeError
 
-__all__ = ["check_action_bound_names", "check_action_bounds", "check_batch_hooks", "check_numbers", "check_parameter",
-           "check_termination"]
+__all__ = ["check_action_bound_names", "check_action_bounds", "check_batch_hooks", "check_fixed_input_names",
+           "check_fixed_inputs", "check_numbers", "check_parameter", "check_termination"]
 
 
 def _real(key: str, value: Any) -> float:
@@ -80,6 +80,12 @@ def check_action_bounds(action_bounds: Any) -> None:
         return
     if not isinstance(action_bounds, Mapping):
         raise ConfigTypeError(f"action_bounds must be {{input: (low, high)}}, got {action_bounds!r}")
+    unset = [name for name, bounds in action_bounds.items() if bounds is None]
+    if unset:
+        raise ConfigError(f"action_bounds of {', '.join(map(repr, unset))} {'is' if len(unset) == 1 else 'are'} still "
+                          "None, the placeholder `modelicagym info` writes where nothing in the FMU says an input's "
+                          "range: give each a (low, high) pair (from the model's documentation, or what `modelicagym "
+                          "try` shows), or hold the input with 'fixed_inputs'")
     _check_intervals(action_bounds, "action_bounds", finite=True)
 
 
@@ -91,6 +97,40 @@ def check_action_bound_names(fmu: str, action_bounds: Mapping[str, Any], inputs:
             hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
             raise ConfigError(f"{fmu}: action_bounds names {name!r}, which is not in 'inputs'.{hint} "
                               f"Inputs: {', '.join(inputs) or 'none'}")
+
+
+def check_fixed_inputs(config: Any) -> None:
+    """``fixed_inputs`` is ``{input: value}`` whose names are in neither ``inputs`` (an input is
+    driven by the action or held, not both) nor ``parameters`` (one value per variable)."""
+    fixed = config.fixed_inputs
+    if not isinstance(fixed, Mapping):
+        raise ConfigTypeError(f"fixed_inputs must be {{input: value}}, got {fixed!r} ({type(fixed).__name__})")
+    for key, what in (("inputs", "driven by the action"), ("parameters", "set as a parameter")):
+        both = [name for name in fixed if name in getattr(config, key)]
+        if both:
+            raise ConfigError(f"{', '.join(map(repr, both))} {'is' if len(both) == 1 else 'are'} in both {key!r} ({what}) and 'fixed_inputs' (held at a "
+                              f"value): keep {'it' if len(both) == 1 else 'each'} in one of them")
+
+
+def check_fixed_input_names(fmu: str, fixed_inputs: Mapping[str, Any], variables: Mapping[str, Any],
+                            inputs: list[Any]) -> list[Any]:
+    """The variables ``fixed_inputs`` names, each checked to be one of the FMU's ``inputs`` (an
+    unknown name gets close matches; a parameter is sent to ``parameters``)."""
+    names = [v.name for v in inputs]
+    checked = []
+    for name in fixed_inputs:
+        variable = variables.get(name)
+        if variable is None:
+            close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+            hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            raise ConfigError(f"{fmu}: fixed_inputs names {name!r}, which is not an input of this FMU.{hint} "
+                              f"Inputs: {', '.join(names) or 'none'}")
+        if not variable.is_input:
+            fix = "put it in 'parameters'" if variable.is_parameter else "only inputs are held"
+            raise ConfigError(f"{fmu}: fixed_inputs names {name!r}, which is not an input (causality "
+                              f"{variable.causality!r}): {fix}")
+        checked.append(variable)
+    return checked
 
 
 def _check_intervals(intervals: Mapping[str, Any], what: str, finite: bool) -> None:
@@ -122,11 +162,12 @@ _KINDS: dict[str, tuple[type, ...]] = {
 }
 
 
-def check_parameter(fmu: str, variable: Any, value: Any) -> None:
-    """A fixed (non-callable) parameter value fits ``variable`` (an `fmu.variables.Variable`)."""
+def check_parameter(fmu: str, variable: Any, value: Any, role: str = "parameter") -> None:
+    """A fixed (non-callable) value of a parameter (or of a held input: ``role``) fits ``variable``
+    (an `fmu.variables.Variable`)."""
     if callable(value):
         return
-    where = f"{fmu}: parameter {variable.name!r} ({variable.fmi_type}{list(variable.shape) if variable.shape else ''})"
+    where = f"{fmu}: {role} {variable.name!r} ({variable.fmi_type}{list(variable.shape) if variable.shape else ''})"
     allowed = _KINDS.get(variable.kind)
     kind = f"{'an' if variable.kind[0] in 'aeiou' else 'a'} {variable.kind}"
     if variable.shape:

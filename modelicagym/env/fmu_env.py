@@ -2,9 +2,9 @@
 
 The step contract, stated once:
 
-* ``reset(seed, options)`` starts an episode at ``start_time`` with the config's parameters,
-  updated by ``options["parameters"]`` for that episode only; it returns the outputs as the
-  first observation and an empty info.
+* ``reset(seed, options)`` starts an episode at ``start_time`` with the config's parameters and
+  fixed inputs (``episode_parameters`` holds both as set), updated by ``options["parameters"]`` for
+  that episode only; it returns the outputs as the first observation and an empty info.
 * ``step(action)`` checks the action (a clear ``ValueError`` otherwise), maps it to input values
   (`action_to_inputs`), advances the FMU by ``time_step`` and returns
   ``(observation, reward, terminated, truncated, info)``:
@@ -50,7 +50,7 @@ import numpy as np
 
 from modelicagym.action_checks import action_checker
 from modelicagym.env.config import FMUEnvConfig
-from modelicagym.env.config_checks import check_action_bound_names, check_parameter
+from modelicagym.env.config_checks import check_action_bound_names, check_fixed_input_names, check_parameter
 from modelicagym.env.endings import (
     PythonEndings,
     batch_reward_defined,
@@ -123,13 +123,16 @@ class FMUEnv(gym.Env):
         self.render_mode = render_mode
         if self._draws_strip_chart:
             require_matplotlib()  # before the FMU is loaded: a missing extra is one line, nothing to free
-        used = [*cfg.inputs, *cfg.outputs, *cfg.parameters]  # bounds are on outputs
+        used = [*cfg.inputs, *cfg.outputs, *cfg.parameters, *cfg.fixed_inputs]  # bounds are on outputs
         self.description = description = open_fmu(cfg.fmu, validate=cfg.validate, used=used)
         if not cfg.outputs:
             raise ConfigError(f"{description.name}: 'outputs' is empty; outputs of this FMU: "
                              f"{', '.join(v.name for v in description.outputs) or 'none'}")
         for name, value in cfg.parameters.items():
             check_parameter(description.name, description.settable_variable(name), value)
+        held = check_fixed_input_names(description.name, cfg.fixed_inputs, description.variables, description.inputs)
+        for variable in held:
+            check_parameter(description.name, variable, cfg.fixed_inputs[variable.name], "fixed input")
         check_action_bound_names(description.name, cfg.action_bounds or {}, list(cfg.inputs))
         self.time_step = float(cfg.time_step or description.default_experiment.step_size or 0.0)
         if not self.time_step > 0:
@@ -224,9 +227,9 @@ class FMUEnv(gym.Env):
             return self.observation(), {}
         overrides = options.get("parameters") if options else None
         if not overrides and self._native is not None and self._native.reset():
-            self.episode_parameters = dict(self.config.parameters)  # a native reset: no random ones
+            self.episode_parameters = self.config.reset_values  # a native reset: no random ones
             return self.observation(), {}
-        parameters = {**self.config.parameters, **(overrides or {})}
+        parameters = {**self.config.reset_values, **(overrides or {})}
         self.episode_parameters = {
             name: value(self.np_random) if callable(value) else value for name, value in parameters.items()
         }
@@ -297,7 +300,7 @@ class FMUEnv(gym.Env):
         if not isinstance(initial, EnvState):
             raise ArgumentTypeError(f"{self.description.name}: reset option 'initial_state' takes an EnvState, "
                                     f"got {type(initial).__name__}")
-        parameters = {**self.config.parameters, **(options.get("parameters") or {})}
+        parameters = {**self.config.reset_values, **(options.get("parameters") or {})}
         if (self.fmu.initialized or any(callable(v) for v in parameters.values())
                 or not _same_values(parameters, initial.episode_parameters)):
             return False
@@ -363,7 +366,7 @@ class FMUEnv(gym.Env):
         the same config: no parameter drawn at random, no overridden ``reset``. The pool may then
         move the env between processes at an episode boundary (``modelicagym.vector.parent.placement``)."""
         return (type(self).reset is FMUEnv.reset and self.config.start_states is None
-                and not any(callable(v) for v in self.config.parameters.values()))
+                and not any(callable(v) for v in self.config.reset_values.values()))
 
     @property
     def per_env_hooks(self) -> list[str]:

@@ -302,7 +302,7 @@ class NativeStep:
         state.clock = ctypes.pointer(fmu.clock)
         self._reward = ctypes.c_double(0.0)
         # resets only Python can do: parameters drawn per episode, or a start state drawn from a list
-        self._random_parameters = (any(callable(value) for value in config.parameters.values())
+        self._random_parameters = (any(callable(value) for value in config.reset_values.values())
                                    or config.start_states is not None)
         self._step = self.library.mg_env_step
         self._reset = self.library.mg_env_reset
@@ -394,7 +394,7 @@ class NativeStep:
             state.get_boolean_status = binding.function_address("fmi2GetBooleanStatus") if prefix == "fmi2" else None
         state.integrator = None if integrator is None else ctypes.addressof(integrator.state)
         # a native reset stands for reset() without options: the config's parameters
-        snapshot = None if self._random_parameters else fmu.restorable_snapshot(self.env.config.parameters)
+        snapshot = None if self._random_parameters else fmu.restorable_snapshot(self.env.config.reset_values)
         state.set_state = None if snapshot is None else binding.function_address(_SET_STATE[state.fmi_version])
         state.snapshot = snapshot
         state.native_reset = snapshot is not None

@@ -40,6 +40,8 @@ LINES_PER_PANEL = 6
 # per frame by a layout engine (which costs more than the drawing)
 _WIDTH, _PANEL_HEIGHT, _GAP, _DPI = 640, 100, 24, 80
 _LEFT, _RIGHT, _TOP, _BOTTOM = 72, 14, 48, 44
+#: the title names the variables left out when their names fit in this many characters
+_NOTE_CHARS = 40
 _COLOURS = {"action": "tab:orange", "observation": "tab:blue"}
 _PLOTTED_KINDS = ("float", "integer", "boolean", "enumeration")
 
@@ -79,21 +81,21 @@ def _series(v: Variable, role: str) -> list[Series]:
     return [Series(name, v.unit or "", role, v.kind, stepwise) for name in names]
 
 
-def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], int]:
-    """Which series each panel draws (indices into ``series``), and how many series do not fit.
+def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], list[int]]:
+    """Which series each panel draws (indices into ``series``), and the series that do not fit.
 
     One panel per series when at most `MAX_PANELS`; else the series grouped by role, unit and kind
     (a count apart from a temperature in kelvin), `LINES_PER_PANEL` to a panel, and the panels past
     `MAX_PANELS` left out. Decided from the variables alone, so every frame has the same panels.
     """
     if len(series) <= MAX_PANELS:
-        return [[i] for i in range(len(series))], 0
+        return [[i] for i in range(len(series))], []
     groups: dict[tuple[str, str], list[int]] = {}
     for i, s in enumerate(series):
         groups.setdefault((s.role, s.unit, s.kind), []).append(i)
     panels = [members[k : k + LINES_PER_PANEL] for members in groups.values()
               for k in range(0, len(members), LINES_PER_PANEL)]
-    return panels[:MAX_PANELS], sum(len(p) for p in panels[MAX_PANELS:])
+    return panels[:MAX_PANELS], [i for panel in panels[MAX_PANELS:] for i in panel]
 
 
 class StripChart:
@@ -116,6 +118,8 @@ class StripChart:
         self.series: list[Series] = [s for _, v, role in plotted for s in _series(v, role)]
         self._columns = self._column_slices(plotted)
         self._rows = np.zeros((64, 1 + len(self.series)))
+        #: the names of the series the chart leaves out (more than `MAX_PANELS` panels would hold)
+        self.left_out: list[str] = [self.series[i].name for i in panels_of(self.series)[1]]
         self.length = 0
         self._figure: Any = None
 
@@ -183,7 +187,8 @@ class StripChart:
         start = times[0] if self.length else self._fmu.start_time
         end = max(start + (self.horizon or 0.0), times[-1] if self.length else start)
         self._axes[0].set_xlim(start, end if end > start else start + 1.0)
-        now = f"t = {times[-1]:g} s, {self.length - 1} steps" if self.length else "not reset yet"
+        steps = self.length - 1
+        now = f"t = {times[-1]:g} s, {steps} step{'' if steps == 1 else 's'}" if self.length else "not reset yet"
         self._figure.suptitle(f"{self.title}: {now}{self._note}", fontsize=10, y=1 - 8 / self._height, va="top")
         return self._canvas
 
@@ -219,5 +224,8 @@ class StripChart:
             ax.tick_params(labelsize=7)
             ax.grid(True, linewidth=0.4, alpha=0.5)
         axes[-1].set_xlabel("time [s]", fontsize=8)
-        note = f" ({left_out} more variables not drawn)" if left_out else ""
+        note = ""
+        if left_out:
+            names = ", ".join(self.left_out)
+            note = f" (not drawn: {names})" if len(names) <= _NOTE_CHARS else f" ({len(left_out)} variables not drawn)"
         return figure, canvas, axes, lines, note

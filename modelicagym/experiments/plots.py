@@ -21,9 +21,14 @@ __all__ = ["plot_learning_curve", "plot_sweep"]
 logger = logging.getLogger(__name__)
 
 
-def plot_learning_curve(curve: list[tuple[float, float, float]], path: str | Path, title: str) -> Path | None:
+def plot_learning_curve(curve: list[tuple[float, float, float]], path: str | Path, title: str, *,
+                        reference: tuple[str, float] | None = None, empty: str = "no episode ended") -> Path | None:
     """Draw a training run's ``(env steps, mean episode return, mean episode length)`` points
-    (the deep-RL examples' curves) into a PNG at ``path``; ``None`` without matplotlib."""
+    (the deep-RL examples' curves) into a PNG at ``path``; ``None`` without matplotlib.
+
+    ``reference`` (a label and a return, e.g. random actions') is drawn as a dashed line across the
+    returns, so the curve says what it improves on; an empty ``curve`` still gives a picture, with
+    ``empty`` written across it, so a run never leaves the reader to guess why there is none."""
     try:
         import matplotlib
 
@@ -32,9 +37,15 @@ def plot_learning_curve(curve: list[tuple[float, float, float]], path: str | Pat
     except ImportError:
         logger.warning("matplotlib is not installed: skipping the plot %s (pip install 'modelicagym[plots]')", path)
         return None
-    steps, returns, lengths = np.array(curve, dtype=float).T
+    steps, returns, lengths = np.array(curve, dtype=float).reshape(-1, 3).T
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), layout="constrained")
-    top.plot(steps, returns)
+    top.plot(steps, returns, label="training episodes")
+    if reference is not None:
+        label, value = reference
+        top.axhline(value, color="tab:gray", linestyle="--", linewidth=1.0, label=f"{label}: {value:.4g}")
+        top.legend(loc="lower right", fontsize=8, frameon=False)
+    if not curve:
+        top.text(0.5, 0.5, empty, transform=top.transAxes, ha="center", va="center", fontsize=9, wrap=True)
     top.set_ylabel("mean episode return")
     bottom.plot(steps, lengths)
     bottom.set_ylabel("mean episode length")

@@ -58,6 +58,8 @@ from modelicagym.fmu.saved_state import FMUState
 logger = logging.getLogger(__name__)
 
 RUNGS = ("snapshot", "reset", "reinstantiate")
+#: what each rung below the snapshot does at every reset, for the warning that drops to it
+_RUNG_COSTS = {"reset": "fmiReset and a new initialization", "reinstantiate": "a new instance, initialized"}
 
 _BINDINGS: dict[int, type[FMIBinding]] = {1: FMI1Binding, 2: FMI2Binding, 3: FMI3Binding}
 
@@ -552,9 +554,14 @@ class FMUInstance:
         return requested
 
     def _demote(self, rung: str, reason: str) -> None:
-        """Stop using ``rung`` (and any rung above it): it failed or gave wrong values."""
+        """Stop using ``rung`` (and any rung above it): it failed or gave wrong values. The warning
+        says what a newcomer needs to judge it: results stay right (no rung serves an episode before
+        it replays a fresh instance's, and re-instantiation is one), only resets cost more."""
         lower = RUNGS[RUNGS.index(rung) + 1]
-        logger.warning("%s: reset rung %r %s; using %r from now on", self.fmu_name, rung, reason, lower)
+        logger.warning("%s: reset rung %r %s; resets use %r (%s) from now on. Results are not affected: a rung "
+                       "serves episodes only once it replays a fresh instance's exactly, and a fresh instance is "
+                       "the reference; resets take longer, and reset_rung=%r in the config skips the check",
+                       self.fmu_name, rung, reason, lower, _RUNG_COSTS[lower], lower)
         self.reset_rung = lower
         self._free_snapshot()
 

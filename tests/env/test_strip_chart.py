@@ -22,6 +22,7 @@ from modelicagym import FMUEnv
 from modelicagym.env.strip_chart import LINES_PER_PANEL, MAX_PANELS, panels_of
 from modelicagym.fmu import open_fmu
 from modelicagym.info import suggest
+from modelicagym.try_fmu import try_config
 from modelicagym.vector import PoolVectorEnv
 
 pytestmark = pytest.mark.timeout(300)
@@ -31,7 +32,7 @@ pytestmark = pytest.mark.timeout(300)
 def config(request, family_fmu, cartpole_fmu) -> dict:
     """``modelicagym info``'s config for a real FMU, episodes of 40 steps."""
     fmu = cartpole_fmu(2) if request.param == "cartpole" else family_fmu("probe", int(request.param[-1]))
-    return {**suggest(open_fmu(fmu)).config, "max_episode_steps": 40}
+    return {**try_config(fmu), "max_episode_steps": 40}
 
 
 def run(env: FMUEnv, steps: int, seed: int = 0) -> list[tuple]:
@@ -66,7 +67,7 @@ def test_a_charting_env_passes_gymnasiums_checks_render_included(family_fmu):
 
 @requires("plots")
 def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
-    config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
+    config = {**try_config(cartpole_fmu(2)), "max_episode_steps": 40}
     env = FMUEnv(config, render_mode="rgb_array")
     observation, _ = env.reset(seed=3)
     env.action_space.seed(3)
@@ -87,7 +88,7 @@ def test_the_chart_holds_every_step_s_actions_and_observations(cartpole_fmu):
 
 @requires("plots")
 def test_recording_changes_no_result_and_costs_nothing_without_rendering(cartpole_fmu):
-    config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
+    config = {**try_config(cartpole_fmu(2)), "max_episode_steps": 40}
     plain, rendering = FMUEnv(config), FMUEnv(config, render_mode="rgb_array")
     # without a render mode: no chart, no per-instance step or reset, the native path
     assert plain.strip_chart is None and plain.render() is None
@@ -126,7 +127,7 @@ def test_many_variables_are_grouped_by_role_unit_and_kind(family_fmu):
     series = env.strip_chart.series
     assert len(series) > MAX_PANELS  # the FMI 3.0 probe's arrays count one line per element
     panels, left_out = panels_of(series)
-    assert left_out == 0 and len(panels) <= MAX_PANELS
+    assert left_out == [] and len(panels) <= MAX_PANELS
     assert sorted(i for panel in panels for i in panel) == list(range(len(series)))
     for panel in panels:
         assert len(panel) <= LINES_PER_PANEL
@@ -140,7 +141,7 @@ def test_many_variables_are_grouped_by_role_unit_and_kind(family_fmu):
 @pytest.mark.processes
 def test_a_pool_of_charting_envs_draws_what_a_single_env_draws(cartpole_fmu):
     # the cart-pole's config would step natively, a whole slice in one C call, skipping the recording
-    config = {**suggest(open_fmu(cartpole_fmu(2))).config, "max_episode_steps": 40}
+    config = {**try_config(cartpole_fmu(2)), "max_episode_steps": 40}
     make = partial(FMUEnv, config, render_mode="rgb_array")
     with PoolVectorEnv([make] * 2, num_workers=2) as pool:
         pool.reset(seed=0)  # env 0 gets seed 0

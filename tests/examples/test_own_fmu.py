@@ -53,7 +53,7 @@ def task_config(fmu: Path, **parameters: float) -> dict:
     return config
 
 
-def printed_config(info_output: str) -> dict:
+def printed_config_of(info_output: str) -> dict:
     """The ``config = {...}`` that ``modelicagym info`` printed."""
     start = info_output.index("config = {") + len("config = ")
     end = info_output.index("\n    }", start) + len("\n    }")
@@ -62,10 +62,12 @@ def printed_config(info_output: str) -> dict:
 
 @needs_sb3
 def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
-    # 1. build the test FMU to a path, 2. its config as `info` prints it: the task file's, pasted
+    # 1. build the test FMU to a path in a folder of one's own, 2. its config as `info` prints it: the
+    # task file's, pasted (the task file kept beside the FMU: its fmu path is relative to its folder)
     run("-m", "modelicagym.cli", "build", str(ROOT / "tests" / "fmus" / "own_heater"), "--out", "heater.fmu",
         cwd=tmp_path)
-    printed = printed_config(run("-m", "modelicagym.cli", "info", "heater.fmu", cwd=tmp_path).stdout)
+    (tmp_path / "heater_task.py").write_text(TASK.read_text())
+    printed = printed_config_of(run("-m", "modelicagym.cli", "info", "heater.fmu", cwd=tmp_path).stdout)
     pasted = runpy.run_path(str(TASK))["config"]
     edited = {"max_episode_steps", "parameters", "batch_reward", "termination"}
     assert {k: v for k, v in pasted.items() if k not in edited} == {k: v for k, v in printed.items() if k not in edited}
@@ -75,9 +77,9 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
     # 3. train, briefly (SAC starts learning after 500 steps)
     temp = tmp_path / "temp"
     temp.mkdir()
-    out = run(str(EXAMPLES / "train_own_fmu.py"), str(TASK), "--out", "run", "--steps", "700", "--envs", "2",
+    out = run(str(EXAMPLES / "train_own_fmu.py"), "heater_task.py", "--out", "run", "--steps", "700", "--envs", "2",
               "--eval-episodes", "2", cwd=tmp_path, temp=temp).stdout
-    assert "trained 700 steps" in out and "evaluation, 2 episodes" in out
+    assert "trained 700 steps" in out and "evaluation, 2 episodes" in out and "no training episode ended" not in out
     assert not list(temp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
     folder = tmp_path / "run"
     summary = json.loads((folder / "run.json").read_text())
@@ -95,11 +97,12 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
     assert all(0 < int(r["env_steps"]) <= 700 and 0 < int(r["episode_length"]) <= 60
                and math.isfinite(float(r["episode_return"])) for r in rows)
 
-    # the GIF: the strip chart of the first evaluation episode, a frame a step
+    # the GIF: the strip chart of the first evaluation episode, at most 40 frames (--gif-frames), the last
+    # step's among them: 60 steps, a frame every 2
     from PIL import Image
 
     with Image.open(folder / "evaluation.gif") as gif:
-        assert gif.n_frames == summary["gif_frames"] > 0
+        assert gif.n_frames == summary["gif_frames"] == 30 and summary["gif_every"] == 2
         assert gif.size[0] == 640
 
     # the saved policy loads and acts on the FMU, through the saved normalization
@@ -118,6 +121,36 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
             assert math.isfinite(reward)
     finally:
         env.close()
+
+
+@needs_sb3
+def test_a_run_whose_episodes_never_end_still_draws_its_curve_and_says_why(tmp_path, family_fmu):
+    """50 steps on 2 envs of 60-step episodes: no training episode ends. The curve is drawn anyway
+    (with the random actions' line and the reason written across it), the reason printed; no GIF
+    asked for, none written. The task file is run from another folder: its fmu is beside it."""
+    (tmp_path / "heater.fmu").write_bytes(family_fmu("own_heater", 2).read_bytes())
+    (tmp_path / "heater_task.py").write_text(TASK.read_text())
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = run(str(EXAMPLES / "train_own_fmu.py"), "../heater_task.py", "--out", "run", "--steps", "50", "--envs", "2",
+              "--eval-episodes", "1", "--gif-frames", "0", cwd=elsewhere).stdout
+    assert ("no training episode ended in 50 steps: an episode lasts up to 60 steps on each of 2 envs, so at least "
+            "120 steps are needed; train longer (--steps) or shorten the episodes (max_episode_steps)") in out
+    summary = json.loads((elsewhere / "run" / "run.json").read_text())
+    assert summary["training_episodes"] == 0 and summary["gif_frames"] == 0
+    assert set(summary["files"]) == {"policy.zip", "normalize.pkl", "learning_curve.csv", "learning_curve.png"}
+
+
+def test_the_gif_takes_at_most_the_frames_asked_for_and_the_last_step():
+    spec = importlib.util.spec_from_file_location("train_own_fmu", EXAMPLES / "train_own_fmu.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    for length in (1, 7, 60, 500, 501):
+        for frames in (1, 2, 5, 40, 600):
+            every = script.gif_every(length, frames)
+            drawn = [k for k in range(1, length + 1) if k % every == 0 or k == length]
+            assert len(drawn) <= frames and drawn[-1] == length
+    assert script.gif_every(500, 0) == 0
 
 
 def test_the_task_reward_and_termination_are_what_the_task_file_says(family_fmu):
@@ -176,7 +209,7 @@ def test_the_pool_ends_the_task_s_steps_as_a_single_env_does(family_fmu):
 
 @needs_sb3
 @pytest.mark.parametrize("task, message", [
-    ("missing.py", "missing.py"),
+    ("missing.py", "task file not found: missing.py"),
     ("bad_variable.py", "no output named 'Temp'. This FMU's outputs: T, P"),
     ("bad_path.py", "FMU not found: heatr.fmu"),
     ("no_config.py", "a task file defines config = {...}"),
@@ -210,7 +243,8 @@ def test_build_of_a_model_folder_refuses_bad_input_in_one_line(tmp_path):
 @needs_sb3
 def test_ppo_trains_on_the_same_task_file(tmp_path, family_fmu):
     (tmp_path / "heater.fmu").write_bytes(family_fmu("own_heater", 2).read_bytes())
-    out = run(str(EXAMPLES / "train_own_fmu.py"), str(TASK), "--out", "run", "--algo", "ppo", "--steps", "1024",
+    (tmp_path / "heater_task.py").write_text(TASK.read_text())
+    out = run(str(EXAMPLES / "train_own_fmu.py"), "heater_task.py", "--out", "run", "--algo", "ppo", "--steps", "1024",
               "--envs", "2", "--eval-episodes", "1", cwd=tmp_path).stdout
     assert "PPO on 2 envs" in out and "trained 1024 steps" in out
     from stable_baselines3 import PPO
@@ -219,3 +253,32 @@ def test_ppo_trains_on_the_same_task_file(tmp_path, family_fmu):
     summary = json.loads((tmp_path / "run" / "run.json").read_text())
     assert summary["algorithm"] == "ppo" and summary["env_steps"] == 1024 and len(summary["evaluation_returns"]) == 1
     assert policy.action_space.shape == (1,)
+
+
+CONSUMER_TASK = EXAMPLES / "consumer_task.py"
+
+
+def test_the_consumer_task_is_info_s_config_edited_where_it_says(family_fmu, capsys):
+    """``examples/consumer_task.py``, the README's FMU with many inputs: ``info``'s config with the
+    placeholder filled, a held input drawn per episode and the timing edited; nothing else."""
+    from modelicagym import cli
+
+    fmu = family_fmu("consumer", 2)
+    assert cli.main(["info", str(fmu)]) == 0
+    printed_config = printed_config_of(capsys.readouterr().out)
+    task = runpy.run_path(str(CONSUMER_TASK))["config"]
+    edited = {"fmu", "fixed_inputs", "action_bounds", "time_step", "max_episode_steps", "batch_reward"}
+    assert {k: v for k, v in task.items() if k not in edited} == {
+        k: v for k, v in printed_config.items() if k not in edited}
+    assert {k: v for k, v in task["fixed_inputs"].items() if k != "T_amb"} == {
+        k: v for k, v in printed_config["fixed_inputs"].items() if k != "T_amb"}
+    assert printed_config["action_bounds"] == {"valve": None} and task["action_bounds"] == {"valve": (0.0, 1.0)}
+
+    config = {**task, "fmu": fmu, "fixed_inputs": {**task["fixed_inputs"], "T_amb": 303.15}}
+    env = FMUEnv(config)
+    try:
+        env.reset(seed=0)
+        observation, reward, *_ = env.step(np.array([0.0]))  # valve shut: no flow, no pumping cost
+    finally:
+        env.close()
+    assert observation[2] == 0.0 and reward == pytest.approx(-abs(float(observation[0]) - 295.15), abs=1e-4)

@@ -146,7 +146,7 @@ def test_a_buggy_reset_is_demoted_with_a_warning_and_episodes_stay_right(family_
     assert len(warnings) == 1
     message = warnings[0].getMessage()
     assert "reset rung 'reset'" in message and "different initial outputs" in message
-    assert "'reinstantiate'" in message
+    assert "resets use 'reinstantiate' (a new instance, initialized) from now on. Results are not affected" in message
     assert env.fmu.reset_rung == "reinstantiate"
     caplog.clear()
     with caplog.at_level(logging.WARNING):

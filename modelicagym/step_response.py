@@ -1,0 +1,269 @@
+"""``modelicagym try TARGET --step INPUT``: how fast an FMU responds, to choose the time step and
+the episode length from what it does rather than by guessing.
+
+For each chosen input, `step_response` runs the config twice from the same start: once with the
+input held at its start value, once with it stepped (at the start) to another value, every other
+input held as the config holds it (the action's other inputs at their start values). The
+difference of the two runs is the response to the step alone, even for an FMU that does not start
+at rest. An output's settling time is when its response enters, for good, a band of 2% of its
+largest excursion around its final value. The horizon starts at the config's episode and grows
+tenfold until every output that responds settles in its first half (at most `MAX_GROWTHS` times);
+an output that settles within a few points of that run is timed again on a shorter one. `suggest_timing` turns the
+settling times into a time step (a tenth of the fastest) and an episode (twice the slowest).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modelicagym.disk import atomic_write
+from modelicagym.env import FMUEnv
+from modelicagym.env.strip_chart import MAX_PANELS, require_matplotlib
+from modelicagym.errors import ConfigError
+from modelicagym.fmu import open_fmu
+from modelicagym.info import infer_bounds
+
+__all__ = ["MAX_GROWTHS", "OutputResponse", "StepResponse", "parse_step", "plot_step_responses", "step_response",
+           "suggest_timing"]
+
+#: the horizon grows tenfold at most this many times while an output has not settled
+MAX_GROWTHS = 6
+#: points of each run (the communication step is the horizon over this)
+POINTS = 400
+#: the settling band: this fraction of the response's largest excursion
+BAND = 0.02
+#: an episode longer than this many steps is pointed out in the suggestion
+LONG_EPISODE = 1000
+#: a settling time within this many points of its run is measured again on a finer one
+FINE = 20
+#: config keys a step response leaves out: they shape the action, the reward or the episode's end
+_DROPPED = ("action_bounds", "action_space", "observation_space", "action_table", "reward", "termination",
+            "batch_reward", "batch_termination", "start_states")
+
+
+@dataclass(frozen=True)
+class OutputResponse:
+    """One output's response to one step: its change at the end, and when it settled (None: it
+    did not, within the horizon; ``responds`` False: it did not move)."""
+
+    name: str
+    unit: str
+    change: float
+    settling_time: float | None
+    responds: bool
+
+    def line(self, horizon: float) -> str:
+        label = f"{self.name} [{self.unit}]" if self.unit else self.name
+        if not self.responds:
+            return f"  {label}: no response"
+        if self.settling_time is None:
+            return f"  {label}: {self.change:+.4g}, not settled in {horizon:g} s"
+        if self.settling_time == 0.0:
+            return f"  {label}: {self.change:+.4g}, at once (within the first step: no lag)"
+        return f"  {label}: {self.change:+.4g}, settles (2%) in {self.settling_time:.3g} s"
+
+
+@dataclass(frozen=True)
+class StepResponse:
+    """The response of a config's outputs to a step of one input."""
+
+    input: str
+    start_value: float
+    step_value: float
+    times: np.ndarray  # from the step, s
+    responses: np.ndarray  # stepped run minus held run, one column per output
+    outputs: list[OutputResponse]
+
+    @property
+    def horizon(self) -> float:
+        return float(self.times[-1])
+
+    def lines(self) -> list[str]:
+        """What the command prints for this step: one line, then one per output."""
+        return [f"step of {self.input} from {self.start_value:g} to {self.step_value:g}, {self.horizon:g} s:",
+                *(o.line(self.horizon) for o in self.outputs)]
+
+
+def parse_step(text: str) -> tuple[str, float | None]:
+    """``INPUT`` or ``INPUT=VALUE`` (the value to step to) -> ``(input, value or None)``."""
+    name, sep, value = text.partition("=")
+    if not sep:
+        return name.strip(), None
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise ConfigError(f"--step expects INPUT or INPUT=VALUE (a number), got {text!r}") from None
+
+
+def _run_config(config: Mapping[str, Any], name: str, horizon: float) -> dict[str, Any]:
+    """``config`` acting on input ``name`` alone for ``POINTS`` steps over ``horizon`` seconds, the
+    action's other inputs held at their start values."""
+    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    fixed = {k: v for k, v in (config.get("fixed_inputs") or {}).items() if k != name}
+    for other in config.get("inputs") or ():
+        if other != name:
+            fixed[other] = description.variable(other).start
+    run = {k: v for k, v in config.items() if k not in _DROPPED}
+    return {**run, "inputs": [name], "fixed_inputs": fixed, "time_step": horizon / POINTS,
+            "max_episode_steps": POINTS}
+
+
+def _values(config: Mapping[str, Any], name: str, value: float | None, seed: int) -> tuple[float, float]:
+    """The start value of input ``name`` and the value to step it to (``value``, else the end of its
+    range farther from its start: the config's action bounds, its declared ones or info's)."""
+    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    variable = description.variables.get(name)
+    if variable is None or not variable.is_input:
+        description.variable(name, description.inputs, "input")  # an unknown name: close matches
+        raise ConfigError(f"{description.name}: --step {name}: not an input (causality {variable.causality!r}); "
+                          f"inputs: {', '.join(v.name for v in description.inputs)}")
+    held = (config.get("fixed_inputs") or {}).get(name, variable.start)
+    start = float(held(np.random.default_rng(seed)) if callable(held) else held)
+    if value is not None:
+        return start, value
+    bounds = (config.get("action_bounds") or {}).get(name)
+    if bounds is None and variable.min is not None and variable.max is not None:
+        bounds = (variable.min, variable.max)
+    if bounds is None and variable.kind == "float":
+        inferred = infer_bounds(variable, description)
+        bounds = None if inferred.placeholder else (inferred.low, inferred.high)
+    if bounds is None:
+        raise ConfigError(f"{description.name}: nothing says the range of {name!r}: give the value to step it to "
+                          f"(--step {name}=VALUE)")
+    low, high = map(float, bounds)
+    return start, (high if high - start >= start - low else low)
+
+
+def _episode(config: dict[str, Any], value: float, seed: int) -> tuple[np.ndarray, np.ndarray, list[tuple[str, str]]]:
+    """One run holding the acted input at ``value``: the times, the outputs' values (one column
+    each), and the outputs' names and units."""
+    env = FMUEnv(config, render_mode="rgb_array")
+    try:
+        env.reset(seed=seed)
+        action = np.full(env.action_space.shape, value, dtype=env.action_space.dtype)
+        for _ in range(POINTS):
+            *_, terminated, _, info = env.step(action)
+            if "fmu_error" in info or terminated:
+                raise ConfigError(f"{env.description.name}: the step response stopped at t = {env.time:g} s: "
+                                  f"{info.get('fmu_error') or 'the FMU ended the simulation'}")
+        chart = env.strip_chart
+        columns = [k for k, s in enumerate(chart.series) if s.role == "observation"]
+        names = [(chart.series[k].name, chart.series[k].unit) for k in columns]
+        return chart.times - chart.times[0], chart.values[:, columns], names
+    finally:
+        env.close()
+
+
+def _settling(times: np.ndarray, response: np.ndarray, held: np.ndarray) -> tuple[float | None, bool]:
+    """When ``response`` settles within `BAND` of its largest excursion around its final value
+    (None: not in the first half of the run), and whether it moved at all (beyond rounding of the
+    ``held`` run's values)."""
+    peak = float(np.max(np.abs(response)))
+    if not peak > 1e-9 * (1.0 + float(np.max(np.abs(held)))):
+        return None, False
+    outside = np.flatnonzero(np.abs(response[1:] - response[-1]) > BAND * peak)  # [0]: before the step acts
+    settled = float(times[outside[-1] + 2]) if outside.size else 0.0  # 0: within the first step (no lag)
+    return (settled if settled <= times[-1] / 2 else None), True
+
+
+def _respond(config: Mapping[str, Any], name: str, start: float, target: float, horizon: float,
+             seed: int) -> tuple[np.ndarray, np.ndarray, list[tuple[str, str]], list[tuple[float | None, bool]]]:
+    """One step over ``horizon``: the times, the responses (stepped run minus held run), the
+    outputs' names and units, and each output's settling time and whether it responds."""
+    run = _run_config(config, name, horizon)
+    times, held, names = _episode(run, start, seed)
+    _, stepped, _ = _episode(run, target, seed)
+    difference = stepped - held
+    return times, difference, names, [_settling(times, difference[:, k], held[:, k]) for k in range(len(names))]
+
+
+def step_response(config: Mapping[str, Any], name: str, value: float | None = None, *, seed: int = 0) -> StepResponse:
+    """The response of ``config``'s outputs to input ``name`` stepped from its start value to
+    ``value`` (else to the end of its range farther from its start); see the module docstring.
+
+    The horizon grows tenfold until every responding output settles in its first half; then an
+    output that settled within `FINE` points of that run is measured again on a run four times its
+    settling time long, so a fast output is not timed on a slow one's grid."""
+    start, target = _values(config, name, value, seed)
+    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    time_step = config.get("time_step") or description.default_experiment.step_size or 0.1
+    horizon = float(time_step) * float(config.get("max_episode_steps") or 100)
+    for growth in range(MAX_GROWTHS + 1):
+        times, difference, names, settling = _respond(config, name, start, target, horizon, seed)
+        if growth == MAX_GROWTHS or all(t is not None for t, responds in settling if responds):
+            break
+        horizon *= 10.0
+    best = [(t, horizon / POINTS) for t, _ in settling]
+    for _ in range(MAX_GROWTHS):
+        coarse = [t for t, dt in best if t is not None and 0.0 < t < FINE * dt]
+        if not coarse:
+            break
+        fine = 4.0 * min(coarse)
+        _, _, _, finer = _respond(config, name, start, target, fine, seed)
+        best = [(t, fine / POINTS) if t is not None and fine / POINTS < dt else (old, dt)
+                for (old, dt), (t, _) in zip(best, finer)]
+    outputs = [OutputResponse(n, u, float(difference[-1, k]), t, responds)
+               for k, ((n, u), (t, _), (_, responds)) in enumerate(zip(names, best, settling))]
+    return StepResponse(name, start, target, times, difference, outputs)
+
+
+def _nice(value: float) -> float:
+    """``value`` rounded down to 1, 2 or 5 times a power of ten."""
+    power = 10.0 ** math.floor(math.log10(value))
+    return max(m for m in (1.0, 2.0, 5.0) if m * power <= value * (1 + 1e-9)) * power
+
+
+def suggest_timing(responses: Sequence[StepResponse]) -> str | None:
+    """One line: a time step (a tenth of the fastest settling time, rounded down to 1, 2 or 5
+    times a power of ten) and an episode length (twice the slowest), from the settled outputs;
+    None when nothing settled."""
+    settled = [(o.settling_time, o.name) for r in responses for o in r.outputs if o.settling_time]
+    if not settled:
+        return None
+    (fastest, fast_name), (slowest, slow_name) = min(settled), max(settled)
+    time_step = _nice(fastest / 10)
+    steps = math.ceil(2 * slowest / time_step)
+    line = (f"suggested: time_step {time_step:g} s (a tenth of the fastest settling, {fast_name}'s {fastest:.3g} s), "
+            f"max_episode_steps {steps} ({2 * slowest:.3g} s: twice the slowest, {slow_name}'s {slowest:.3g} s)")
+    if steps > LONG_EPISODE:
+        line += (f"; over {LONG_EPISODE} steps, as the outputs settle on far apart time scales: a longer time step "
+                 f"does if {fast_name} needs no control within its settling")
+    return line
+
+
+def plot_step_responses(responses: Sequence[StepResponse], path: str | Path) -> tuple[Path, list[str]]:
+    """One panel per output (up to `MAX_PANELS`), each step's response over time with its settling
+    time dashed, as a PNG at ``path``; the path and the outputs left out."""
+    figure_class, canvas_class = require_matplotlib()
+    outputs = [(o.name, o.unit) for o in responses[0].outputs]
+    drawn, left_out = outputs[:MAX_PANELS], [name for name, _ in outputs[MAX_PANELS:]]
+    figure = figure_class(figsize=(8, 1.6 * len(drawn) + 0.8), dpi=80, layout="constrained")
+    axes = figure.subplots(len(drawn), 1, sharex=False, squeeze=False)[:, 0]
+    for k, (ax, (name, unit)) in enumerate(zip(axes, drawn)):
+        for i, response in enumerate(responses):
+            colour = f"C{i}"
+            ax.plot(response.times, response.responses[:, k], color=colour, linewidth=1.2,
+                    label=f"{response.input}: {response.start_value:g} -> {response.step_value:g}")
+            settling = response.outputs[k].settling_time
+            if settling:
+                ax.axvline(settling, color=colour, linestyle="--", linewidth=0.8)
+        ax.set_title(f"{name} [{unit}]" if unit else name, loc="right", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(True, linewidth=0.4, alpha=0.5)
+    settled = [o.settling_time for r in responses for o in r.outputs if o.settling_time]
+    longest = max(r.horizon for r in responses)
+    for ax in axes:  # the settling, not the tenfold horizon that found it, fills the width
+        ax.set_xlim(0.0, min(longest, 2.5 * max(settled)) if settled else longest)
+    axes[0].legend(loc="best", fontsize=7, frameon=False)
+    axes[-1].set_xlabel("time since the step [s] (dashed: settled within 2%)", fontsize=8)
+    figure.suptitle("step responses: the stepped run minus the held one", fontsize=10)
+    canvas = canvas_class(figure)
+    with atomic_write(path, "wb", elsewhere="choose another file (try --out)") as f:
+        canvas.print_png(f)
+    return Path(path), left_out
