@@ -74,6 +74,11 @@ SIGNATURES = {
     "mg_watch_unregister": (None, (ctypes.c_void_p,)),
     "mg_serve": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_collect": (ctypes.c_int32, (ctypes.c_void_p,)),
+    "mg_post_step": (None, (ctypes.c_void_p,)),
+    "mg_go_post": (None, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64)),
+    "mg_go_wait": (ctypes.c_int, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64,
+                                  ctypes.c_void_p)),
+    "mg_answer": (None, (ctypes.c_void_p, ctypes.c_void_p)),
     "mg_first_outside_int64": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_int64)),
     "mg_first_outside_float64": (
         ctypes.c_int64,
