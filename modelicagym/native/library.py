@@ -88,6 +88,7 @@ SIGNATURES = {
     "mg_integrator_open": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_double)),
     "mg_integrator_close": (None, (ctypes.c_void_p,)),
     "mg_integrator_advance": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_double, ctypes.c_double)),
+    "mg_step_sync_ns": (ctypes.c_int64, (ctypes.c_int64, ctypes.c_int64, ctypes.c_int32, ctypes.c_int64, ctypes.c_int64)),
     "mg_wake_round_trip_ns": (ctypes.c_int64, (ctypes.c_int64,)),
     "mg_loop": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),
     "mg_q_states": (None, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
