@@ -188,8 +188,7 @@ def test_a_crash_among_four_workers_is_named_and_the_barrier_goes_on_after_the_r
             observations, _, _, _, infos = pool.step(np.ones((8, 1)))
             assert RESTART_INFO_KEY not in infos
         assert observations.shape == (8, 2)
-    with pytest.raises(WorkerDiedError, match=r"env 5\b"):
-        with PoolVectorEnv(fns, num_workers=4) as pool:
-            pool.reset(seed=0)
-            for _ in range(5):
-                pool.step(np.ones((8, 1)))
+    with pytest.raises(WorkerDiedError, match=r"env 5\b"), PoolVectorEnv(fns, num_workers=4) as pool:
+        pool.reset(seed=0)
+        for _ in range(5):
+            pool.step(np.ones((8, 1)))

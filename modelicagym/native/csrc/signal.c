@@ -183,7 +183,7 @@ static int poll_for(mg_signal *signal, int64_t start, int64_t spin_ns) {
     }
 }
 
-/* Where a waiter sleeps: its signal's own word (bell NULL), or a bell on some bits. */
+/* Where a waiter sleeps: its signal's own word, or a bell (signal.h) on its bits. */
 typedef struct {
     uint32_t *word;
     uint32_t bits;

@@ -174,7 +174,7 @@ class GoSignal(FutexSignal):
     (``mg_post_step``, ``csrc/slice.h``); :meth:`post` wakes this worker alone (``mg_go_post``).
     Both processes build it on the same ``barrier`` (its address in each) and ``slot``."""
 
-    __slots__ = ("_barrier", "_slot", "_post_one", "_wait_bell")
+    __slots__ = ("_barrier", "_post_one", "_slot", "_wait_bell")
 
     def __init__(self, library: ctypes.CDLL, address: int, barrier: int, slot: int) -> None:
         super().__init__(library, address)
@@ -194,7 +194,7 @@ class AnswerSignal(FutexSignal):
     """A worker's ``done`` on the worker's side: a post is ``mg_answer``, which first counts the
     step's barrier down (``csrc/slice.h``), so the parent waits once for all the workers of a step."""
 
-    __slots__ = ("_barrier", "_answer")
+    __slots__ = ("_answer", "_barrier")
 
     def __init__(self, library: ctypes.CDLL, address: int, barrier: int) -> None:
         super().__init__(library, address)
