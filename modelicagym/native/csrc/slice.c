@@ -128,10 +128,14 @@ int mg_go_wait(mg_signal *go, mg_barrier *barrier, int64_t slot, int64_t spin_ns
     return mg_signal_wait_bell(go, &barrier->bell, bell_bit(slot), spin_ns, timeout_ns, waiter);
 }
 
+/* The count first, so that once the parent sees `done` this answer's count has landed (a later
+ * step's count never takes it); `done` before `all_done`, so that the parent woken by the last
+ * answer finds that worker's `done` there instead of waiting for it. */
 void mg_answer(mg_barrier *barrier, mg_signal *done) {
-    if (__atomic_sub_fetch(&barrier->countdown, 1, __ATOMIC_SEQ_CST) == 0)
-        mg_signal_post(&barrier->all_done);
+    int last = __atomic_sub_fetch(&barrier->countdown, 1, __ATOMIC_SEQ_CST) == 0;
     mg_signal_post(done);
+    if (last)
+        mg_signal_post(&barrier->all_done);
 }
 
 int32_t mg_serve(mg_server *server) {

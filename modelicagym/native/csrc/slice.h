@@ -82,7 +82,7 @@ void mg_put_observation(const mg_batch *b, int64_t i, const mg_env *env, bool fi
  * Every worker's `go` waiter sleeps on the one `bell`, on its own bit (signal.h); a step posts the
  * `go` of every stepping worker, rings the bell once and wakes all sleeping ones in one system call
  * (mg_post_step). Each worker answers (mg_answer) by counting `countdown` down, then posting its own
- * `done`; the one that takes the count to 0 posts `all_done`, the one signal the parent waits for.
+ * `done`; the one that took the count to 0 then posts `all_done`, the one signal the parent waits for.
  * So the parent pays at most one wake-up and one sleep a step; nobody sleeps, no system call.
  *
  * The count is exact only during a step: every answer counts down (a reset's or a call's too), and
