@@ -100,10 +100,11 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
 def add_arguments(parser: Any) -> None:
     """``modelicagym bench {fmi-calls,step-paths,model-exchange,throughput,shared,autoreset,training,partial-batches,
     runner,solver-accuracy,ray,load-trial,fmu,python-reward,saved-states,init-once,balance,once-per-process,
-    pool-gain}``: their arguments."""
+    pool-gain,barrier}``: their arguments."""
     from modelicagym.bench import (
         autoreset,
         balance,
+        barrier,
         fmi_calls,
         init_once,
         load_trial,
@@ -130,7 +131,7 @@ def add_arguments(parser: Any) -> None:
                   ("runner", runner), ("solver-accuracy", solver_accuracy), ("ray", ray), ("load-trial", load_trial),
                   ("fmu", own_fmu), ("python-reward", python_reward),
                   ("saved-states", saved_states), ("init-once", init_once), ("balance", balance),
-                  ("once-per-process", once_per_process), ("pool-gain", pool_gain))
+                  ("once-per-process", once_per_process), ("pool-gain", pool_gain), ("barrier", barrier))
     for name, module in benchmarks:
         sub = which.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
         module.add_arguments(sub)

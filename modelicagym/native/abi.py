@@ -36,6 +36,7 @@ __all__ = [
     "Flags",
     "IntegratorCall",
     "IntegratorOutcome",
+    "MgBarrier",
     "MgBatch",
     "MgCall",
     "MgCollector",
@@ -425,11 +426,27 @@ class MgWaiter(ctypes.Structure):
     ]
 
 
+class MgBarrier(ctypes.Structure):
+    """``mg_barrier`` (``csrc/slice.h``): a pool step's barrier, in the pool's shared memory (Python
+    only allocates it: `SharedBuffers.barrier`)."""
+
+    _fields_ = [
+        ("bell", ctypes.c_uint32),
+        ("pad_bell", ctypes.c_uint32 * 15),
+        ("countdown", ctypes.c_uint32),
+        ("pad_countdown", ctypes.c_uint32 * 15),
+        ("all_done", ctypes.c_uint8 * 16),  # an mg_signal (csrc/signal.h)
+        ("pad_all_done", ctypes.c_uint8 * 48),
+    ]
+
+
 class MgServer(ctypes.Structure):
     """``mg_server`` (``csrc/slice.h``): a worker's command loop in C."""
 
     _fields_ = [
-        *_pointers("batch", "go", "done", "command", "reply"),
+        *_pointers("batch", "go", "done", "barrier"),
+        ("slot", ctypes.c_int64),
+        *_pointers("command", "reply"),
         ("step_code", ctypes.c_int32),
         *_pointers("spin_ns"),
         ("timeout_ns", ctypes.c_int64),
@@ -442,7 +459,7 @@ class MgCollector(ctypes.Structure):
 
     _fields_ = [
         ("n_workers", ctypes.c_int64),
-        *_pointers("done", "replies", "stepping", "spin_ns"),
+        *_pointers("go", "done", "barrier", "replies", "stepping", "spin_ns"),
         ("timeout_ns", ctypes.c_int64),
         ("waiter", ctypes.c_void_p),
         ("calls", ctypes.c_int64),
@@ -480,6 +497,7 @@ STRUCTS: dict[str, type[ctypes.Structure]] = {
     "mg_part": MgPart,
     "mg_range": MgRange,
     "mg_waiter": MgWaiter,
+    "mg_barrier": MgBarrier,
     "mg_server": MgServer,
     "mg_collector": MgCollector,
     "mg_qlearner": MgQLearner,

@@ -41,15 +41,34 @@ int64_t mg_now_ns(void) {
     return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
 }
 
-static long futex(uint32_t *word, int op, uint32_t value, const struct timespec *timeout) {
-    return syscall(SYS_futex, word, op, value, timeout, NULL, 0);
+static long futex(uint32_t *word, int op, uint32_t value, const struct timespec *timeout, uint32_t bits) {
+    return syscall(SYS_futex, word, op, value, timeout, NULL, bits);
 }
 
-void mg_signal_post(mg_signal *signal) {
+void mg_signal_set(mg_signal *signal) {
     __atomic_store_n(&signal->posted_ns, mg_now_ns(), __ATOMIC_RELAXED);
     __atomic_store_n(&signal->posted, 1, __ATOMIC_SEQ_CST);
-    if (__atomic_load_n(&signal->sleepers, __ATOMIC_SEQ_CST))
-        futex(&signal->posted, FUTEX_WAKE, INT_MAX, NULL);
+}
+
+int mg_signal_sleeps(const mg_signal *signal) { return __atomic_load_n(&signal->sleepers, __ATOMIC_SEQ_CST) != 0; }
+
+void mg_signal_post(mg_signal *signal) {
+    mg_signal_set(signal);
+    if (mg_signal_sleeps(signal))
+        futex(&signal->posted, FUTEX_WAKE, INT_MAX, NULL, 0);
+}
+
+/* The bump comes after the signals' sets: a waiter that read the bell before it finds its word
+ * changed when it goes to sleep (the kernel compares it), one that read it after sees its post. */
+void mg_bell_ring(uint32_t *bell, uint32_t bits, int wake) {
+    __atomic_add_fetch(bell, 1, __ATOMIC_SEQ_CST);
+    if (wake)
+        futex(bell, FUTEX_WAKE_BITSET, INT_MAX, NULL, bits);
+}
+
+void mg_signal_post_bell(mg_signal *signal, uint32_t *bell, uint32_t bits) {
+    mg_signal_set(signal);
+    mg_bell_ring(bell, bits, mg_signal_sleeps(signal));
 }
 
 int mg_signal_try(mg_signal *signal) {
@@ -164,30 +183,34 @@ static int poll_for(mg_signal *signal, int64_t start, int64_t spin_ns) {
     }
 }
 
-static int sleep_until_posted(mg_signal *signal, int64_t deadline) {
+/* Where a waiter sleeps: its signal's own word, or a bell (signal.h) on its bits. */
+typedef struct {
+    uint32_t *word;
+    uint32_t bits;
+} sleep_place;
+
+static int sleep_until_posted(mg_signal *signal, sleep_place place, int64_t deadline) {
+    struct timespec at = {.tv_sec = deadline / 1000000000, .tv_nsec = deadline % 1000000000};
     __atomic_add_fetch(&signal->sleepers, 1, __ATOMIC_SEQ_CST);
     int got = 0;
     for (;;) {
+        /* a bell is read before the post is looked at: a ring in between changes the word, so the
+         * futex wait below returns at once instead of sleeping through the post */
+        uint32_t expected = place.word == &signal->posted ? 0 : __atomic_load_n(place.word, __ATOMIC_SEQ_CST);
         if (mg_signal_try(signal)) {
             got = 1;
             break;
         }
-        struct timespec ts, *timeout = NULL;
-        if (deadline >= 0) {
-            int64_t left = deadline - mg_now_ns();
-            if (left <= 0)
-                break;
-            ts.tv_sec = left / 1000000000;
-            ts.tv_nsec = left % 1000000000;
-            timeout = &ts;
-        }
-        futex(&signal->posted, FUTEX_WAIT, 0, timeout);
+        if (deadline >= 0 && mg_now_ns() >= deadline)
+            break;
+        /* FUTEX_WAIT_BITSET's timeout is absolute, on CLOCK_MONOTONIC (mg_now_ns's clock) */
+        futex(place.word, FUTEX_WAIT_BITSET, expected, deadline >= 0 ? &at : NULL, place.bits);
     }
     __atomic_sub_fetch(&signal->sleepers, 1, __ATOMIC_SEQ_CST);
     return got;
 }
 
-int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_waiter *waiter) {
+static int wait_for(mg_signal *signal, sleep_place place, int64_t spin_ns, int64_t timeout_ns, mg_waiter *waiter) {
     mg_waiter scratch = {0};
     if (!waiter)
         waiter = &scratch;
@@ -202,7 +225,7 @@ int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_wa
         waiter->spun++;
         return 1;
     }
-    int got = sleep_until_posted(signal, timeout_ns < 0 ? -1 : start + timeout_ns);
+    int got = sleep_until_posted(signal, place, timeout_ns < 0 ? -1 : start + timeout_ns);
     if (spin)
         waiter->slept++;
     else
@@ -210,4 +233,13 @@ int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_wa
     int64_t posted_after = __atomic_load_n(&signal->posted_ns, __ATOMIC_RELAXED) - start;
     waiter->long_waits = !got || posted_after > spin_ns ? waiter->long_waits + 1 : 0;
     return got;
+}
+
+int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_waiter *waiter) {
+    return wait_for(signal, (sleep_place){&signal->posted, FUTEX_BITSET_MATCH_ANY}, spin_ns, timeout_ns, waiter);
+}
+
+int mg_signal_wait_bell(mg_signal *signal, uint32_t *bell, uint32_t bits, int64_t spin_ns, int64_t timeout_ns,
+                        mg_waiter *waiter) {
+    return wait_for(signal, (sleep_place){bell, bits}, spin_ns, timeout_ns, waiter);
 }

@@ -25,6 +25,12 @@
  *
  * The struct lives in memory shared by the processes (MAP_SHARED), each on a cache line of its
  * own; zeroed memory is an unposted signal. A waiter is private to the process that waits.
+ *
+ * A bell: waiters of several signals may sleep on one shared futex word instead of their signal's
+ * own, each on its own bits of the word's wake-up mask (FUTEX_WAIT_BITSET). Every post to one of
+ * the signals bumps the word; the poster's wake-up wakes only the bits it names. So one poster can
+ * post many signals and wake all their sleeping waiters with a single system call (the pool's step:
+ * slice.h, mg_post_step), and still post just one of them, waking only its waiter.
  */
 #ifndef MG_SIGNAL_H
 #define MG_SIGNAL_H
@@ -53,6 +59,22 @@ void mg_signal_post(mg_signal *signal);
  * then sleeping. `waiter` may be NULL (no adaptation to this party's own waits).
  * timeout_ns < 0 waits forever. Returns 1 when a post was consumed, 0 on timeout. */
 int mg_signal_wait(mg_signal *signal, int64_t spin_ns, int64_t timeout_ns, mg_waiter *waiter);
+
+/* mg_signal_wait for a waiter that sleeps on `bell` (a futex word in shared memory, see above) on
+ * `bits` (not 0), where mg_signal_wait sleeps on the signal's own word. */
+int mg_signal_wait_bell(mg_signal *signal, uint32_t *bell, uint32_t bits, int64_t spin_ns, int64_t timeout_ns,
+                        mg_waiter *waiter);
+
+/* Post a signal whose waiter sleeps on `bell` on `bits`: set it, ring the bell, wake its waiter if it
+ * sleeps. */
+void mg_signal_post_bell(mg_signal *signal, uint32_t *bell, uint32_t bits);
+
+/* The parts of mg_signal_post_bell, for a poster that posts several signals with one ring and one
+ * wake-up: set each signal (no wake-up), note which of their waiters sleep (mg_signal_sleeps, after
+ * every set), then ring once, waking the sleepers' bits (`wake` 0: nobody sleeps, no system call). */
+void mg_signal_set(mg_signal *signal);
+int mg_signal_sleeps(const mg_signal *signal);
+void mg_bell_ring(uint32_t *bell, uint32_t bits, int wake);
 
 /* Consume a post if there is one, without waiting: 1 if there was. */
 int mg_signal_try(mg_signal *signal);

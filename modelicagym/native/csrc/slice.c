@@ -115,10 +115,33 @@ static int64_t step_batch(mg_batch *b) {
     return for_python;
 }
 
+/* A worker's bit of the bell's wake-up mask. Workers 32 apart share one: a wake-up for one wakes
+ * the other too, which finds no post and sleeps again. */
+static uint32_t bell_bit(int64_t slot) { return 1u << (slot % 32); }
+
+void mg_go_post(mg_signal *go, mg_barrier *barrier, int64_t slot) {
+    mg_signal_post_bell(go, &barrier->bell, bell_bit(slot));
+}
+
+int mg_go_wait(mg_signal *go, mg_barrier *barrier, int64_t slot, int64_t spin_ns, int64_t timeout_ns,
+               mg_waiter *waiter) {
+    return mg_signal_wait_bell(go, &barrier->bell, bell_bit(slot), spin_ns, timeout_ns, waiter);
+}
+
+/* The count first, so that once the parent sees `done` this answer's count has landed (a later
+ * step's count never takes it); `done` before `all_done`, so that the parent woken by the last
+ * answer finds that worker's `done` there instead of waiting for it. */
+void mg_answer(mg_barrier *barrier, mg_signal *done) {
+    int last = __atomic_sub_fetch(&barrier->countdown, 1, __ATOMIC_SEQ_CST) == 0;
+    mg_signal_post(done);
+    if (last)
+        mg_signal_post(&barrier->all_done);
+}
+
 int32_t mg_serve(mg_server *server) {
     for (;;) {
         int64_t spin_ns = __atomic_load_n(server->spin_ns, __ATOMIC_RELAXED);
-        if (!mg_signal_wait(server->go, spin_ns, server->timeout_ns, server->waiter))
+        if (!mg_go_wait(server->go, server->barrier, server->slot, spin_ns, server->timeout_ns, server->waiter))
             return MG_SERVE_TIMEOUT;
         int32_t code = *server->command;
         if (code != server->step_code || server->batch == NULL)
@@ -126,18 +149,42 @@ int32_t mg_serve(mg_server *server) {
         if (mg_step_batch(server->batch))
             return MG_SERVE_PYTHON_STEP;
         *server->reply = 0;
-        mg_signal_post(server->done);
+        mg_answer(server->barrier, server->done);
     }
+}
+
+void mg_post_step(mg_collector *c) {
+    mg_barrier *barrier = c->barrier;
+    uint32_t members = 0, bits = 0;
+    for (int64_t k = 0; k < c->n_workers; k++)
+        members += c->stepping[k] != 0;
+    /* the count and a clear `all_done` before any worker can see its post and answer */
+    __atomic_store_n(&barrier->countdown, members, __ATOMIC_SEQ_CST);
+    mg_signal_try(&barrier->all_done);
+    for (int64_t k = 0; k < c->n_workers; k++)
+        if (c->stepping[k]) {
+            mg_signal_set(c->go[k]);
+            bits |= bell_bit(k);
+        }
+    int wake = 0;
+    for (int64_t k = 0; k < c->n_workers && !wake; k++)
+        wake = c->stepping[k] && mg_signal_sleeps(c->go[k]);
+    mg_bell_ring(&barrier->bell, bits, wake);
 }
 
 int32_t mg_collect(mg_collector *c) {
     int64_t started = mg_now_ns(), spin_ns = __atomic_load_n(c->spin_ns, __ATOMIC_RELAXED);
-    int64_t long_waits = c->waiter->long_waits;
     c->calls++;
+    /* one wait for the waiter's account, however many workers: `all_done`'s post time is the last answer's */
+    int32_t status = mg_signal_wait(&((mg_barrier *)c->barrier)->all_done, spin_ns, c->timeout_ns, c->waiter)
+                         ? MG_COLLECT_DONE
+                         : MG_COLLECT_SLOW;
+    /* Each worker posts its `done` just after counting down: usually there already. Taken so that no
+     * later wait finds it; a worker descheduled in between is waited for (no waiter: not the parent's
+     * adaptive account). */
     int64_t seen = 0;
-    int32_t status = MG_COLLECT_DONE;
-    for (; seen < c->n_workers; seen++)
-        if (c->stepping[seen] && !mg_signal_wait(c->done[seen], spin_ns, c->timeout_ns, c->waiter)) {
+    for (; status == MG_COLLECT_DONE && seen < c->n_workers; seen++)
+        if (c->stepping[seen] && !mg_signal_wait(c->done[seen], spin_ns, c->timeout_ns, NULL)) {
             status = MG_COLLECT_SLOW;
             break;
         }
@@ -149,15 +196,5 @@ int32_t mg_collect(mg_collector *c) {
             if (c->stepping[k])
                 mg_signal_post(c->done[k]);
     c->wait_ns += mg_now_ns() - started;
-    /* The collection is one wait for the waiter's account, however many signals it took (a later
-     * worker's post found at once says nothing about whether the next collection pays polling):
-     * long if the last post came after the spin time. */
-    int64_t last_post = started;
-    for (int64_t k = 0; k < seen; k++)
-        if (c->stepping[k]) {
-            int64_t posted = __atomic_load_n(&((mg_signal *)c->done[k])->posted_ns, __ATOMIC_RELAXED);
-            last_post = posted > last_post ? posted : last_post;
-        }
-    c->waiter->long_waits = status != MG_COLLECT_DONE || last_post - started > spin_ns ? long_waits + 1 : 0;
     return status;
 }

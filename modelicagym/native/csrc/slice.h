@@ -2,8 +2,8 @@
  * and the parent's side of a pool step, in C while nothing needs Python.
  *
  * The pool's native path (modelicagym/vector/slice/native_slice.py): mg_step_batch steps each env of the
- * slice with mg_env_step (step.h) and writes its results into the pool's shared arrays; mg_serve
- * and mg_collect wait on the signals of signal.h.
+ * slice with mg_env_step (step.h) and writes its results into the pool's shared arrays; mg_serve,
+ * mg_post_step and mg_collect are the two sides of a step's barrier (mg_barrier, below).
  */
 #ifndef MG_SLICE_H
 #define MG_SLICE_H
@@ -76,15 +76,51 @@ int64_t mg_step_batch(mg_batch *batch);
  * an env whose observation is Python's (env->python_observation: Python writes its rows). */
 void mg_put_observation(const mg_batch *b, int64_t i, const mg_env *env, bool final);
 
+/* The step's barrier, in the pool's shared memory: what makes waking the k workers of a step and
+ * learning that all of them are done cost a constant number of system calls, whatever k.
+ *
+ * Every worker's `go` waiter sleeps on the one `bell`, on its own bit (signal.h); a step posts the
+ * `go` of every stepping worker, rings the bell once and wakes all sleeping ones in one system call
+ * (mg_post_step). Each worker answers (mg_answer) by counting `countdown` down, then posting its own
+ * `done`; the one that took the count to 0 then posts `all_done`, the one signal the parent waits for.
+ * So the parent pays at most one wake-up and one sleep a step; nobody sleeps, no system call.
+ *
+ * The count is exact only during a step: every answer counts down (a reset's or a call's too), and
+ * mg_post_step sets it, and clears a stale `all_done`, before it posts. That is safe because the
+ * parent posts a step only when no command is out, and a worker counts down before it posts `done`
+ * (once the parent saw a worker done, that worker's count has landed). The count only spares the
+ * parent a wait per worker: the workers' `done`s stay the truth (the parent takes each after
+ * `all_done`, and Python's slow path waits on them, with timeouts and death checks). */
+typedef struct {
+    uint32_t bell;          /* futex word every worker's `go` waiter sleeps on: each post bumps it */
+    uint32_t pad_bell[15];  /* each word on a cache line of its own */
+    uint32_t countdown;     /* workers of the step yet to answer */
+    uint32_t pad_countdown[15];
+    mg_signal all_done;     /* posted by the answer that takes countdown to 0 */
+    uint8_t pad_all_done[64 - sizeof(mg_signal)];
+} mg_barrier;
+
+/* Post worker `slot`'s `go` alone (a command other than a pool step, a held or partial batch's step). */
+void mg_go_post(mg_signal *go, mg_barrier *barrier, int64_t slot);
+
+/* A worker's wait for its `go`, asleep on the barrier's bell (mg_signal_wait's policy and result). */
+int mg_go_wait(mg_signal *go, mg_barrier *barrier, int64_t slot, int64_t spin_ns, int64_t timeout_ns,
+               mg_waiter *waiter);
+
+/* A worker's answer to any command: count the step down, then post its `done` (see mg_barrier). */
+void mg_answer(mg_barrier *barrier, mg_signal *done);
+
 /* A worker's command loop, in C while the commands are steps Python need not see.
- * Waits for `go`; on a STEP command of a native slice runs mg_step_batch and, when no env needs
- * Python, answers (reply NONE, post `done`) and waits again. Returns to Python with
+ * Waits for `go` (mg_go_wait); on a STEP command of a native slice runs mg_step_batch and, when no
+ * env needs Python, answers (reply NONE, mg_answer) and waits again. Returns to Python with
  * MG_SERVE_TIMEOUT (no command within timeout_ns: Python checks its parent is alive),
  * MG_SERVE_PYTHON_STEP (the step ran; batch->flags say what Python must finish, then answer), or
  * any other command code for Python to run. */
 typedef struct {
     mg_batch *batch; /* NULL: the slice is not native; every command goes to Python */
     void *go, *done; /* mg_signal (signal.h) */
+    void *barrier;   /* mg_barrier */
+    int64_t slot;    /* the worker's index (its bit of the bell) */
     const int32_t *command;
     int32_t *reply;
     int32_t step_code;
@@ -96,25 +132,28 @@ typedef struct {
 enum { MG_SERVE_TIMEOUT = -1, MG_SERVE_PYTHON_STEP = -2 };
 int32_t mg_serve(mg_server *server);
 
-/* The parent's side of a pool step, after it posted every stepping worker's `go` and stepped its
- * own slice (vector/parent/dispatch.py: Dispatcher.run_own_slice): wait for every stepping worker's
- * `done` and check that none has a reply. Returns MG_COLLECT_DONE when the batch is complete;
- * MG_COLLECT_SLOW when a worker did not post within timeout_ns or has a reply (every `done`
- * consumed here is posted again, so Python's slow path finds it). */
+/* The parent's side of a pool step: mg_post_step posts every stepping worker's `go` (their command
+ * slots already say STEP); after the calling process stepped its own slice
+ * (vector/parent/dispatch.py: Dispatcher.run_own_slice), mg_collect waits for `all_done`, takes every
+ * stepping worker's `done` and checks that none has a reply. It returns MG_COLLECT_DONE when the
+ * batch is complete; MG_COLLECT_SLOW when the workers did not all answer within timeout_ns or one
+ * has a reply (every `done` consumed here is posted again, so Python's slow path finds it). */
 typedef struct {
     int64_t n_workers;
-    void **done;           /* mg_signal of each worker */
+    void **go, **done;      /* mg_signal of each worker */
+    void *barrier;          /* mg_barrier */
     const int32_t *replies; /* reply slot of each worker (worker k: replies[k]) */
-    const uint8_t *stepping; /* per worker: it was woken for this step (else it is not waited for) */
-    const int64_t *spin_ns; /* how long to poll for each `done` */
+    const uint8_t *stepping; /* per worker: it steps (else it is neither woken nor waited for) */
+    const int64_t *spin_ns; /* how long to poll for the workers */
     int64_t timeout_ns;
-    mg_waiter *waiter; /* the adaptive state of the parent's waits for `done` (signal.h) */
+    mg_waiter *waiter; /* the adaptive state of the parent's waits for `all_done` (signal.h) */
     /* out, summed over calls until Python clears them: calls, and time waiting for the workers
      * (the adaptive layout's measurement, vector/parent/placement.py) */
     int64_t calls, wait_ns;
 } mg_collector;
 
 enum { MG_COLLECT_DONE = 0, MG_COLLECT_SLOW = 1 };
+void mg_post_step(mg_collector *collector);
 int32_t mg_collect(mg_collector *collector);
 
 #endif

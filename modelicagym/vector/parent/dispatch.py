@@ -122,18 +122,19 @@ class Dispatcher:
         self._own_ns = self._own_calls = 0
 
     def _native_collector(self) -> NativeCollector | None:
-        """The native wait for a step's workers (``mg_collect``) when their signals live in shared
-        memory (with no workers: when the calling process's slice is native, so the library is
-        loaded; the wait is then one call that finds nothing to wait for); else ``None`` (the Python
-        waits)."""
+        """The native post to and wait for a step's workers (``mg_post_step``, ``mg_collect``: the
+        step's barrier) when their signals live in shared memory (with no workers: when the calling
+        process's slice is native, so the library is loaded; the wait is then one call that finds
+        nothing to wait for); else ``None`` (the Python posts and waits)."""
         if not all(isinstance(handle.done, FutexSignal) for handle in self.handles):
             return None
         if not self.handles and (self.local is None or self.local.native is None):
             return None
         timeout = LIVENESS_INTERVAL if self.step_timeout is None else min(self.step_timeout, LIVENESS_INTERVAL)
         return NativeCollector(
-            [handle.done.address for handle in self.handles], self.buffers.reply[: len(self.handles)],
-            self.stepping, self._collect_spin_ns, timeout, self.waiter,
+            [handle.go.address for handle in self.handles], [handle.done.address for handle in self.handles],
+            self.buffers.barrier_address, self.buffers.reply[: len(self.handles)], self.stepping,
+            self._collect_spin_ns, timeout, self.waiter,
         )
 
     def stepping_changed(self) -> None:
@@ -209,9 +210,20 @@ class Dispatcher:
                 self.send(self._step_all, slots_hold_code=True)
             else:
                 self.pending = self._step_all  # before posting: a Ctrl-C half-way still shows the command out
-                for party in self._stepping_parties:
-                    party.post(Command.STEP, None, None, None)
+                self._post_step()
         self._step_sent = True
+
+    def _post_step(self) -> None:
+        """Post ``STEP`` (already in the command slots) to every stepping party: the workers in one
+        C call (the step's barrier) when their signals are native, else one by one."""
+        if self._collector is None:
+            for party in self._stepping_parties:
+                party.post(Command.STEP, None, None, None)
+            return
+        if self.caller is not None:
+            self.caller.post(Command.STEP, None, None, None)
+        if self._workers_step:
+            self._collector.post()
 
     def reset(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray) -> None:
         """Reset the envs selected by ``mask`` (workers with none selected are not woken).

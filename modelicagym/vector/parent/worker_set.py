@@ -23,7 +23,7 @@ from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.protocol import CREATION, START_UP, EnvDescription, Kind, Message, StepPath, WorkerConfig
-from modelicagym.vector.wire.sync import FutexSignal, futex_library
+from modelicagym.vector.wire.sync import FutexSignal, GoSignal, futex_library
 
 __all__ = ["WorkerSet"]
 
@@ -197,7 +197,8 @@ class WorkerSet:
         if self._config.shared_signals:
             buffers, library = self.buffers, futex_library()
             buffers.signals[handle.index] = 0  # a restarted worker starts from unposted signals
-            handle.go = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO))
+            handle.go = GoSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO),
+                                 buffers.barrier_address, handle.index)
             handle.done = FutexSignal(library, buffers.signal_address(handle.index, SharedBuffers.DONE))
         handle.send(Message(Kind.BUFFERS, (self.buffers.spec, needs_reset)))
         handle.send_fd(self._resources.fd)

@@ -13,8 +13,9 @@ inputs are Python's (``python_inputs``: an overridden ``action_to_inputs``) has 
 its C call (`modelicagym.vector.slice.slice_edges`).
 
 `NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
-steps without returning to Python at all. `NativeCollector` is ``mg_collect``, the parent's side:
-after the calling process stepped its own slice, it waits for every stepping worker in one call.
+steps without returning to Python at all. `NativeCollector` is the parent's side: ``mg_post_step``
+wakes every stepping worker in one call, and after the calling process stepped its own slice
+``mg_collect`` waits for all of them in one call (the step's barrier).
 """
 
 from __future__ import annotations
@@ -295,6 +296,8 @@ class NativeServer:
         batch: the worker's native slice (one with ``python_phases`` steps with Python around
             its C calls: every command returns to Python).
         go, done: addresses of the worker's signals in shared memory.
+        barrier: address of the step's barrier (``mg_barrier``) in shared memory.
+        slot: the worker's index (its bit of the barrier's bell).
         command, reply: the worker's command and reply slots (one-element views).
         step_code: the command code of a step.
         spin_ns: the pool's shared poll time (a one-element int64 view of ``SharedBuffers.spin_ns``):
@@ -308,6 +311,8 @@ class NativeServer:
         batch: NativeBatch,
         go: int,
         done: int,
+        barrier: int,
+        slot: int,
         command: np.ndarray,
         reply: np.ndarray,
         step_code: int,
@@ -319,7 +324,7 @@ class NativeServer:
         self._waiter = waiter
         self.state = server = MgServer()
         server.batch = None if batch.python_phases else ctypes.addressof(batch.state)
-        server.go, server.done = go, done
+        server.go, server.done, server.barrier, server.slot = go, done, barrier, slot
         server.command, server.reply = command.ctypes.data, reply.ctypes.data
         server.step_code = step_code
         server.waiter = ctypes.addressof(waiter)
@@ -333,19 +338,24 @@ class NativeServer:
 
 
 class NativeCollector:
-    """``mg_collect``: the calling process waits for the workers of a step in one C call.
+    """The calling process's side of a pool step in C: ``mg_post_step`` wakes every stepping worker,
+    ``mg_collect`` waits until all have answered, each one call whatever the number of workers
+    (the step's barrier, ``csrc/slice.h``).
 
     Args:
-        done: addresses of the workers' ``done`` signals, in worker order.
+        go, done: addresses of the workers' ``go`` and ``done`` signals, in worker order.
+        barrier: address of the step's barrier (``mg_barrier``) in shared memory.
         replies: the workers' reply slots (worker ``k`` at index ``k``).
-        stepping: per worker, uint8: it was woken for the step (only those are waited for).
+        stepping: per worker, uint8: it steps (only those are woken and waited for).
         spin_ns, timeout: as for :class:`NativeServer`.
         waiter: the adaptive state of the parent's waits for the workers.
     """
 
     def __init__(
         self,
+        go: list[int],
         done: list[int],
+        barrier: int,
         replies: np.ndarray,
         stepping: np.ndarray,
         spin_ns: np.ndarray,
@@ -355,17 +365,23 @@ class NativeCollector:
         self.library = load_library()
         self.stepping = stepping
         self.waiter = waiter
+        self._go = (ctypes.c_void_p * max(len(go), 1))(*go)
         self._done = (ctypes.c_void_p * max(len(done), 1))(*done)
         self._replies = replies
         self.state = collector = MgCollector()
         collector.n_workers = len(done)
-        collector.done = ctypes.addressof(self._done)
+        collector.go, collector.done = ctypes.addressof(self._go), ctypes.addressof(self._done)
+        collector.barrier = barrier
         collector.replies = replies.ctypes.data
         collector.stepping = stepping.ctypes.data
         collector.spin_ns, collector.timeout_ns = spin_ns.ctypes.data, int(timeout * 1e9)
         collector.waiter = ctypes.addressof(waiter)
-        self._collect = self.library.mg_collect
+        self._post, self._collect = self.library.mg_post_step, self.library.mg_collect
         self._ref = ctypes.byref(collector)
+
+    def post(self) -> None:
+        """Wake every stepping worker for a step (their command slots say ``STEP``)."""
+        self._post(self._ref)
 
     def collect(self) -> int:
         """`COLLECT_DONE` or `COLLECT_SLOW` (see ``mg_collect``)."""

@@ -10,7 +10,7 @@ Fields are declared once, in `modelicagym.vector.wire.shared_fields` (``SHARED_F
 shape, the C field a native slice fills from it): observations and actions (any space Gymnasium's
 shared-memory helpers support), rewards, terminations, truncations, the masks, and per worker a
 command slot, a reply slot, the index of the env being run (to name it when the worker dies),
-timing counters and its two signals. Each field starts on a cache line of its own.
+timing counters and its two signals; and the step's barrier. Each field starts on a cache line of its own.
 
 Spaces made of ``Box``/``Discrete``/``MultiDiscrete``/``MultiBinary`` (also nested in
 ``Dict``/``Tuple``) are read and written through numpy views made once; a top-level array space
@@ -386,6 +386,11 @@ class SharedBuffers:
     def signal_address(self, slot: int, which: int) -> int:
         """Where the ``GO`` or ``DONE`` signal of ``slot`` lives in this process."""
         return self.signals.ctypes.data + self.signals[slot, which].nbytes * (2 * slot + which)
+
+    @property
+    def barrier_address(self) -> int:
+        """Where the step's barrier (``mg_barrier``) lives in this process."""
+        return self.barrier.ctypes.data
 
     @staticmethod
     def size_of(spec: BufferSpec) -> int:

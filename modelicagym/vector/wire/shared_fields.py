@@ -12,10 +12,13 @@ Shared wire: both sides (the calling process and the workers) lay out the memory
 
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
+
+from modelicagym.native.abi import MgBarrier
 
 __all__ = ["CACHE_LINE", "SHARED_FIELDS", "Rows", "SharedField", "Values"]
 
@@ -113,4 +116,7 @@ SHARED_FIELDS: tuple[SharedField, ...] = (
                 "(`Dispatcher.stepping_changed`, `dispatch.go_poll_time`), read at every such wait"),
     SharedField("signals", Rows.SLOT, np.uint32, (2, CACHE_LINE // 4), (),
                 "each slot's go and done signals (native/csrc/signal.h), a cache line each"),
+    SharedField("barrier", Rows.ONE, np.uint8, (ctypes.sizeof(MgBarrier),), (),
+                "the step's barrier (native/csrc/slice.h mg_barrier): the bell every worker's go sleeps on, "
+                "the count of the step's workers yet to answer, and the signal the last one posts"),
 )

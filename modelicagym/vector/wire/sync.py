@@ -8,6 +8,9 @@ Two implementations of one interface (``post()``, ``wait(spin_time, timeout) -> 
   A wait polls only while polling pays: it sleeps at once when the machine is crowded (more
   runnable threads than cores, by the kernel's CPU pressure) or when its previous wait outlasted
   the spin time (``signal.h`` states the policy; docs/design.md, "Waiting", gives the measurements).
+  In a pool, a worker's ``go`` is a :class:`GoSignal` and its ``done`` an :class:`AnswerSignal` on
+  its side: the step's barrier (``slice.h``) wakes all the workers and learns that all are done in
+  a constant number of system calls.
 - :class:`SemaphoreSignal`: a process-shared semaphore, for where the native library cannot be
   built (no C compiler) or there are no futexes; it predicts when a post comes (below).
 
@@ -39,7 +42,7 @@ from multiprocessing.context import BaseContext
 from os import sched_yield
 from time import perf_counter
 
-__all__ = ["FutexSignal", "SemaphoreSignal", "futex_library", "machine_crowded"]
+__all__ = ["AnswerSignal", "FutexSignal", "GoSignal", "SemaphoreSignal", "futex_library", "machine_crowded"]
 
 logger = logging.getLogger(__name__)
 
@@ -163,6 +166,42 @@ class FutexSignal:
 
     def close(self) -> None:
         """Nothing to release: the memory belongs to the pool."""
+
+
+class GoSignal(FutexSignal):
+    """A worker's ``go`` in a pool: its waiter sleeps on the step's barrier's bell, on the worker's
+    own bit (``mg_go_wait``), so that a step wakes every sleeping worker in one system call
+    (``mg_post_step``, ``csrc/slice.h``); :meth:`post` wakes this worker alone (``mg_go_post``).
+    Both processes build it on the same ``barrier`` (its address in each) and ``slot``."""
+
+    __slots__ = ("_barrier", "_post_one", "_slot", "_wait_bell")
+
+    def __init__(self, library: ctypes.CDLL, address: int, barrier: int, slot: int) -> None:
+        super().__init__(library, address)
+        self._barrier, self._slot = barrier, slot
+        self._post_one, self._wait_bell = library.mg_go_post, library.mg_go_wait
+
+    def post(self) -> None:
+        self._post_one(self._address, self._barrier, self._slot)
+
+    def wait(self, spin_time: float, timeout: float | None) -> bool:
+        timeout_ns = -1 if timeout is None else int(timeout * 1e9)
+        return bool(self._wait_bell(self._address, self._barrier, self._slot, int(spin_time * 1e9), timeout_ns,
+                                    self._waiter_ref))
+
+
+class AnswerSignal(FutexSignal):
+    """A worker's ``done`` on the worker's side: a post is ``mg_answer``, which first counts the
+    step's barrier down (``csrc/slice.h``), so the parent waits once for all the workers of a step."""
+
+    __slots__ = ("_answer", "_barrier")
+
+    def __init__(self, library: ctypes.CDLL, address: int, barrier: int) -> None:
+        super().__init__(library, address)
+        self._barrier, self._answer = barrier, library.mg_answer
+
+    def post(self) -> None:
+        self._answer(self._barrier, self._address)
 
 
 @functools.cache

@@ -7,7 +7,8 @@ Life of a worker:
    them;
 2. receive the layout of the shared memory and its file descriptor, map it, answer ``ok``;
 3. loop: wait for ``go``, run the command (step / reset / a message), write results into shared
-   memory, post ``done`` and send a reply on the pipe only if there is one (see ``protocol``).
+   memory, answer (count the step's barrier down and post ``done``: ``AnswerSignal``) and send a
+   reply on the pipe only if there is one (see ``protocol``).
    A worker whose envs step natively waits and steps in C (:class:`~modelicagym.vector.slice.native_slice.NativeServer`)
    and comes back to Python only for what Python must do.
 
@@ -37,7 +38,7 @@ from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.slice.native_slice import NativeServer
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
-from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal, futex_library
+from modelicagym.vector.wire.sync import AnswerSignal, GoSignal, SemaphoreSignal, futex_library
 
 __all__ = ["run_worker"]
 
@@ -134,14 +135,15 @@ class Worker:
             os.close(fd)
         self._envs.attach(self._buffers, needs_reset)
         if self._config.shared_signals:
-            library = futex_library()
-            self._go = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.GO))
-            self._done = FutexSignal(library, self._buffers.signal_address(self._index, SharedBuffers.DONE))
+            library, buffers, index = futex_library(), self._buffers, self._index
+            self._go = GoSignal(library, buffers.signal_address(index, SharedBuffers.GO), buffers.barrier_address, index)
+            self._done = AnswerSignal(library, buffers.signal_address(index, SharedBuffers.DONE), buffers.barrier_address)
             if self._envs.native is not None:
-                slot = slice(self._index, self._index + 1)
+                slot = slice(index, index + 1)
                 self._server = NativeServer(
-                    self._envs.native, self._go.address, self._done.address, self._buffers.command[slot],
-                    self._buffers.reply[slot], Command.STEP, self._buffers.go_spin_ns, LIVENESS_INTERVAL, self._go.waiter,
+                    self._envs.native, self._go.address, self._done.address, buffers.barrier_address, index,
+                    buffers.command[slot], buffers.reply[slot], Command.STEP, buffers.go_spin_ns, LIVENESS_INTERVAL,
+                    self._go.waiter,
                 )
         self._conn.send(Message(Kind.OK))
 
@@ -185,7 +187,7 @@ class Worker:
         return self._parent is None or self._parent.is_alive()
 
     def _answer(self, reply: Message | None) -> None:
-        """Post ``done``; then send the reply, pickled first so a pickling error becomes the reply
+        """Answer (``done``, through the step's barrier); then send the reply, pickled first so a pickling error becomes the reply
         (a ``call_error`` for results of ``call``, which leaves the env usable; else an ``error``)."""
         if reply is None:
             self._buffers.reply[self._index] = Reply.NONE
