@@ -97,10 +97,15 @@ def test_a_held_value_of_the_wrong_type_is_refused_at_construction(family_fmu):
         consumer(family_fmu("consumer", 2), fixed_inputs=[("T_amb", 300.0)])
 
 
+@pytest.fixture
+def consumer_fmu(family_fmu) -> str:
+    """The consumer FMU, built (and its binary tried) before ``no_leaks`` takes its snapshot."""
+    return family_fmu("consumer", 2)
+
+
 @pytest.mark.processes
-@pytest.mark.usefixtures("no_leaks")
-def test_a_pool_holds_the_inputs_as_a_single_env_does(family_fmu):
-    path = family_fmu("consumer", 2)
+def test_a_pool_holds_the_inputs_as_a_single_env_does(consumer_fmu, no_leaks):
+    path = consumer_fmu
     options = {"fixed_inputs": {**CONDITIONS, "T_amb": lambda rng: rng.uniform(283.15, 313.15)}}
     actions = np.array([[0.0], [1.0]])
     expected = []
