@@ -11,6 +11,20 @@ from collections.abc import Iterable
 
 from modelicagym.errors import ModelicaGymError
 
+__all__ = [
+    "ErrorLoopError",
+    "FMUCallError",
+    "FMUError",
+    "FMUNotFoundError",
+    "FMUValidationError",
+    "InvalidFMUError",
+    "LoadTrialError",
+    "PlatformNotSupportedError",
+    "StateMismatchError",
+    "UnsupportedFeatureError",
+    "VariableError",
+]
+
 #: FMI status codes (FMI 1.0's ``fmiStatus``, ``fmi2Status`` and ``fmi3Status`` share their values)
 OK, WARNING, DISCARD, ERROR, FATAL = 0, 1, 2, 3, 4
 STATUS_NAMES = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
