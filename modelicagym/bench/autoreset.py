@@ -6,7 +6,7 @@ default is ``NEXT_STEP``. For each n one run creates the cart-pole pool (``make_
 mode, and ``SyncVectorEnv`` in ``SAME_STEP`` for reference, then times them interleaved over
 several rounds with random actions (episodes of ~20 steps: at n=64 a few envs end every step).
 
-Target (issue "deep RL"): the pool's ``SAME_STEP`` >= 0.8x its ``NEXT_STEP`` at n=64.
+Target: the pool's ``SAME_STEP`` >= 0.8x its ``NEXT_STEP`` at n=64.
 """
 
 from __future__ import annotations

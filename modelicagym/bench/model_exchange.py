@@ -10,7 +10,7 @@ Measured side by side in one run (interleaved rounds, medians), ``FMUEnv.step`` 
   (the solver loop in C, `modelicagym.fmu.native_integrator`) and on the Python path
   (``step_path="python"``).
 
-Target (issue 15): model exchange with CVode at the default tolerance on the native path reaches
+Target: model exchange with CVode at the default tolerance on the native path reaches
 at least 0.5x the co-simulation rate. That ratio is measured on its own, as the median over many
 back-to-back pairs of short runs (`modelicagym.bench.paired_ratios`): the table's rounds run
 seconds apart, and load on a shared machine moves its ratio by +-0.1 from run to run. (That the
@@ -38,7 +38,7 @@ SOLVERS: dict[str, dict[str, Any]] = {
     "rk4, step 5e-3": {"mode": "me", "solver": "rk4", "solver_step": 5e-3},
 }
 CO_SIMULATION = "co-simulation"
-#: the row issue 15's target is about
+#: the row the target is about
 TARGET_ROW = "cvode (native)"
 
 

@@ -1,26 +1,14 @@
-"""Issue 32's bars: the default pool against one env in a loop, per FMU, with the bar each must meet.
+"""The default pool against one env in a loop, per FMU, with the bar each must meet.
 
 For each FMU, one `FMUEnv` stepped in a plain loop (reset when an episode ends) against
-``modelicagym.make_vec(config, n)`` with its default layout (next-step autoreset), both stepped with
-actions sampled before timing starts (sampling a Dict space costs more than a step). The pool runs
-``--warm`` seconds first, so that its adaptive layout has made its first try, and the single env
-1 s (at most ``--warm``); then ``--rounds`` interleaved rounds of ``--seconds`` each, the single env
-then the pool. Reported: the median of the rounds' ratios pool/single (env steps per second), the
-ratios themselves, the bar, whether it is met, and the pool's layout at the end.
+``modelicagym.make_vec(config, n)`` with its default layout (next-step autoreset). The pool runs
+``--warm`` seconds first, so that its adaptive layout has made its first try; then ``--rounds``
+interleaved rounds of ``--seconds`` each. Reported: the median of the rounds' ratios pool/single
+(env steps per second), the ratios themselves, the bar, whether it is met, and the pool's layout.
 
-The bar (issue 32, 2 cores) follows from the single env's measured cost a step: at n=8, >= 1.8x
-where a step costs >= 1 ms, >= 1.5x where it costs >= 20 us, else >= 1.0x; an FMU allowed only one
-instance per process, at n=2: >= 1.0x. Other numbers of envs (``--n``) get no bar.
-
-Built-in cases (``--cases``): ``cartpole-user`` (the bundled cart-pole given as a user gives any
-FMU, so the pool isolates it), ``cartpole-user-observation`` (the same through a subclass that
-overrides ``observation``, the outputs scaled: the FMU steps in C, the observation in Python, and the
-pool's native slice calls it per env around its one C call), ``cartpole-user-python`` (the same on the Python step path;
-users' FMUs: ``--set 'step_path="python"'``), ``moody-100us`` and ``moody-1ms`` (the moody test FMU held calm,
-``threshold=1e9``, at ``cs_step_size`` 2.5e-5 and 2.5e-6: ~100 us and ~1 ms a step), ``moody-once``
-(the same at ~100 us, allowed one instance per process); the moody FMU is built from the sources of
-a checkout (``tests/fmus/moody``). ``--fmu`` adds users' FMUs, configured as ``modelicagym info``
-suggests (``--set key=value`` changes that config), at n=8, or n=2 when once per process.
+The bar follows from the single env's measured cost a step: at n=8, >= 1.8x where a step costs
+>= 1 ms, >= 1.5x from 20 us, else >= 1.0x; an FMU allowed only one instance per process, at n=2:
+>= 1.0x. Other numbers of envs get no bar.
 """
 
 from __future__ import annotations
@@ -59,12 +47,22 @@ SINGLE_ACTIONS = 50
 POOL_BATCHES = 20
 #: the single env's warm-up, seconds (at most ``--warm``)
 SINGLE_WARM = 1.0
-#: issue 32's bars on pool/single at n=8, by a single env's cost a step: (from this many us, bar), costliest first
+#: the bars on pool/single at n=8, by a single env's cost a step: (from this many us, bar), costliest first
 COST_BARS = ((1000.0, 1.8), (20.0, 1.5), (0.0, 1.0))
-#: issue 32's bar for an FMU allowed one instance per process, at n=2
+#: the bar for an FMU allowed one instance per process, at n=2
 ONCE_BAR = 1.0
 #: the moody FMU held calm (its costly phase never reached) at the cost its internal step size gives
 CALM = "parameters.threshold=1e9"
+
+
+#: what ``--cases`` measures, for ``--help``
+CASES_HELP = """built-in cases (--cases): cartpole-user, the bundled cart-pole given as a user gives any FMU (so the
+pool isolates it); cartpole-user-observation, the same with `observation` overridden (the FMU steps
+in C, the observation in Python); cartpole-user-python, the same on the Python step path; moody-100us
+and moody-1ms, the moody test FMU held calm at ~100 us and ~1 ms a step (built from a checkout's
+tests/fmus/moody); moody-once, the same at ~100 us, allowed one instance per process. --fmu adds your
+FMUs, configured as `modelicagym info` suggests (--set changes that config), at n=8, or n=2 when once
+per process."""
 
 
 class ScaledObservationEnv(modelicagym.FMUEnv):
@@ -97,7 +95,7 @@ class Case:
 def _moody(once: bool) -> Path:
     """The moody test FMU (FMI 2.0) built from the checkout's sources, allowed once per process or not."""
     if not MOODY_SOURCES.is_dir():
-        raise ConfigError(f"bench pool-gain: the moody cases are built from {MOODY_SOURCES}, which is not here: "
+        raise ConfigError(f"bench internals pool-gain: the moody cases are built from {MOODY_SOURCES}, which is not here: "
                           "run from a checkout of modelicagym, or leave them out (--cases cartpole-user)")
     description = edited_description(MOODY_SOURCES / description_name(2), once_per_process=True) if once else None
     return build_source_fmu(MOODY_SOURCES, 2, model_description=description)
@@ -124,8 +122,8 @@ def users_case(path: str, settings: list[str]) -> Case:
 
 
 def bar(single_us: float, n: int, once_per_process: bool) -> float | None:
-    """Issue 32's bar on pool/single for ``n`` envs of an FMU whose single env costs ``single_us``
-    a step (``None``: the issue sets none for this n)."""
+    """The bar on pool/single for ``n`` envs of an FMU whose single env costs ``single_us`` a step
+    (``None``: no bar for this n)."""
     if n == 2 and once_per_process:
         return ONCE_BAR
     if n != 8:
@@ -134,7 +132,7 @@ def bar(single_us: float, n: int, once_per_process: bool) -> float | None:
 
 
 def default_n(once_per_process: bool) -> int:
-    """The number of envs the issue's bar is set at."""
+    """The number of envs the bar is set at."""
     return 2 if once_per_process else 8
 
 
@@ -208,7 +206,7 @@ def measure(config: Mapping[str, Any], n: int, rounds: int, seconds: float, warm
 
 def measure_case(case: Case, config: Mapping[str, Any], ns: list[int] | None, rounds: int, seconds: float,
                  warm: float) -> list[dict[str, Any]]:
-    """One row per number of envs (the issue's when ``ns`` is None) for ``case``, made from ``config``."""
+    """One row per number of envs (the bar's when ``ns`` is None) for ``case``, made from ``config``."""
     once = open_fmu(config["fmu"], validate=config.get("validate", True)).once_per_process(config.get("mode"))
     rows = []
     for n in ns or [default_n(once)]:
@@ -248,7 +246,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="change one key of your FMUs' configs, the value read as JSON (e.g. --set time_step=0.01)")
     parser.add_argument("--n", type=int, nargs="+",
-                        help="numbers of envs (default: the issue's, 8, or 2 for an FMU allowed once per process)")
+                        help="numbers of envs (default: 8, or 2 for an FMU allowed once per process)")
     parser.add_argument("--rounds", type=int, default=5,
                         help="interleaved rounds, the median of their ratios reported (default 5)")
     parser.add_argument("--seconds", type=float, default=0.5,
@@ -260,17 +258,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="where to write the JSON (default bench-results/pool-gain.json)")
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.description = __doc__
+    parser.epilog = CASES_HELP
 
 
 def _check(args: argparse.Namespace) -> None:
     for option, value, low in (("--rounds", args.rounds, 1), *(("--n", n, 1) for n in args.n or [])):
         if value < low:
-            raise ArgumentError(f"bench pool-gain {option}: at least {low}, got {value}")
+            raise ArgumentError(f"bench internals pool-gain {option}: at least {low}, got {value}")
     if args.seconds <= 0 or args.warm < 0:
-        raise ArgumentError(f"bench pool-gain: --seconds must be more than 0 and --warm at least 0, "
+        raise ArgumentError(f"bench internals pool-gain: --seconds must be more than 0 and --warm at least 0, "
                             f"got {args.seconds} and {args.warm}")
     if not args.cases and not args.fmu:
-        raise ArgumentError("bench pool-gain: nothing to measure: name --cases or give --fmu PATH")
+        raise ArgumentError("bench internals pool-gain: nothing to measure: name --cases or give --fmu PATH")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -12,7 +12,7 @@ over several rounds:
 * the agent's calls alone (``states`` + ``act`` + ``learn`` on ``n`` envs) and the episode
   tracker's ``update``, on made-up transitions.
 
-The table gives medians; the target (issue "partial batches") is runner / bare pool <= 2.
+The table gives medians; the target is runner / bare pool <= 2.
 """
 
 from __future__ import annotations

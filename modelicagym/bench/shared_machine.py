@@ -14,7 +14,7 @@ the calling process and takes every env when that is faster; ``user-1ms``: ~1 ms
 was before, so the rows say what isolation costs; ``one_worker`` (``num_workers=cores - 1``: every
 env in fewer workers, isolated, fixed, as many parties as cores) is the consolidated layout alone;
 ``fixed`` (``adapt_layout=False``: the planned workers, no stand-in) is the layout the default had
-on the Python path before issue 32.
+on the Python path before the stand-in worker.
 
 * ``idle``: nothing else runs (plus ``c_loop``, the one-core C loop: the physical limit);
 * ``busy``: one busy Python process beside it;
@@ -24,7 +24,7 @@ on the Python path before issue 32.
   batch (after every n steps of the single env), counted in the wall time, as a user sees it.
 
 Every candidate of a group runs for the same wall time in each of several interleaved rounds;
-medians are reported. Targets (issue "throughput that holds on a shared machine", 2 cores): busy:
+medians are reported. Targets (2 cores): busy:
 pool >= 0.8x single at n=2, >= 1.5x at n=8 and 64, heavy n=2 >= 0.9x, heavy n=8 >= 1.2x; two: the
 pools' sum >= 0.9x the better of one pool alone (idle) and two singles at once, at n=2, 8 and 64;
 idle: pool >= 1.0x single at n=2, >= 2.2x at n=8, >= 1.75x the C loop at n=64, heavy n=2 >= 1.8x.
@@ -61,7 +61,7 @@ CANDIDATES = ("single", "sync", "pool", "pool0")
 #: the settings whose env is a user's FMU, with their extra candidate: the calling process steps a slice
 USER_SETTINGS = ("user", "user-heavy", "user-1ms", "user-python", "user-python-heavy")
 USER_CANDIDATES = (*CANDIDATES, "caller", "one_worker", "fixed")
-#: issue 32's bounds on pool/single at n=8, idle, by a step's cost: >= 1.0x, >= 1.5x from 20 us, >= 1.8x from 1 ms
+#: the bounds on pool/single at n=8, idle, by a step's cost: >= 1.0x, >= 1.5x from 20 us, >= 1.8x from 1 ms
 USER_N8_BOUNDS = {"user": 1.0, "user-python": 1.0, "user-heavy": 1.5, "user-python-heavy": 1.5, "user-1ms": 1.8}
 #: seconds of numpy work per batch in the ``learner`` load
 LEARNER_SECONDS = 1e-3
@@ -280,7 +280,7 @@ def _group(load: str, setting: str, n: int, samples: dict[str, list[float]], ext
 
 
 def targets(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The issue's targets that this run measured: what, the measured value, the bound, met."""
+    """The targets that this run measured: what, the measured value, the bound, met."""
     by = {(r["load"], r["setting"], r["n"]): r for r in results}
     rows = []
 
@@ -305,7 +305,7 @@ def targets(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for key, field, bound in ((("idle", "light", 2), "pool/single", 1.0), (("idle", "light", 8), "pool/single", 2.2),
                               (("idle", "light", 64), "pool/c_loop", 1.75), (("idle", "heavy", 2), "pool/single", 1.8)):
         target(f"idle {key[1]} n={key[2]}: {field}", key, lambda r, field=field: r["ratios"][field], bound)
-    for setting, bound in USER_N8_BOUNDS.items():  # issue 32: a pool of a user's FMU never slower than one env
+    for setting, bound in USER_N8_BOUNDS.items():  # a pool of a user's FMU never slower than one env
         target(f"idle {setting} n=8: pool/single", ("idle", setting, 8), lambda r: r["ratios"]["pool/single"], bound)
     return rows
 

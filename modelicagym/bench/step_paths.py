@@ -9,7 +9,7 @@ holds numbers), measured side by side in one run, with random actions of the env
   observation as the env's space holds it);
 * ``FMUEnv.step (python)``: the same env forced onto the Python path.
 
-Target (issue 32): the native env step costs within 2x the C loop.
+Target: the native env step costs within 2x the C loop.
 """
 
 from __future__ import annotations

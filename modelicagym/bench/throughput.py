@@ -14,7 +14,7 @@ emulates a costlier model) one run creates, through the public API only:
 then times them all interleaved over several rounds, random actions, and reports medians of env
 steps per second, the pool's ratios to the others, and where a pool step's time goes.
 
-Targets (issue "use both cores", 2 cores): pool >= 1.5x single at n=2 and >= 1.8x at n=8;
+Targets (2 cores): pool >= 1.5x single at n=2 and >= 1.8x at n=8;
 >= 1.5x sync and >= 8x async at n=8; >= 1.5x the C loop at n=64; heavy: >= 1.8x single at n=2,
 >= 1.85x at n=8. See docs/design.md for the step budget.
 """

@@ -16,7 +16,7 @@ cart-pole: a mean episode length of the last 20 episodes of 475; the pendulum: a
 -200), and reports the wall time. With ``--seeds N`` it instead trains every preset of
 `modelicagym.sb3_train` (PPO and SAC) with N seeds until solved: see `training_seeds`.
 
-Targets (issue "deep RL", 2 cores): on the heavy model at n=8, the pool >= 1.2x ``dummy`` and
+Targets (2 cores): on the heavy model at n=8, the pool >= 1.2x ``dummy`` and
 ``sync``, and >= 1.5x ``subproc``, in training steps per second.
 """
 

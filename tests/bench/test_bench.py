@@ -1,4 +1,4 @@
-"""The benchmarks, run as the README runs them (``modelicagym bench ...`` in a fresh process) with
+"""The benchmarks, run as a user runs them (``modelicagym bench ...`` in a fresh process) with
 tiny arguments: each prints its table and writes its JSON. Their figures are not checked — a
 test never asserts a duration — only that a benchmark nobody ran lately still works."""
 
@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from extras import requires
 
+from modelicagym.bench import INTERNAL_BENCHMARKS
 from modelicagym.cores import usable_cores
 
 #: benchmark -> tiny arguments, and top-level keys its JSON must hold
@@ -66,8 +67,14 @@ def test_the_training_benchmark_over_seeds_tables_each_preset(tmp_path: Path) ->
     assert result["cores"] == usable_cores() and len(result["load_average"]["before"]) == 3
 
 
+def bench_command(name: str) -> list[str]:
+    """``modelicagym bench NAME``, or ``bench internals NAME`` for a benchmark of modelicagym's own parts."""
+    internal = name in {internal for internal, _, _ in INTERNAL_BENCHMARKS}
+    return [sys.executable, "-m", "modelicagym.cli", "bench", *(["internals"] if internal else []), name]
+
+
 def run_bench(name: str, args: list[str], json_path: Path) -> str:
-    command = [sys.executable, "-m", "modelicagym.cli", "bench", name, *args, "--json", str(json_path)]
+    command = [*bench_command(name), *args, "--json", str(json_path)]
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, f"bench {name} failed:\n{result.stdout}\n{result.stderr}"
     return result.stdout
@@ -202,7 +209,7 @@ def test_the_once_per_process_benchmark_times_copies_against_one_env_per_worker(
     assert result["start"]["n"] == 3 and set(result["start"]["seconds"]) == {"copies", "one"}
     assert "start (make_vec to the first reset's end) at n=3" in out
 
-    command = [sys.executable, "-m", "modelicagym.cli", "bench", "once-per-process", str(build("leaky", 2))]
+    command = [*bench_command("once-per-process"), str(build("leaky", 2))]
     refused = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert refused.returncode == 1
     assert "does not declare canBeInstantiatedOnlyOncePerProcess" in refused.stderr.strip().splitlines()[-1]
@@ -210,7 +217,7 @@ def test_the_once_per_process_benchmark_times_copies_against_one_env_per_worker(
 
 def test_the_pool_gain_benchmark_tables_each_fmu_against_its_bar(family_fmu, tmp_path: Path) -> None:
     """``bench pool-gain``: a built-in case and a user's FMU allowed once per process (``--fmu``, its
-    config changed by ``--set``), each a row at the issue's n (8; 2 once per process) with the
+    config changed by ``--set``), each a row at the bar's n (8; 2 once per process) with the
     rounds' ratios, the bar its measured cost sets, and the pool's layout; the load average at the
     start and the end, in the output and the JSON."""
     from modelicagym.bench.pool_gain import bar
@@ -238,9 +245,9 @@ def test_the_pool_gain_benchmark_tables_each_fmu_against_its_bar(family_fmu, tmp
         assert f"{r['label']}, n={r['n']}: {r['layout']}" in out
 
 
-def test_the_pool_gain_benchmark_builds_the_moody_cases_and_sets_no_bar_off_the_issues_n(tmp_path: Path) -> None:
+def test_the_pool_gain_benchmark_builds_the_moody_cases_and_sets_no_bar_off_the_bars_n(tmp_path: Path) -> None:
     """The moody FMU, allowed once per process or not, built from the checkout; ``--n`` replaces the
-    issue's n, and a row where the issue sets no bar says so ("-")."""
+    bar's n, and a row with no bar says so ("-")."""
     args = ["--cases", "moody-once", "moody-100us", "--n", "2", "--rounds", "1", "--seconds", "0.05", "--warm", "0"]
     out = run_bench("pool-gain", args, tmp_path / "result.json")
     rows = json.loads((tmp_path / "result.json").read_text())["results"]
@@ -251,12 +258,12 @@ def test_the_pool_gain_benchmark_builds_the_moody_cases_and_sets_no_bar_off_the_
 
 
 @pytest.mark.parametrize("bad, message", [
-    (["--rounds", "0"], "bench pool-gain --rounds: at least 1, got 0"),
-    (["--cases"], "bench pool-gain: nothing to measure: name --cases or give --fmu PATH"),
+    (["--rounds", "0"], "bench internals pool-gain --rounds: at least 1, got 0"),
+    (["--cases"], "bench internals pool-gain: nothing to measure: name --cases or give --fmu PATH"),
     (["--cases", "--fmu", "missing.fmu"], "FMU not found: missing.fmu"),
 ])
 def test_the_pool_gain_benchmark_refuses_bad_input_in_one_line(bad: list[str], message: str, tmp_path: Path) -> None:
-    command = [sys.executable, "-m", "modelicagym.cli", "bench", "pool-gain", *bad, "--json", str(tmp_path / "r.json")]
+    command = [*bench_command("pool-gain"), *bad, "--json", str(tmp_path / "r.json")]
     result = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert result.returncode == 1 and result.stderr.strip().startswith(f"error: {message}"), result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and not (tmp_path / "r.json").exists()
@@ -275,7 +282,8 @@ def test_the_pool_gain_benchmark_says_where_the_moody_sources_are_outside_a_chec
     (2.8, 8, False, 1.0), (19.9, 8, False, 1.0), (20.0, 8, False, 1.5), (999.0, 8, False, 1.5),
     (1000.0, 8, False, 1.8), (100.0, 8, True, 1.5), (100.0, 2, True, 1.0), (100.0, 2, False, None),
     (1000.0, 64, False, None)])
-def test_the_pool_gain_bar_is_issue_32s(single_us: float, n: int, once: bool, expected: float | None) -> None:
+def test_the_pool_gain_bar_follows_the_single_envs_cost(single_us: float, n: int, once: bool,
+                                                       expected: float | None) -> None:
     """At n=8: >= 1.8x from 1 ms a step, >= 1.5x from 20 us, else >= 1.0x; once per process at n=2:
     >= 1.0x; no bar at another n."""
     from modelicagym.bench.pool_gain import bar
