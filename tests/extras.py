@@ -19,6 +19,7 @@ EXTRAS = {
     "notebook": ("nbclient", "nbformat", "ipykernel"),
     "ray": ("ray",),
     "rl": ("stable_baselines3", "torch"),
+    "docs": ("mkdocs", "material", "mkdocstrings"),
 }
 #: how to install an extra, when ``pip install 'modelicagym[extra]'`` is not the whole story
 _INSTALL = {"rl": "pip install torch==2.13.0 (a CPU build), then pip install 'modelicagym[rl]'"}
