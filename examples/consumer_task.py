@@ -4,7 +4,7 @@ the valve of a chilled water coil, the pressures, temperatures and heat gains he
 The FMU is the test FMU ``tests/fmus/consumer`` (``modelicagym build tests/fmus/consumer --out
 consumer.fmu``), in the shape of a third-party export: six inputs without declared ranges, a
 default experiment of 1 s in 2 ms steps. It is kept beside this file: a relative ``fmu`` path is
-relative to the task file's folder. The README's "Train on your own FMU" goes through each choice.
+relative to the task file's folder. docs/train-own-fmu.md ("An FMU with many inputs") goes through each choice.
 """
 
 import numpy as np
@@ -25,7 +25,7 @@ config = {
     'action_bounds': {
         'valve': (0.0, 1.0),  # edited: info's placeholder None; the valve's documented range
     },
-    'time_step': 60.0,  # edited from 0.002: `modelicagym try consumer_task.py --step valve` (see the README)
+    'time_step': 60.0,  # edited from 0.002: `modelicagym try consumer_task.py --step valve` (docs/train-own-fmu.md)
     'mode': 'cs',
     'max_episode_steps': 120,  # edited from 500: two hours an episode
 }

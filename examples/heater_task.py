@@ -23,7 +23,7 @@ config = {
     'max_episode_steps': 60,
 }
 
-# 2. The task. Rewards and terminations are ordinary config keys (see the README, "Reward and
+# 2. The task. Rewards and terminations are ordinary config keys (see docs/env.md, "Reward and
 #    termination"). The reward is written on arrays (row k: one env's step), so the FMUs still
 #    step in C and a pool computes it once per step for all its envs.
 SETPOINT = 21.0  # degC

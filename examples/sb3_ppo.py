@@ -7,7 +7,7 @@ rollouts of 1024 steps, gamma 0.9, gSDE). Training stops once the mean episode l
 or return (pendulum) of the last 20 episodes reaches the goal; then the deterministic policy is
 evaluated and the learning curve saved. ``--env cartpole-continuous`` (a force action) or ``--env
 pendulum`` (the motor-driven swing-up, a costlier FMU) train a continuous-action policy on the same
-script. A seed gives the same run on one machine; what to expect over seeds is in the README
+script. A seed gives the same run on one machine; what to expect over seeds is in docs/training.md
 (``modelicagym bench training --seeds 5``).
 
 Run: ``python examples/sb3_ppo.py [--env cartpole] [--seed 0] [--envs N] [--steps N]``

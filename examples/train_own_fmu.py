@@ -2,8 +2,8 @@
 video of it out.
 
 The task file is Python: the config ``modelicagym info MY.fmu`` prints, pasted, plus a reward and
-a termination written in it (``examples/heater_task.py`` is one; the README's "Train on your own
-FMU" goes through it step by step). Its ``fmu`` path, when relative, is relative to the task file's
+a termination written in it (``examples/heater_task.py`` is one; docs/train-own-fmu.md goes through
+it step by step). Its ``fmu`` path, when relative, is relative to the task file's
 folder (`modelicagym.task`). This script:
 
 1. makes a pool of the FMU's envs (``modelicagym.make_vec``) and trains Stable-Baselines3's SAC
@@ -23,7 +23,7 @@ folder (`modelicagym.task`). This script:
 
 Every file goes into ``--out`` under a temporary name and is renamed into place when whole.
 
-Run (in a folder of your own beside the repository's, with the test FMU; see the README)::
+Run (in a folder of your own beside the repository's, with the test FMU; see docs/train-own-fmu.md)::
 
     modelicagym build ../tests/fmus/own_heater --out heater.fmu
     cp ../examples/heater_task.py .

@@ -5,8 +5,8 @@ settings, the number of envs in the pool, the env step budget, the episode lengt
 task counts as solved (the mean episode length or return of the last 20 training episodes reaching
 a goal). `train` runs one preset with one seed until it is solved or the budget is spent, then
 evaluates the deterministic policy. The examples (``examples/sb3_ppo.py``, ``examples/sb3_sac.py``)
-and ``modelicagym bench training --seeds N`` share them, so the README's figures come from the code
-a user runs.
+and ``modelicagym bench training --seeds N`` share them, so the figures in the documentation
+(docs/training.md) come from the code a user runs.
 
 The same preset, seed and torch thread count give the same learning curve on one machine (the
 pool's results depend only on the seeds and actions; SB3 seeds torch, NumPy and the envs).

@@ -127,10 +127,10 @@ VARIANTS: dict[str, Variant] = {
     # a lag whose co-simulation step costs 100x more while x > threshold (tests/fmus/moody): a pool's
     # load balance under step costs that vary with the state
     "moody": Variant(FMUS_DIR / "moody"),
-    # a room heater, the README's "Train on your own FMU" (tests/fmus/own_heater, examples/heater_task.py)
+    # a room heater, docs/train-own-fmu.md (tests/fmus/own_heater, examples/heater_task.py)
     "own_heater": Variant(FMUS_DIR / "own_heater"),
     # a cooling consumer in the shape of a third-party export (tests/fmus/consumer): six inputs without
-    # declared ranges, in Pa, K and W or without a unit, one starting at 0 K; the README's multi-input guide
+    # declared ranges, in Pa, K and W or without a unit, one starting at 0 K; docs/train-own-fmu.md's multi-input guide
     "consumer": Variant(FMUS_DIR / "consumer"),
     # ... allowed one instance per process (one env per worker), its cost set by cs_step_size (and a
     # threshold no x reaches): a pool of such FMUs of a realistic cost (issue 32: ~100 us a step)

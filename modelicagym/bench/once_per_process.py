@@ -1,6 +1,6 @@
 """A pool of an FMU allowed one instance per process: private copies of its binary against one env per worker.
 
-``modelicagym bench once-per-process MY.fmu`` makes envs from the config ``modelicagym info``
+``modelicagym bench internals once-per-process MY.fmu`` makes envs from the config ``modelicagym info``
 prints for the FMU (``--config`` and ``--set`` change it, as for ``modelicagym bench fmu``) and,
 for each number of envs n (``--n``, default 2 8), times interleaved over several rounds, random
 actions sampled from the action space:

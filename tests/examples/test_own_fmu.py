@@ -1,4 +1,4 @@
-"""The README's "Train on your own FMU", as a user follows it: build the test FMU to a path, read
+"""docs/train-own-fmu.md, as a user follows it: build the test FMU to a path, read
 the config ``modelicagym info`` prints, train with ``examples/train_own_fmu.py`` on the task file
 ``examples/heater_task.py``, and use what it saves. And the task file's reward and termination
 do what it says, on a single env and on the pool."""
@@ -259,7 +259,7 @@ CONSUMER_TASK = EXAMPLES / "consumer_task.py"
 
 
 def test_the_consumer_task_is_info_s_config_edited_where_it_says(family_fmu, capsys):
-    """``examples/consumer_task.py``, the README's FMU with many inputs: ``info``'s config with the
+    """``examples/consumer_task.py``, docs/train-own-fmu.md's FMU with many inputs: ``info``'s config with the
     placeholder filled, a held input drawn per episode and the timing edited; nothing else."""
     from modelicagym import cli
 
