@@ -85,6 +85,7 @@ class FMUEnv(gym.Env):
 
     Example::
 
+        import numpy as np
         from modelicagym import FMUEnv
         from modelicagym.models.cartpole import cartpole_fmu
 
