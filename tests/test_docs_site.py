@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import html
 import importlib
+import os
 import re
 import subprocess
 import sys
@@ -51,8 +52,8 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _environ() -> dict[str, str]:
-    import os
-
+    """This process's environment, with this checkout first on the import path (mkdocstrings
+    documents the code here, not an installed copy)."""
     return {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
 
 
