@@ -38,10 +38,11 @@ def local_vector_env(
     pool_options: Mapping[str, Any] | None = None,
 ) -> VectorEnv:
     """The vector env of one node's share: a pool over ``cpus`` processes, the caller included
-    (with one CPU the caller steps every env itself, in one C call where the envs allow)."""
+    (with one CPU the caller steps every env itself, in one C call where the envs allow); its
+    waits plan for the actor's ``cpus``, not for the node's cores."""
     from modelicagym.vector import PoolVectorEnv
 
-    options = {"num_workers": cpus - 1, "caller_steps": True, **(pool_options or {})}
+    options = {"num_workers": cpus - 1, "caller_steps": True, "cores": cpus, **(pool_options or {})}
     return PoolVectorEnv(list(env_fns), autoreset_mode=autoreset_mode, **options)
 
 
