@@ -3,7 +3,7 @@
 The package's docstrings write ``:class:`~modelicagym.vector.PoolVectorEnv```, ``double
 backticks`` and literal blocks (a paragraph ending in ``::``, then an indented block) as Sphinx
 reads them; Markdown would show a role's name verbatim and run a literal block into the text. This
-turns ``:role:`~a.b.C``` into `` `C` `` (``:role:`a.b.C``` into `` `a.b.C` ``), ``x`` into
+turns ``:role:`~a.b.C``` and `` `~a.b.C` `` into `` `C` `` (``:role:`a.b.C``` into `` `a.b.C` ``), ``x`` into
 `` `x` ``, and a literal block into a fenced code block.
 """
 
@@ -16,6 +16,7 @@ import griffe
 
 ROLE = re.compile(r":(?:py:)?(?:class|func|meth|mod|attr|exc|data|obj|ref):`(~?)([^`]+)`")
 DOUBLE = re.compile(r"``([^`]+)``")
+TILDE = re.compile(r"(?<!`)`~([\w.]+)`(?!`)")
 
 
 def _role(match: re.Match[str]) -> str:
@@ -79,7 +80,8 @@ def doctests(text: str) -> str:
 
 
 def plain(text: str) -> str:
-    return doctests(fenced(DOUBLE.sub(r"`\1`", ROLE.sub(_role, text))))
+    text = TILDE.sub(lambda match: f"`{match.group(1).rsplit('.', 1)[-1]}`", ROLE.sub(_role, text))
+    return doctests(fenced(DOUBLE.sub(r"`\1`", text)))
 
 
 class SphinxRoles(griffe.Extension):
