@@ -49,6 +49,7 @@ from modelicagym.env.endings import overridden
 from modelicagym.env.spaces import write_values
 from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
+from modelicagym.system import SystemInstance
 from modelicagym.native.abi import FailedCall, MgCall, MgEnv, MgMove, ValueType
 from modelicagym.native.library import NativeBuildError, load_library
 
@@ -126,6 +127,9 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     cls = type(env)
     if config.step_path == "python":
         return "the config asks for step_path='python'"
+    if isinstance(fmu, SystemInstance):
+        return (f"a system of {len(fmu.components)} components steps on the Python path (its master algorithm, "
+                f"{fmu.master}, is not in the native library yet)")
     if env.strip_chart is not None:
         return "render_mode='rgb_array' records every step for the strip chart, in Python"
     if fmu.mode == "me" and fmu.integrator_path != "native":
