@@ -16,6 +16,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from modelicagym.errors import ConfigError
+from modelicagym.fmu.errors import VariableError
 from modelicagym.system.components import Component
 from modelicagym.system.units import Conversion, conversion, declared_unit
 
@@ -72,8 +73,11 @@ def check_connections(components: Mapping[str, Component], connections: Sequence
         where = f"{system}: connection {connection.label}"
         source, source_name = split_name(connection.source, components, where)
         target, target_name = split_name(connection.target, components, where)
-        out = source.variable(source_name, "output", source.outputs)
-        into = target.variable(target_name, "input", target.inputs)
+        try:
+            out = source.variable(source_name, "output", source.outputs)
+            into = target.variable(target_name, "input", target.inputs)
+        except VariableError as error:
+            raise VariableError(f"{where}: {error}") from None
         if not out.is_output:
             raise ConfigError(f"{where}: {connection.source!r} is not an output (causality {out.causality!r}); "
                               f"outputs of {source.name}: {', '.join(v.name for v in source.outputs) or 'none'}")
