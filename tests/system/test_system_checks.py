@@ -11,7 +11,7 @@ from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import VariableError
 from modelicagym.system import open_system
 from modelicagym.system.units import Unit, conversion
-from tests.system_cases import system_config
+from system_cases import system_config
 
 
 @pytest.fixture

@@ -10,7 +10,7 @@ import pytest
 
 from modelicagym import FMUEnv
 from modelicagym.system import SystemState
-from tests.system_cases import OUTPUTS, RPM, TIME_STEP, hand_loop, system_config
+from system_cases import OUTPUTS, RPM, TIME_STEP, hand_loop, system_config
 
 ACTIONS = np.sin(np.arange(60) * 0.2) * 1.2  # beyond +-1 now and then: the motor's command is not clipped by the env
 

@@ -1,0 +1,66 @@
+"""SSP systems (modelicagym/system/ssp.py): an archive written here (SystemStructure.ssd, the FMUs
+under resources/, a parameter set with a mapping, a component's inline parameter set) runs as the
+same system given as a config with those parameter values; an unpacked folder too."""
+
+from __future__ import annotations
+
+import zipfile
+
+import numpy as np
+import pytest
+
+from modelicagym import FMUEnv
+from modelicagym.fmu.errors import InvalidFMUError
+from modelicagym.system import open_system
+from system_cases import OUTPUTS, SSP_PARAMETERS, write_ssp, system_config
+
+ACTIONS = np.linspace(-1.0, 1.0, 40)
+
+
+@pytest.fixture
+def ssp(family_fmu, tmp_path):
+    return write_ssp(tmp_path / "drive.ssp", family_fmu("motor", 2), family_fmu("inertia", 3))
+
+
+def trajectory(env: FMUEnv) -> np.ndarray:
+    rows = [env.reset(seed=0)[0]]
+    rows += [env.step(np.array([a]))[0] for a in ACTIONS]
+    env.close()
+    return np.array(rows)
+
+
+def test_an_ssp_archive_runs_with_its_parameter_sets(ssp, family_fmu):
+    system = open_system(ssp)
+    assert system.model_name == "drive" and list(system.components) == ["motor", "plant"]
+    assert system.parameter_values == SSP_PARAMETERS
+    assert system.components["motor"].mode == "cs"
+    from_ssp = trajectory(FMUEnv(fmu=ssp, inputs=["motor.u"], outputs=OUTPUTS, time_step=0.01))
+    config = system_config(family_fmu("motor", 2), family_fmu("inertia", 3), parameters=SSP_PARAMETERS)
+    np.testing.assert_array_equal(from_ssp, trajectory(FMUEnv(config)))
+    plain = trajectory(FMUEnv(system_config(family_fmu("motor", 2), family_fmu("inertia", 3))))
+    assert not np.array_equal(from_ssp, plain)  # the parameter sets changed something
+
+
+def test_the_configs_parameters_override_the_ssps(ssp):
+    env = FMUEnv(fmu=ssp, inputs=["motor.u"], outputs=OUTPUTS, time_step=0.01, parameters={"plant.J": 0.5})
+    env.reset(seed=0)
+    assert env.fmu.get_values(["plant.J", "plant.d"]) == {"plant.J": 0.5, "plant.d": 0.002}
+    env.close()
+
+
+def test_an_unpacked_ssp_folder_is_a_system(ssp, tmp_path):
+    folder = tmp_path / "drive"
+    with zipfile.ZipFile(ssp) as archive:
+        archive.extractall(folder)
+    assert open_system(folder).parameter_values == SSP_PARAMETERS
+    env = FMUEnv(fmu=folder, inputs=["motor.u"], outputs=OUTPUTS, time_step=0.01)
+    assert env.description.name == "drive"
+    env.close()
+
+
+def test_an_archive_without_a_system_structure_is_refused(tmp_path):
+    bogus = tmp_path / "bogus.ssp"
+    with zipfile.ZipFile(bogus, "w") as archive:
+        archive.writestr("readme.txt", "no system here")
+    with pytest.raises(InvalidFMUError, match="bogus.ssp is not an SSP archive: the zip archive has no SystemStructure.ssd"):
+        open_system(bogus)
