@@ -70,6 +70,18 @@ class SystemDescription:
     def parameters(self) -> list[Variable]:
         return [v for v in self.variables.values() if v.is_parameter and v.settable]
 
+    @cached_property
+    def state_variables(self) -> list[Variable]:
+        """The FMUs' continuous states, named ``component.variable``."""
+        return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() if c.description is not None
+                for v in c.description.state_variables]
+
+    def locate(self, name: str) -> tuple[Component, Variable]:
+        """The component of ``component.variable`` and the variable as the component names it."""
+        head, local = name.split(".", 1)
+        component = self.components[head]
+        return component, component.variables[local]
+
     @property
     def default_experiment(self) -> DefaultExperiment:
         """The SSP's start time, and the first FMU's step size (the env's default time step)."""
