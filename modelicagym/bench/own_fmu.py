@@ -40,7 +40,7 @@ from modelicagym.bench import add_round_arguments, conditions, format_table, med
 from modelicagym.bench.throughput import ASYNC_MAX_N, Run, interleaved_rates
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ArgumentError
-from modelicagym.fmu import open_fmu
+from modelicagym.system import SystemDescription, open_model
 from modelicagym.registry import EnvFactory
 from modelicagym.try_fmu import try_config
 
@@ -273,11 +273,18 @@ def run(args: argparse.Namespace) -> int:
         raise ArgumentError(f"bench fmu --seconds: more than 0, got {args.seconds}")
     load_before = os.getloadavg()
     config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
-    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    description = open_model(config.get("fmu"), fmus=config.get("fmus"), connections=config.get("connections", ()),
+                             validate=config.get("validate", True))
     once = description.once_per_process(config.get("mode"))
     one_per_process = once and config.get("instances_per_process", "copies") == "one"
-    head = {"fmu": str(config["fmu"]), "model": description.model_name, "fmi_version": description.fmi_version,
-            "mode": config.get("mode") or description.default_mode(), "once_per_process": once,
+    if isinstance(description, SystemDescription):  # a system: its FMUs' versions, and the master as the mode
+        fmi_version: Any = "+".join(sorted({str(c.description.fmi_version) for c in description.components.values()
+                                            if c.description is not None}))
+        mode = f"system, {config.get('master', 'gauss-seidel')}"
+    else:
+        fmi_version, mode = description.fmi_version, config.get("mode") or description.default_mode()
+    head = {"fmu": str(config.get("fmu") or description.name), "model": description.model_name,
+            "fmi_version": fmi_version, "mode": mode, "once_per_process": once,
             "config": json.loads(json.dumps(config, default=str))}
     candidates = [1 + sum(skipped(c, n, one_per_process) is None for c in VECTORS) for n in args.n]  # single + vectors
     total = sum(1 + k * (1 + args.repeats) + 1 for k in candidates)
