@@ -44,3 +44,17 @@ def test_try_plots_an_episode_of_a_system(ssp, tmp_path, capsys, monkeypatch):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == "drive: 20 steps of random actions (seed 0), t = 0 s to 0.2 s"
     assert (tmp_path / "drive-try.png").is_file()
+
+
+def test_a_task_files_system_paths_are_relative_to_its_folder(family_fmu, tmp_path):
+    from modelicagym.task import load_task
+
+    folder = tmp_path / "task"
+    folder.mkdir()
+    (folder / "load.csv").write_text("time,torque\n0,0\n1,0.1\n")
+    motor = family_fmu("motor", 2)
+    (folder / "task.py").write_text(f"config = {{'fmus': {{'motor': {str(motor)!r}, 'load': 'load.csv', "
+                                    f"'plant': {{'fmu': 'plant.fmu', 'mode': 'me'}}}}}}\n")
+    fmus = load_task(folder / "task.py")["fmus"]
+    assert fmus == {"motor": str(motor), "load": str(folder / "load.csv"),
+                    "plant": {"fmu": str(folder / "plant.fmu"), "mode": "me"}}
