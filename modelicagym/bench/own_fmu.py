@@ -40,8 +40,8 @@ from modelicagym.bench import add_round_arguments, conditions, format_table, med
 from modelicagym.bench.throughput import ASYNC_MAX_N, Run, interleaved_rates
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ArgumentError
-from modelicagym.system import SystemDescription, open_model
 from modelicagym.registry import EnvFactory
+from modelicagym.system import SystemDescription, open_model
 from modelicagym.try_fmu import try_config
 
 logger = logging.getLogger(__name__)

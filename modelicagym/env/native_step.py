@@ -49,9 +49,9 @@ from modelicagym.env.endings import overridden
 from modelicagym.env.spaces import write_values
 from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
-from modelicagym.system import SystemInstance
 from modelicagym.native.abi import FailedCall, MgCall, MgEnv, MgMove, ValueType
 from modelicagym.native.library import NativeBuildError, load_library
+from modelicagym.system import SystemInstance
 
 __all__ = ["NativeStep", "action_storage_dtype", "native_path_reason", "python_edges", "python_inputs_reason",
            "python_observation_reason", "python_path_reason"]

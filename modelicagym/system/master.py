@@ -24,7 +24,7 @@ episode when one of its FMUs does.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -108,15 +108,11 @@ class SystemInstance:
         component, local = name.split(".", 1)
         return getattr(self.components[component], side).views[local]
 
-    def _moves(self, links: Any) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
+    def _moves(self, links: Iterable[Link]) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
         """``(target view, source view, scale, shift)`` per link."""
-        moves = []
-        for link in links:
-            link: Link
-            moves.append((self.components[link.target].inputs.views[link.target_variable],
-                          self.components[link.source].outputs.views[link.source_variable],
-                          link.conversion.scale, link.conversion.shift))
-        return moves
+        return [(self.components[link.target].inputs.views[link.target_variable],
+                 self.components[link.source].outputs.views[link.source_variable],
+                 link.conversion.scale, link.conversion.shift) for link in links]
 
     @staticmethod
     def _copy(moves: list[tuple[np.ndarray, np.ndarray, float, float]]) -> None:

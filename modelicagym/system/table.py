@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from modelicagym.errors import ConfigError, DataError, NotFoundError
+from modelicagym.fmu.errors import StateMismatchError
 from modelicagym.fmu.variables import Variable
 from modelicagym.system.buffers import Values
 
@@ -124,6 +125,7 @@ class TableInstance:
         self.read_outputs()
 
     def start_from(self, state: tuple, values: dict[str, Any] | None = None) -> None:
+        """A table has no initialization to skip: a reset."""
         self.reset(values)
 
     def step(self, dt: float) -> bool:
@@ -147,13 +149,19 @@ class TableInstance:
 
     def check_state(self, state: Any) -> None:
         if not (isinstance(state, tuple) and len(state) == 5):
-            raise ConfigError(f"table {self.name!r}: not a table's saved state: {state!r}")
+            raise StateMismatchError(f"table {self.name!r}: not a table's saved state: {state!r}")
 
     def load_state(self, state: tuple, values: dict[str, Any] | None = None) -> None:
         self.check_state(state)
         self.time, self.origin, self.dt, self.steps, self.offset = state
         self.initialized = True
         self.read_outputs()
+
+    def get_values(self, names: list[str]) -> dict[str, Any]:
+        """The columns ``names`` now, and ``time_offset``."""
+        t = self.time + self.offset
+        return {name: self.offset if name == TIME_OFFSET else float(np.interp(t, self.data.times, self.data.columns[name]))
+                for name in names}
 
     def close(self) -> None:
         """Nothing to free."""

@@ -8,11 +8,11 @@ import zipfile
 
 import numpy as np
 import pytest
+from system_cases import OUTPUTS, SSP_PARAMETERS, system_config, write_ssp
 
 from modelicagym import FMUEnv
 from modelicagym.fmu.errors import InvalidFMUError
 from modelicagym.system import open_system
-from system_cases import OUTPUTS, SSP_PARAMETERS, write_ssp, system_config
 
 ACTIONS = np.linspace(-1.0, 1.0, 40)
 

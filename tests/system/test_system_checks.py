@@ -5,13 +5,13 @@ components and variables with close matches, inputs fed twice or driven by an ac
 from __future__ import annotations
 
 import pytest
+from system_cases import system_config
 
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import VariableError
 from modelicagym.system import open_system
 from modelicagym.system.units import Unit, conversion
-from system_cases import system_config
 
 
 @pytest.fixture

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from system_cases import OUTPUTS, RPM, TIME_STEP, hand_loop, system_config
 
 from modelicagym import FMUEnv
+from modelicagym.errors import ConfigError
 from modelicagym.system import SystemState
-from system_cases import OUTPUTS, RPM, TIME_STEP, hand_loop, system_config
 
 ACTIONS = np.sin(np.arange(60) * 0.2) * 1.2  # beyond +-1 now and then: the motor's command is not clipped by the env
 
@@ -142,3 +143,28 @@ def test_the_feedback_is_converted_from_rad_per_s_to_rpm(system_fmus):
     # Gauss-Seidel steps the motor first: it takes the speed the shaft had at the step's start
     assert rows[-1, 0] > 0
     np.testing.assert_allclose(rows[1:, 1], rows[:-1, 0] / RPM, rtol=1e-12)
+
+
+def test_fmi_1_2_and_3_components_step_together(system_fmus):
+    from fmu_family import BALL_DIR
+
+    from modelicagym.fmu import UnsupportedFeatureError
+    from modelicagym.fmu.build import build_source_fmu
+
+    motor, inertia = system_fmus
+    ball = build_source_fmu(BALL_DIR, 1, "me")  # FMI 1.0, model exchange: no dependencies declared
+    config = system_config(motor, inertia, fmus={"motor": str(motor), "plant": {"fmu": str(inertia), "mode": "me"},
+                                                 "ball": str(ball)},
+                           connections=[*system_config(motor, inertia)["connections"], ("plant.w", "ball.a"),
+                                        ("ball.v", "plant.tau_load")],
+                           outputs=["plant.w", "ball.v", "ball.h"], parameters={"ball.h_0": 100.0})
+    with FMUEnv(unbounded(config)) as env:
+        assert [c.description.fmi_version for c in env.description.components.values()] == [2, 3, 1]
+        first, second = run(env, ACTIONS[:20]), run(env, ACTIONS[:20])
+        with pytest.raises(UnsupportedFeatureError, match="FMI 1.0 has no FMU state"):
+            env.get_state()
+    np.testing.assert_array_equal(first, second)  # every component's reset starts the same episode
+    assert abs(first[-1, 1] + 9.81 * 20 * TIME_STEP) > 0.1  # not a free fall: the shaft's speed drives the ball
+    # FMI 1.0 declares no dependencies: its outputs are taken to depend on every input, by the standard
+    with pytest.raises(ConfigError, match="algebraic loop through plant.a -> ball.a and ball.v -> plant.tau_load"):
+        FMUEnv({**config, "connections": [("plant.a", "ball.a"), ("ball.v", "plant.tau_load")]})
