@@ -190,8 +190,10 @@ class FMUEnv(gym.Env):
                                       python_observation=self._python_observation)
             self.python_edges = python_edges(inputs_reason, observation_reason)
             self.step_path = "native"
+            components = getattr(self.fmu, "components", None)
             self.step_path_reason = native_path_reason(inputs_reason, observation_reason,
-                                                       [] if endings is None else endings.parts)
+                                                       [] if endings is None else endings.parts,
+                                                       None if components is None else len(components))
         else:
             self.step_path, self.step_path_reason = "python", reason
 

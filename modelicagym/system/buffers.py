@@ -39,3 +39,15 @@ class Values:
         """Put each variable's declared start value (or zero) into its view."""
         for v in self.variables:
             self.views[v.name][...] = 0 if v.start is None else np.reshape(v.start, v.shape) if v.shape else v.start
+
+    def snapshot(self) -> bytes:
+        """The values as they are now, as bytes (`load` puts them back)."""
+        return b"".join(self.views[v.name].tobytes() for v in self.variables)
+
+    def load(self, data: bytes) -> None:
+        """Put back values `snapshot` returned."""
+        offset = 0
+        for v in self.variables:
+            view = self.views[v.name]
+            view[...] = np.frombuffer(data[offset:offset + view.nbytes], view.dtype).reshape(view.shape)
+            offset += view.nbytes

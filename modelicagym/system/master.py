@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from modelicagym.errors import ConfigError
+from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.errors import StateMismatchError
 from modelicagym.fmu.instance import FMUInstance
 from modelicagym.system.buffers import Values
@@ -45,7 +46,8 @@ def _unique(names: list[str]) -> list[str]:
 
 class SystemInstance:
     """A live system: one `FMUInstance` per FMU (a `TableInstance` per table), stepped by the
-    master algorithm of the module docstring.
+    master algorithm of the module docstring. Its time bookkeeping lives in ``self.clock``, the C
+    struct the native step path writes too (`modelicagym.fmu.clock`), as an FMU instance's.
 
     Parameters:
         description: the system (`open_system`).
@@ -57,6 +59,11 @@ class SystemInstance:
         **options: the rest of `FMUInstance`'s options, for every FMU.
     """
 
+    time = OnClock()
+    steps = OnClock()
+    _origin = OnClock()
+    _dt = OnClock()
+
     def __init__(self, description: SystemDescription, *, inputs: Sequence[str] = (), outputs: Sequence[str] = (),
                  start_time: float | None = None, master: str = "gauss-seidel", substeps: int = 1,
                  mode: str | None = None, step_size: float | None = None, **options: Any):
@@ -65,6 +72,7 @@ class SystemInstance:
         if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
             raise ConfigError(f"substeps must be a positive integer, got {substeps!r}")
         self.description = description
+        self.clock = StepClock()
         self.master, self.substeps = master, substeps
         self.input_variables = [description.input_variable(n) for n in inputs]
         self.output_variables = [description.observable_variable(n) for n in outputs]
@@ -96,11 +104,14 @@ class SystemInstance:
             raise
         self.inputs = Values(self.input_variables)
         self.outputs = Values(self.output_variables)
-        self._action_moves = [(self._view(v.name, "inputs"), self.inputs.views[v.name]) for v in self.input_variables]
-        self._output_moves = [(self.outputs.views[v.name], self._view(v.name, "outputs")) for v in self.output_variables]
+        # what a step copies (the native path copies the same, `modelicagym.env.native_system`):
+        # the action's values to the components, the connections (in description.links order),
+        # the components' outputs to the system's
+        self.action_moves = [(self._view(v.name, "inputs"), self.inputs.views[v.name]) for v in self.input_variables]
+        self.output_moves = [(self.outputs.views[v.name], self._view(v.name, "outputs")) for v in self.output_variables]
         self._order = [(self.components[name], self._moves(link for link in description.links if link.target == name))
                        for name in description.order]
-        self._all_links = self._moves(description.links)
+        self.link_moves = self._moves(description.links)
         self.time = self.start_time
         self._origin, self._dt, self.steps = self.start_time, 0.0, 0
 
@@ -146,20 +157,32 @@ class SystemInstance:
     def terminated(self) -> bool:
         return any(component.terminated for component in self.components.values())
 
+    #: a system takes its inputs as values between steps, never in an event mode of its own
+    event_mode_inputs = False
+
+    def python_step_reason(self) -> str | None:
+        """Why this system cannot step in C (`modelicagym.env.native_step`), or None: a model
+        exchange component whose solver loop is Python's."""
+        for name, component in self.components.items():
+            if isinstance(component, FMUInstance) and component.mode == "me" and component.integrator_path != "native":
+                return f"component {name!r} is model exchange with its solver loop in Python: " \
+                       f"{component.integrator_path_reason}"
+        return None
+
     def step(self, dt: float) -> bool:
         """Advance the system by ``dt`` (see the module docstring); True if an FMU ended the episode.
         An FMU's failure (`FMUCallError`) propagates: the env truncates the episode, and the next
         reset re-instantiates the failed FMU."""
         if dt != self._dt:
             self._origin, self._dt, self.steps = self.time, dt, 0
-        for target, source in self._action_moves:
+        for target, source in self.action_moves:
             target[...] = source
         h = dt / self.substeps
         gauss_seidel = self.master == "gauss-seidel"
         ended = False
         for _ in range(self.substeps):
             if not gauss_seidel:
-                self._copy(self._all_links)
+                self._copy(self.link_moves)
             for component, moves in self._order:
                 if gauss_seidel:
                     self._copy(moves)
@@ -168,7 +191,7 @@ class SystemInstance:
                 break
         self.steps += 1
         self.time = self._origin + self.steps * dt
-        for target, source in self._output_moves:
+        for target, source in self.output_moves:
             target[...] = source
         return ended
 
@@ -206,13 +229,13 @@ class SystemInstance:
             if moves and isinstance(component, FMUInstance) and not component.event_mode_inputs:
                 component.inputs.check(component.inputs.write(), "set inputs")
                 component.read_outputs()
-        for target, source in self._output_moves:
+        for target, source in self.output_moves:
             target[...] = source
 
     def read_outputs(self) -> None:
         for component in self.components.values():
             component.read_outputs()
-        for target, source in self._output_moves:
+        for target, source in self.output_moves:
             target[...] = source
 
     def save_state(self) -> SystemState:
@@ -235,7 +258,7 @@ class SystemInstance:
         for name, component in self.components.items():
             component.load_state(state.components[name], split[name])
         self.time, self.steps, self._origin, self._dt = state.time, state.steps, state.origin, state.dt
-        for target, source in self._output_moves:
+        for target, source in self.output_moves:
             target[...] = source
 
     def get_values(self, names: Sequence[str]) -> dict[str, Any]:

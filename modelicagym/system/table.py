@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from modelicagym.errors import ConfigError, DataError, NotFoundError
+from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.errors import StateMismatchError
 from modelicagym.fmu.variables import Variable
 from modelicagym.system.buffers import Values
@@ -103,19 +104,41 @@ def _read_mat(path: Path) -> tuple[np.ndarray, dict[str, np.ndarray]]:
 
 class TableInstance:
     """A table stepped as a component: ``outputs.views[column]`` holds its value at the current time
-    (plus ``time_offset``); ``step(dt)`` moves it on. What the master needs of a component, no more."""
+    (plus ``time_offset``); ``step(dt)`` moves it on. What the master needs of a component, no more.
+    Its clock and offset live where the native step path reads and writes them (``clock``, a C
+    struct; ``offset_value``, one double); ``matrix`` holds its outputs' columns, one row each."""
+
+    time = OnClock()
+    start_time = OnClock()
+    steps = OnClock()
+    fmu_time_ns = OnClock()
+    origin = OnClock()
+    dt = OnClock()
 
     def __init__(self, data: TableData, name: str, outputs: list[str], start_time: float):
         self.data, self.name = data, name
+        self.clock = StepClock()
+        self.offset_value = np.zeros(1)
         self.output_variables = [v for v in data.variables() if v.name in outputs]
         self.outputs = Values(self.output_variables)
         self.inputs = Values([])
-        self._columns = [(self.outputs.views[v.name], data.columns[v.name]) for v in self.output_variables]
+        self.matrix = np.array([data.columns[v.name] for v in self.output_variables], dtype=np.float64).reshape(
+            len(self.output_variables), data.times.size)
+        self._columns = [(self.outputs.views[v.name], row) for v, row in zip(self.output_variables, self.matrix)]
         self.start_time = start_time
         self.time, self.origin, self.dt, self.steps, self.offset = start_time, start_time, 0.0, 0, 0.0
         self.fmu_time_ns = 0
         self.initialized, self.initializations, self.terminated = False, 0, False
         self.event_mode_inputs = False
+
+    @property
+    def offset(self) -> float:
+        """The table's time at the system's start time, this episode (``time_offset``)."""
+        return float(self.offset_value[0])
+
+    @offset.setter
+    def offset(self, value: float) -> None:
+        self.offset_value[0] = value
 
     def reset(self, values: dict[str, Any] | None = None) -> None:
         offset = (values or {}).get(TIME_OFFSET, 0.0)

@@ -1,7 +1,9 @@
-"""The master algorithm (modelicagym/system/master.py): a system's trajectories equal a
-co-simulation loop written by hand over FMPy (tests/system_cases.py), for Gauss-Seidel and Jacobi,
-with a unit conversion on the feedback; model exchange and co-simulation components mixed; a time
-table driving an input, shifted per episode; saved states covering every component."""
+"""The master algorithm (modelicagym/system/master.py, and in C: csrc/step.c, env/native_system.py):
+a system's trajectories equal a co-simulation loop written by hand over FMPy
+(tests/system_cases.py), for Gauss-Seidel and Jacobi, with a unit conversion on the feedback, on
+both step paths; the native path equals the Python path bit for bit (model exchange and
+co-simulation components mixed, substeps, tables); a time table driving an input, shifted per
+episode; saved states covering every component; a component's failure truncates the episode."""
 
 from __future__ import annotations
 
@@ -31,11 +33,12 @@ def unbounded(config: dict) -> dict:
     return {**config, "action_bounds": {"motor.u": (-2.0, 2.0)}}
 
 
+@pytest.mark.parametrize("step_path", ["auto", "python"])
 @pytest.mark.parametrize("master", ["gauss-seidel", "jacobi"])
-def test_the_system_steps_as_a_hand_written_fmpy_loop(system_fmus, master):
+def test_the_system_steps_as_a_hand_written_fmpy_loop(system_fmus, master, step_path):
     motor, inertia = system_fmus
-    env = FMUEnv(unbounded(system_config(motor, inertia, master=master)))
-    assert env.step_path == "python" and "system" in env.step_path_reason
+    env = FMUEnv(unbounded(system_config(motor, inertia, master=master, step_path=step_path)))
+    assert env.step_path == ("native" if step_path == "auto" else "python")
     actual = run(env, ACTIONS)
     env.close()
     expected = hand_loop(motor, inertia, ACTIONS, master)
@@ -95,13 +98,52 @@ def test_substeps_are_communication_steps_within_an_env_step(system_fmus):
 
 
 @pytest.mark.parametrize("master", ["gauss-seidel", "jacobi"])
-def test_a_csv_table_drives_an_input_from_a_time_of_its_own_each_episode(system_fmus, tmp_path, master):
+@pytest.mark.parametrize("variant", ["cs", "me", "substeps"])
+def test_the_native_path_steps_a_system_as_the_python_path(system_fmus, tmp_path, master, variant):
+    motor, inertia = system_fmus
+    table = tmp_path / "load.csv"
+    table.write_text("time,torque\n0,0\n0.1,-0.05\n0.3,0.04\n")
+    plant = {"fmu": str(inertia), "mode": "me"} if variant == "me" else str(inertia)
+    config = unbounded(system_config(motor, inertia, master=master, substeps=3 if variant == "substeps" else 1,
+                                     fmus={"motor": str(motor), "plant": plant, "load": str(table)},
+                                     connections=[*system_config(motor, inertia)["connections"],
+                                                  ("load.torque", "plant.tau_load")],
+                                     outputs=[*OUTPUTS, "load.torque"]))
+    runs = {}
+    for step_path in ("auto", "python"):
+        with FMUEnv({**config, "step_path": step_path}) as env:
+            runs[env.step_path] = [run(env, ACTIONS[:40], options={"parameters": {"load.time_offset": offset}})
+                                   for offset in (0.0, 0.07)]
+            runs[env.step_path].append((env.time, env.fmu.components["load"].time, env.fmu.components["plant"].time))
+    np.testing.assert_array_equal(np.array(runs["native"][:2]), np.array(runs["python"][:2]))
+    assert runs["native"][2] == runs["python"][2]
+
+
+@pytest.mark.parametrize("step_path", ["auto", "python"])
+def test_a_failing_component_truncates_the_episode_naming_it(system_fmus, family_fmu, step_path):
+    motor, inertia = system_fmus
+    config = system_config(motor, inertia, step_path=step_path,
+                           fmus={"motor": str(motor), "plant": str(inertia), "probe": str(family_fmu("probe", 2))},
+                           connections=[*system_config(motor, inertia)["connections"], ("motor.tau", "probe.force")],
+                           parameters={"probe.fault": 2, "probe.fault_after": 5})
+    with FMUEnv(config) as env:
+        env.reset(seed=0)
+        infos = [env.step(np.array([0.5]))[1:] for _ in range(6)]
+        assert [truncated for _, _, truncated, _ in infos] == [False] * 5 + [True]
+        assert "probe" in infos[-1][3]["fmu_error"] and "fmiDoStep" in infos[-1][3]["fmu_error"]
+        env.reset(seed=0)  # the failed component is instantiated again
+        assert not env.step(np.array([0.5]))[3]
+
+
+@pytest.mark.parametrize("step_path", ["auto", "python"])
+@pytest.mark.parametrize("master", ["gauss-seidel", "jacobi"])
+def test_a_csv_table_drives_an_input_from_a_time_of_its_own_each_episode(system_fmus, tmp_path, master, step_path):
     motor, inertia = system_fmus
     table = tmp_path / "load.csv"
     times = np.arange(0.0, 10.0, 0.25)
     torque = -0.05 * np.cos(times)
     table.write_text("time,torque\n" + "".join(f"{float(t)!r},{float(y)!r}\n" for t, y in zip(times, torque)))
-    config = system_config(motor, inertia, master=master,
+    config = system_config(motor, inertia, master=master, step_path=step_path,
                            fmus={"motor": str(motor), "plant": str(inertia), "load": str(table)},
                            connections=[*system_config(motor, inertia)["connections"], ("load.torque", "plant.tau_load")],
                            outputs=[*OUTPUTS, "load.torque"])

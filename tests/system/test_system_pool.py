@@ -1,5 +1,6 @@
-"""A system in the pool: ``make_vec`` over a system config (processes, ``init="once"``) gives what
-Gymnasium's SyncVectorEnv gives over the same envs, step for step."""
+"""A system in the pool: ``make_vec`` over a system config (processes, ``init="once"``, the
+native path) gives what Gymnasium's SyncVectorEnv gives over the same envs on the Python path,
+step for step."""
 
 from __future__ import annotations
 
@@ -25,10 +26,10 @@ def test_a_pool_of_systems_matches_sync_vector_env(family_fmu, tmp_path, init):
                            fmus={"motor": str(motor), "plant": str(inertia), "load": str(table)},
                            connections=[*system_config(motor, inertia)["connections"], ("load.torque", "plant.tau_load")],
                            termination={"plant.w": (-30.0, 30.0)})
-    sync = SyncVectorEnv([partial(FMUEnv, config)] * 3)
+    sync = SyncVectorEnv([partial(FMUEnv, {**config, "step_path": "python"})] * 3)
     expected = rollout(sync, 40)
     sync.close()
     with modelicagym.make_vec(config, n=3, num_workers=2, init=init) as pool:
-        assert {path for path, _ in pool.step_paths} == {"python"}
+        assert {path for path, _ in pool.step_paths} == {"native"}
         actual = rollout(pool, 40)
     assert_same(expected, actual)
