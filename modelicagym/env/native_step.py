@@ -46,9 +46,9 @@ import numpy as np
 from gymnasium import spaces
 
 from modelicagym.env.endings import overridden
-from modelicagym.env.spaces import write_values
 from modelicagym.env.native_fmu import bind_instance, fmu_error, instance_calls
 from modelicagym.env.native_system import NativeSystem
+from modelicagym.env.spaces import write_values
 from modelicagym.fmu.errors import FMUError
 from modelicagym.native.abi import MgEnv, MgMove, ValueType
 from modelicagym.native.library import NativeBuildError, load_library
