@@ -26,6 +26,9 @@ A pool's native slice (one C call for many envs) runs the same edges per env aro
 (`modelicagym.vector.slice.slice_edges`): ``mg_env.python_inputs`` tells C to step the env from
 the inputs Python wrote, ``mg_env.python_observation`` to write none of its observation rows.
 
+A system of FMUs (`modelicagym.system`) steps in C too: its ``mg_env`` runs the master algorithm
+over an ``mg_env`` per FMU and the copies along its connections (`modelicagym.env.native_system`).
+
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step. C calls
 one fmiSet/fmiGet per FMI type (the buffers are grouped so), converts the action's values into the

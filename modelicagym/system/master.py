@@ -20,6 +20,10 @@ component's inputs written and its outputs read again, so the first observation 
 with the connections (an FMU whose discrete inputs are set in event mode only takes them at the
 first step). The observation is read after the last communication step. The system ends its
 episode when one of its FMUs does.
+
+The native step path runs the same algorithm in C (``advance_system`` in
+``modelicagym/native/csrc/step.c``, over the moves listed here: ``action_moves``, ``link_moves``,
+``output_moves``; `modelicagym.env.native_system`), with the same results bit for bit.
 """
 
 from __future__ import annotations
