@@ -1,6 +1,7 @@
 """Throughput of your own FMU: a single env, SyncVectorEnv, AsyncVectorEnv and the pool, side by side.
 
-``modelicagym bench fmu MY.fmu`` makes envs from the config ``modelicagym info`` prints for the FMU
+``modelicagym bench fmu MY.fmu`` (or ``system.ssp``: then also its step against its FMUs stepped
+alone, `modelicagym.bench.system_alone`) makes envs from the config ``modelicagym info`` prints for the FMU
 (``--config file.json`` and ``--set key=value`` change it, as for ``modelicagym try``) and, for
 each number of envs n (``--n``, default 2 8 64), times interleaved over several rounds, random
 actions sampled from the action space (seeded):
@@ -36,7 +37,7 @@ from typing import Any
 import gymnasium as gym
 
 import modelicagym
-from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
+from modelicagym.bench import add_round_arguments, conditions, format_table, median, system_alone, write_json
 from modelicagym.bench.throughput import ASYNC_MAX_N, Run, interleaved_rates
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ArgumentError
@@ -292,9 +293,14 @@ def run(args: argparse.Namespace) -> int:
     with progress_reporter(total) as progress:
         for n in args.n:
             results.append(measure_group(config, n, args.repeats, args.seconds, one_per_process, progress))
+        if isinstance(description, SystemDescription):
+            head["alone"] = system_alone.measure(config, description, args.repeats, args.seconds, single_loop,
+                                                 progress=lambda what: progress(f"alone: {what}"))
     head["step_path"] = results[0]["single_step_path"]
     line, data = conditions(load_before, args.repeats, args.seconds)
     print(report(head, results))
+    if "alone" in head:
+        print("\n" + "\n".join(system_alone.report_lines(head["alone"])))
     print(f"\n{line}")
     out = args.json or f"bench-results/fmu-{Path(args.fmu).stem}.json"
     data = {**head, **data, "repeats": args.repeats, "seconds": args.seconds, "results": results}

@@ -58,3 +58,21 @@ def test_a_task_files_system_paths_are_relative_to_its_folder(family_fmu, tmp_pa
     fmus = load_task(folder / "task.py")["fmus"]
     assert fmus == {"motor": str(motor), "load": str(folder / "load.csv"),
                     "plant": {"fmu": str(folder / "plant.fmu"), "mode": "me"}}
+
+
+def test_bench_compares_a_systems_step_with_its_fmus_stepped_alone(ssp):
+    from modelicagym.bench.own_fmu import single_loop
+    from modelicagym.bench.system_alone import alone_configs, measure, report_lines
+    from modelicagym.system import open_system
+
+    config = {"fmu": str(ssp), "inputs": ["motor.u"], "outputs": ["plant.w"], "time_step": 0.01, "substeps": 2,
+              "max_episode_steps": 50}
+    system = open_system(ssp)
+    configs = alone_configs(config, system)
+    assert configs["motor"]["inputs"] == ["w", "u"] and configs["motor"]["parameters"] == {"k": 0.8}
+    assert configs["plant"]["action_bounds"] == {"tau": (0.0, 0.0)} and configs["plant"]["time_step"] == 0.005
+    result = measure(config, system, repeats=1, seconds=0.02, loop=single_loop, progress=lambda what: None)
+    assert set(result["us_per_step"]) == {"system", "motor", "plant"} and result["substeps"] == 2
+    assert set(result["step_paths"].values()) == {"native"}
+    lines = report_lines(result)
+    assert lines[-2].startswith("  sum of the FMUs alone x 2 substeps: ") and lines[-1].startswith("  the system: ")
