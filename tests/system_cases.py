@@ -171,10 +171,23 @@ SSM = """<?xml version="1.0" encoding="UTF-8"?>
 SSP_PARAMETERS = {"motor.k": 0.8, "plant.J": 20 * 0.001 + 0.0, "plant.d": 0.002}
 
 
-def write_ssp(target: Path, motor: Path, inertia: Path) -> Path:
-    """An SSP archive of the system: SystemStructure.ssd, the two FMUs, a parameter set and its mapping."""
+#: a load table as a third component of the SSP (`write_ssp`'s ``table``)
+TABLE_COMPONENT = """      <ssd:Component name="load" type="text/csv" source="resources/load.csv"/>
+    </ssd:Elements>"""
+TABLE_CONNECTION = """      <ssd:Connection startElement="load" startConnector="torque" endElement="plant" endConnector="tau_load"/>
+    </ssd:Connections>"""
+
+
+def write_ssp(target: Path, motor: Path, inertia: Path, table: str | None = None) -> Path:
+    """An SSP archive of the system: SystemStructure.ssd, the two FMUs, a parameter set and its
+    mapping; with ``table`` (a CSV's text), a table component driving the shaft's load too."""
+    ssd = SSD
+    if table is not None:
+        ssd = ssd.replace("    </ssd:Elements>", TABLE_COMPONENT).replace("    </ssd:Connections>", TABLE_CONNECTION)
     with zipfile.ZipFile(target, "w") as archive:
-        archive.writestr("SystemStructure.ssd", SSD)
+        archive.writestr("SystemStructure.ssd", ssd)
+        if table is not None:
+            archive.writestr("resources/load.csv", table)
         archive.write(motor, "resources/motor.fmu")
         archive.write(inertia, "resources/plant.fmu")
         archive.writestr("resources/drive.ssv", SSV)

@@ -133,8 +133,9 @@ class FMUEnv(gym.Env):
         for name, value in cfg.parameters.items():
             check_parameter(description.name, description.settable_variable(name), value)
         held = check_fixed_input_names(description.name, cfg.fixed_inputs, description.variables, description.inputs)
-        for variable in held:
-            check_parameter(description.name, variable, cfg.fixed_inputs[variable.name], "fixed input")
+        for variable in held:  # settable: a system refuses an input a connection feeds
+            check_parameter(description.name, description.settable_variable(variable.name),
+                            cfg.fixed_inputs[variable.name], "fixed input")
         check_action_bound_names(description.name, cfg.action_bounds or {}, list(cfg.inputs))
         self.time_step = float(cfg.time_step or description.default_experiment.step_size or 0.0)
         if not self.time_step > 0:

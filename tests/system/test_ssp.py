@@ -64,3 +64,17 @@ def test_an_archive_without_a_system_structure_is_refused(tmp_path):
         archive.writestr("readme.txt", "no system here")
     with pytest.raises(InvalidFMUError, match="bogus.ssp is not an SSP archive: the zip archive has no SystemStructure.ssd"):
         open_system(bogus)
+
+
+def test_an_ssp_table_component_drives_an_input(family_fmu, tmp_path):
+    ssp = write_ssp(tmp_path / "loaded.ssp", family_fmu("motor", 2), family_fmu("inertia", 3),
+                    table="time,torque\n0,0\n1,-0.1\n")
+    system = open_system(ssp)
+    assert system.order == ["load", "motor", "plant"] and system.components["load"].kind == "table"
+    env = FMUEnv(fmu=ssp, inputs=["motor.u"], outputs=["load.torque", "plant.tau"], time_step=0.01)
+    assert [v.name for v in env.description.inputs] == ["motor.u"]
+    env.reset(seed=0)
+    for _ in range(10):
+        torque = env.step(np.array([0.0]))[0][0]
+    assert torque == pytest.approx(-0.01, rel=1e-12)
+    env.close()

@@ -82,6 +82,13 @@ def test_a_connected_input_is_no_action(fmus):
         FMUEnv(config)
 
 
+def test_a_connected_input_is_not_held_either(fmus):
+    config = {"fmus": fmus, "connections": [("motor.tau", "plant.tau")], "inputs": ["motor.u"],
+              "outputs": ["plant.w"], "fixed_inputs": {"plant.tau": 1.0}}
+    with pytest.raises(VariableError, match="'plant.tau' cannot be set: the connection motor.tau -> plant.tau feeds it"):
+        FMUEnv(config)
+
+
 def test_config_names_are_checked_with_close_matches(family_fmu):
     config = system_config(family_fmu("motor", 2), family_fmu("inertia", 3))
     with pytest.raises(VariableError, match="no output named 'ww'. Did you mean 'w'"):
