@@ -148,12 +148,18 @@ SSD = """<?xml version="1.0" encoding="UTF-8"?>
 </ssd:SystemStructureDescription>
 """
 
+# the initial speed in rpm, a unit the set defines: converted to the FMU's rad/s
 SSV = """<?xml version="1.0" encoding="UTF-8"?>
-<ssv:ParameterSet version="1.0" name="drive" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">
+<ssv:ParameterSet version="1.0" name="drive" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"
+    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon">
   <ssv:Parameters>
     <ssv:Parameter name="inertia_g_m2"><ssv:Real value="20"/></ssv:Parameter>
     <ssv:Parameter name="plant.d"><ssv:Real value="0.002"/></ssv:Parameter>
+    <ssv:Parameter name="plant.w_0"><ssv:Real value="60" unit="rpm"/></ssv:Parameter>
   </ssv:Parameters>
+  <ssv:Units>
+    <ssc:Unit name="rpm"><ssc:BaseUnit rad="1" s="-1" factor="0.10471975511965977"/></ssc:Unit>
+  </ssv:Units>
 </ssv:ParameterSet>
 """
 
@@ -168,7 +174,7 @@ SSM = """<?xml version="1.0" encoding="UTF-8"?>
 """
 
 #: what the SSP's parameter sets and mapping amount to
-SSP_PARAMETERS = {"motor.k": 0.8, "plant.J": 20 * 0.001 + 0.0, "plant.d": 0.002}
+SSP_PARAMETERS = {"motor.k": 0.8, "plant.J": 20 * 0.001 + 0.0, "plant.d": 0.002, "plant.w_0": 60 * RPM}
 
 
 #: a load table as a third component of the SSP (`write_ssp`'s ``table``)

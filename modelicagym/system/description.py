@@ -22,6 +22,7 @@ from modelicagym.fmu.variables import Variable
 from modelicagym.system.components import Component, open_component
 from modelicagym.system.graph import ConnectionSpec, Link, check_connections, split_name, stepping_order
 from modelicagym.system.ssp import SystemSpec, read_ssp
+from modelicagym.system.units import Unit, conversion, declared_unit
 
 #: the master algorithms: how the components' inputs are updated within a communication step
 MASTERS = ("gauss-seidel", "jacobi")
@@ -42,10 +43,17 @@ class SystemDescription:
         self.order = stepping_order(list(self.components), self.links)
         self._fed = {(link.target, link.target_variable): link for link in self.links}
         self.start_time = spec.start_time
-        for name in spec.parameters:
-            self.settable_variable(name)
-        #: the values the SSP's parameter sets give, applied under the env's own at every reset
-        self.parameter_values: dict[str, Any] = dict(spec.parameters)
+        #: the values the SSP's parameter sets give (in their variables' units), applied under the
+        #: env's own at every reset
+        self.parameter_values: dict[str, Any] = {name: self._in_own_unit(name, value, spec.parameter_units.get(name))
+                                                 for name, value in spec.parameters.items()}
+
+    def _in_own_unit(self, name: str, value: Any, unit: Unit | None) -> Any:
+        """``value`` of parameter ``name``, given in ``unit``, in the unit its variable declares."""
+        variable = self.settable_variable(name)
+        component = self.components[name.split(".", 1)[0]]
+        convert = conversion(unit, declared_unit(variable.unit, component.units), f"{self.name}: parameter {name!r}")
+        return value if convert.identity else convert.scale * value + convert.shift
 
     def __repr__(self) -> str:
         return f"SystemDescription({self.name!r}, components={list(self.components)})"

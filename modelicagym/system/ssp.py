@@ -1,7 +1,8 @@
 """Read an SSP system (the FMI standard for systems, "System Structure and Parameterization"): an
 ``.ssp`` archive, or a folder, holding ``SystemStructure.ssd`` and the FMUs it names (usually under
 ``resources/``), with its parameter sets (``.ssv``, or inline ``ssv:ParameterSet``) and parameter
-mappings (``.ssm``) applied.
+mappings (``.ssm``) applied, a value given in a unit (``ssv:Real unit``, defined in the set's
+``ssv:Units`` or the FMU's) converted to its variable's.
 
 What is read: the components of the top-level system (FMUs, with their ``implementation`` as the
 mode, and tables: a ``.csv`` or ``.mat`` source), its connections between components (with an
@@ -25,7 +26,7 @@ from modelicagym.errors import ConfigError, DataError
 from modelicagym.fmu.description import extract_archive
 from modelicagym.fmu.errors import FMUNotFoundError, InvalidFMUError
 from modelicagym.system.graph import ConnectionSpec
-from modelicagym.system.units import Conversion
+from modelicagym.system.units import BASE_UNITS, Conversion, Unit
 
 logger = logging.getLogger(__name__)
 
@@ -51,6 +52,8 @@ class SystemSpec:
     connections: list[ConnectionSpec]
     parameters: dict[str, Any] = field(default_factory=dict)
     start_time: float | None = None
+    #: the unit a parameter set gives a value in, where it gives one (converted to the variable's)
+    parameter_units: dict[str, Unit] = field(default_factory=dict)
 
 
 def is_ssp(path: str | Path) -> bool:
@@ -74,7 +77,8 @@ def read_ssp(path: str | Path) -> SystemSpec:
     if system.find("ssd:Elements/ssd:System", NS) is not None:
         raise ConfigError(f"{path}: system {name!r} nests systems; flatten it into one system of components")
     components: dict[str, Any] = {}
-    parameters = _bindings(system, root, path, "")
+    units: dict[str, Unit] = {}
+    parameters = _bindings(system, root, path, "", units)
     for element in system.iterfind("ssd:Elements/ssd:Component", NS):
         component = element.get("name")
         source = element.get("source")
@@ -87,7 +91,7 @@ def read_ssp(path: str | Path) -> SystemSpec:
         mode = _IMPLEMENTATIONS[implementation]
         location = str(root / source)
         components[component] = {"fmu": location, "mode": mode} if mode else location
-        parameters.update(_bindings(element, root, path, f"{component}."))
+        parameters.update(_bindings(element, root, path, f"{component}.", units))
     connections = []
     for element in system.iterfind("ssd:Connections/ssd:Connection", NS):
         start, end = element.get("startElement"), element.get("endElement")
@@ -100,7 +104,8 @@ def read_ssp(path: str | Path) -> SystemSpec:
                                           f"{end}.{element.get('endConnector')}", _transformation(element)))
     experiment = ssd.find("ssd:DefaultExperiment", NS)
     start_time = experiment.get("startTime") if experiment is not None else None
-    return SystemSpec(name, components, connections, parameters, None if start_time is None else float(start_time))
+    return SystemSpec(name, components, connections, parameters, None if start_time is None else float(start_time),
+                      units)
 
 
 def _parse(file: Path, where: Path) -> Any:
@@ -119,9 +124,10 @@ def _transformation(element: Any) -> Conversion | None:
     return Conversion(float(linear.get("factor", 1.0)), float(linear.get("offset", 0.0)))
 
 
-def _bindings(element: Any, root: Path, where: Path, scope: str) -> dict[str, Any]:
+def _bindings(element: Any, root: Path, where: Path, scope: str, units: dict[str, Unit]) -> dict[str, Any]:
     """The parameter values of ``element``'s bindings, named ``scope`` + prefix + name (a
-    component's bindings name its variables), mappings applied."""
+    component's bindings name its variables), mappings applied; into ``units``, the unit of each
+    value that names one (defined by its parameter set's ``ssv:Units``, else by name only)."""
     values: dict[str, Any] = {}
     for binding in element.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
         prefix = binding.get("prefix") or ""
@@ -134,13 +140,25 @@ def _bindings(element: Any, root: Path, where: Path, scope: str) -> dict[str, An
             for entry in document.iterfind("ssm:MappingEntry", NS) if document is not None else ():
                 mapping[entry.get("source")] = (entry.get("target"), _transformation(entry))
         for parameter_set in sets:
+            defined = {unit.get("name"): _unit(unit) for unit in parameter_set.iterfind("ssv:Units/ssc:Unit", NS)}
             for parameter in parameter_set.iterfind("ssv:Parameters/ssv:Parameter", NS):
                 name, value = parameter.get("name"), _value(parameter, where)
                 target, transformation = mapping.get(name, (name, None))
                 if transformation is not None:
                     value = transformation.scale * value + transformation.shift
                 values[scope + prefix + target] = value
+                unit = parameter.find("ssv:Real", NS)
+                if unit is not None and unit.get("unit") and transformation is None:
+                    units[scope + prefix + target] = defined.get(unit.get("unit")) or Unit(unit.get("unit"), None)
     return values
+
+
+def _unit(element: Any) -> Unit:
+    """An ``ssc:Unit`` with its ``ssc:BaseUnit``, as an FMU's unit definition."""
+    base = element.find("ssc:BaseUnit", NS)
+    attributes = {} if base is None else base.attrib
+    return Unit(element.get("name"), tuple(int(attributes.get(b, 0)) for b in BASE_UNITS),
+                float(attributes.get("factor", 1.0)), float(attributes.get("offset", 0.0)))
 
 
 def _value(parameter: Any, where: Path) -> Any:
