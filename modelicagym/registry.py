@@ -20,8 +20,8 @@ from typing import Any
 import gymnasium as gym
 
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ModelicaGymError
-from modelicagym.system import open_model
 from modelicagym.fmu.library_copies import check_instances_per_process
+from modelicagym.system import open_model
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
     "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.models.cartpole.env:CartPoleEnv"),
