@@ -9,7 +9,9 @@ mode, and tables: a ``.csv`` or ``.mat`` source), its connections between compon
 ``ssc:LinearTransformation``), the parameter bindings of the system and of each component (a
 binding's ``prefix``; a mapping renames a parameter set's names, with its own linear
 transformation), and ``DefaultExperiment``'s start time. Connections to the system's own
-connectors leave the component's end unconnected (an input then becomes an action). Nested
+connectors leave the component's end unconnected (an input then becomes an action), except that a
+value the system's parameter sets give such a connector (OMSimulator's system parameters) goes to
+every component variable it feeds. Nested
 systems and signal dictionaries are refused in one line.
 """
 
@@ -93,8 +95,12 @@ def read_ssp(path: str | Path) -> SystemSpec:
         components[component] = {"fmu": location, "mode": mode} if mode else location
         parameters.update(_bindings(element, root, path, f"{component}.", units))
     connections = []
+    fed: dict[str, list[tuple[str, Conversion | None]]] = {}  # a system connector -> the components' ends it feeds
     for element in system.iterfind("ssd:Connections/ssd:Connection", NS):
         start, end = element.get("startElement"), element.get("endElement")
+        if start is None and end is not None:
+            fed.setdefault(element.get("startConnector"), []).append(
+                (f"{end}.{element.get('endConnector')}", _transformation(element)))
         if start is None or end is None:
             logger.debug("%s: connection of %s.%s to %s.%s touches the system's own connectors: its component end "
                          "stays unconnected", path, start, element.get("startConnector"), end,
@@ -102,6 +108,13 @@ def read_ssp(path: str | Path) -> SystemSpec:
             continue
         connections.append(ConnectionSpec(f"{start}.{element.get('startConnector')}",
                                           f"{end}.{element.get('endConnector')}", _transformation(element)))
+    for connector in [name for name in parameters if name in fed]:  # a system parameter: the value of what it feeds
+        value = parameters.pop(connector)
+        unit = units.pop(connector, None)
+        for target, transformation in fed[connector]:
+            parameters[target] = value if transformation is None else transformation.scale * value + transformation.shift
+            if unit is not None and transformation is None:
+                units[target] = unit
     experiment = ssd.find("ssd:DefaultExperiment", NS)
     start_time = experiment.get("startTime") if experiment is not None else None
     return SystemSpec(name, components, connections, parameters, None if start_time is None else float(start_time),

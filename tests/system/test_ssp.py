@@ -78,3 +78,28 @@ def test_an_ssp_table_component_drives_an_input(family_fmu, tmp_path):
         torque = env.step(np.array([0.0]))[0][0]
     assert torque == pytest.approx(-0.01, rel=1e-12)
     env.close()
+
+
+def test_a_system_parameter_goes_to_what_its_connector_feeds(ssp, tmp_path):
+    folder = tmp_path / "drive"
+    with zipfile.ZipFile(ssp) as archive:
+        archive.extractall(folder)
+    ssd = (folder / "SystemStructure.ssd").read_text()
+    ssd = ssd.replace('''  <ssd:System name="drive">''', '''  <ssd:System name="drive">
+    <ssd:Connectors><ssd:Connector name="lag" kind="parameter"><ssc:Real unit="ms"/></ssd:Connector></ssd:Connectors>''')
+    ssd = ssd.replace('''      <ssd:ParameterBinding source="resources/drive.ssv">''', '''      <ssd:ParameterBinding>
+        <ssd:ParameterValues>
+          <ssv:ParameterSet version="1.0" name="system" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">
+            <ssv:Parameters><ssv:Parameter name="lag"><ssv:Real value="80"/></ssv:Parameter></ssv:Parameters>
+          </ssv:ParameterSet>
+        </ssd:ParameterValues>
+      </ssd:ParameterBinding>
+      <ssd:ParameterBinding source="resources/drive.ssv">''')
+    ssd = ssd.replace('''    </ssd:Connections>''', '''      <ssd:Connection startConnector="lag" endElement="motor" endConnector="T_m">
+        <ssc:LinearTransformation factor="0.001"/>
+      </ssd:Connection>
+    </ssd:Connections>''')
+    (folder / "SystemStructure.ssd").write_text(ssd)
+    system = open_system(folder)
+    assert system.parameter_values == {**SSP_PARAMETERS, "motor.T_m": 80 * 0.001 + 0.0}
+    assert [link.label for link in system.links] == ["motor.tau -> plant.tau", "plant.w -> motor.w"]
