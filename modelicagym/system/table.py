@@ -3,9 +3,8 @@ load schedule) whose columns are outputs, connected like an FMU's.
 
 A table's first column (CSV) or its ``time`` variable (MAT) is time, strictly increasing; every
 other column is an output named by its header (CSV) or variable name (MAT; a single 2-D matrix has
-its columns named ``y1``, ``y2``, ...). Values between two rows are interpolated linearly, as
-OMSimulator's table components and Modelica's ``CombiTimeTable`` do; before the first row and
-after the last the end values are held. A table's one parameter, ``time_offset`` (default 0),
+its columns named ``y1``, ``y2``, ...). Values between two rows are interpolated linearly (as
+``numpy.interp``); before the first row and after the last the end values are held. A table's one parameter, ``time_offset`` (default 0),
 shifts it: at system time ``t`` it gives its value at ``t + time_offset``, so each episode may
 start at another time of the table (``parameters={"weather.time_offset": lambda rng: ...}``, or a
 reset's ``options={"parameters": {...}}``).
