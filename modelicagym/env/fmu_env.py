@@ -82,7 +82,9 @@ logger = logging.getLogger(__name__)
 
 
 class FMUEnv(gym.Env):
-    """A Gymnasium environment around one FMU instance.
+    """A Gymnasium environment around one FMU instance, or a system of connected FMUs and time
+    tables (``fmus`` and ``connections``, or an SSP archive as ``fmu``: `modelicagym.system`), whose
+    variables are then named ``component.variable``.
 
     Example::
 
