@@ -1,6 +1,6 @@
 """An FMU instance's part of an ``mg_env`` (``csrc/step.h``): its fmiSet/fmiGet calls over its own
-value buffers, the functions C calls bound to its live instance, and the error of a call that
-failed in C, as the Python path raises it. `modelicagym.env.native_step` fills an env's struct
+value buffers, the functions C calls bound to its live instance, its snapshot for a native reset,
+and the error of a call that failed in C, as the Python path raises it. `modelicagym.env.native_step` fills an env's struct
 with them, `modelicagym.env.native_system` each FMU of a system's."""
 
 from __future__ import annotations
@@ -8,16 +8,21 @@ from __future__ import annotations
 import ctypes
 from typing import Any
 
+import numpy as np
+
 from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
 from modelicagym.native.abi import FailedCall, MgCall, MgEnv
 
-__all__ = ["FmuCalls", "bind_instance", "fmu_error", "instance_calls", "make_calls"]
+__all__ = ["FmuCalls", "bind_instance", "bind_snapshot", "fmu_error", "input_starts", "instance_calls", "make_calls"]
 
 #: ``failed_call`` codes -> how the Python path names the failing call
 _FAILED_CALLS = {FailedCall.SET_INPUTS: "set inputs", FailedCall.DO_STEP: "fmiDoStep",
                  FailedCall.GET_OUTPUTS: "get outputs", FailedCall.SET_STATE: "set FMU state",
                  FailedCall.INTEGRATE: "integrate"}
+
+#: the function a native reset restores the snapshot with (FMI 1.0 has none)
+_SET_STATE = {2: "fmi2SetFMUstate", 3: "fmi3SetFMUState"}
 
 #: per direction (``"set"``, ``"get"``): the ``mg_call`` array and each call's (FMI type, function suffix)
 FmuCalls = dict[str, tuple[ctypes.Array, list[tuple[str, str]]]]
@@ -33,6 +38,15 @@ def make_calls(buffer: Any, binding: Any) -> tuple[ctypes.Array, list[tuple[str,
         call.refs, call.n_refs, call.values, call.n_values, call.n_bytes = refs, n_refs, values, n_values, n_bytes
         names.append((fmi_type, binding.TYPE_FUNCTIONS[fmi_type][0]))
     return calls, names
+
+
+def input_starts(inputs: Any) -> np.ndarray:
+    """The bytes of an input buffer as a reset leaves it (its start values), for ``mg_env.input_starts``."""
+    current = inputs.snapshot()
+    inputs.fill_start_values()
+    starts = inputs.snapshot()
+    inputs.load(current)
+    return np.frombuffer(starts, dtype=np.uint8).copy()
 
 
 def instance_calls(fmu: Any, state: MgEnv) -> FmuCalls:
@@ -57,6 +71,20 @@ def bind_instance(state: MgEnv, fmu: Any, calls: FmuCalls) -> None:
         state.do_step = binding.function_address(prefix + "DoStep")
         state.get_boolean_status = binding.function_address("fmi2GetBooleanStatus") if prefix == "fmi2" else None
     state.integrator = None if integrator is None else ctypes.addressof(integrator.state)
+
+
+def bind_snapshot(state: MgEnv, fmu: Any, values: Any) -> bool:
+    """Let C reset ``fmu`` by restoring its snapshot when a reset with ``values`` (None: a reset
+    only Python can do, e.g. parameters drawn per episode) would simply restore it (its verified
+    snapshot rung, `FMUInstance.restorable_snapshot`); whether it can."""
+    snapshot = None if values is None else fmu.restorable_snapshot(values)
+    state.set_state = None if snapshot is None else fmu.binding.function_address(_SET_STATE[state.fmi_version])
+    state.snapshot = snapshot
+    state.native_reset = snapshot is not None
+    next_event = fmu.snapshot_next_event_time
+    state.snapshot_has_next_event = next_event is not None
+    state.snapshot_next_event_time = next_event or 0.0
+    return snapshot is not None
 
 
 def fmu_error(fmu: Any, state: MgEnv) -> FMUError:

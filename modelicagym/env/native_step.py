@@ -49,7 +49,7 @@ import numpy as np
 from gymnasium import spaces
 
 from modelicagym.env.endings import overridden
-from modelicagym.env.native_fmu import bind_instance, fmu_error, instance_calls
+from modelicagym.env.native_fmu import bind_instance, bind_snapshot, fmu_error, input_starts, instance_calls
 from modelicagym.env.native_system import NativeSystem
 from modelicagym.env.spaces import write_values
 from modelicagym.fmu.errors import FMUError
@@ -64,8 +64,6 @@ logger = logging.getLogger(__name__)
 
 #: the spaces whose values C reads from a flat row (a Dict of them: one row per key, in input order)
 _ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
-#: the function a native reset restores the snapshot with (FMI 1.0 has none)
-_SET_STATE = {2: "fmi2SetFMUstate", 3: "fmi3SetFMUState"}
 
 
 def action_storage_dtype(space: spaces.Space) -> np.dtype:
@@ -268,7 +266,7 @@ class NativeStep:
         bounds = [(name, float(low), float(high)) for name, (low, high) in termination.items()]
         # arrays the struct points to: kept alive by this object
         self._keep: dict[str, Any] = {
-            "input_starts": np.frombuffer(self._input_starts(), dtype=np.uint8).copy(),
+            "input_starts": input_starts(fmu.inputs),
             "bound_index": np.array([positions[names.index(name)] for name, _, _ in bounds], dtype=np.int64),
             "bound_low": np.array([low for _, low, _ in bounds], dtype=np.float64),
             "bound_high": np.array([high for _, _, high in bounds], dtype=np.float64),
@@ -323,15 +321,6 @@ class NativeStep:
         self._reward_ref = ctypes.byref(self._reward)
         self.bind()
 
-    def _input_starts(self) -> bytes:
-        """The input buffers' bytes as a reset leaves them (their start values)."""
-        inputs = self.env.fmu.inputs
-        current = inputs.snapshot()
-        inputs.fill_start_values()
-        starts = inputs.snapshot()
-        inputs.load(current)
-        return starts
-
     def _action_row(self, parts: list[tuple[str | None, spaces.Space]]) -> list[tuple[int, int]]:
         """Lay out the action row C reads (one typed array per part, in input order) and return
         ``(byte offset, MG_TYPE_*)`` of each of its values; :meth:`step` fills it."""
@@ -384,18 +373,13 @@ class NativeStep:
         """Point the struct at the instance as it is now: its component, functions and snapshot
         (a system's: each of its FMUs')."""
         fmu, state = self.env.fmu, self.state
+        # a native reset stands for reset() without options: the config's parameters
+        values = None if self._random_parameters else self.env.config.reset_values
         if self._system is not None:
-            self._system.bind()
+            state.native_reset = self._system.bind(values)
             return
         bind_instance(state, fmu, self._calls)
-        # a native reset stands for reset() without options: the config's parameters
-        snapshot = None if self._random_parameters else fmu.restorable_snapshot(self.env.config.reset_values)
-        state.set_state = None if snapshot is None else fmu.binding.function_address(_SET_STATE[state.fmi_version])
-        state.snapshot = snapshot
-        state.native_reset = snapshot is not None
-        next_event = fmu.snapshot_next_event_time
-        state.snapshot_has_next_event = next_event is not None
-        state.snapshot_next_event_time = next_event or 0.0
+        bind_snapshot(state, fmu, values)
 
     def reset(self) -> bool:
         """Start an episode with the config's parameters in C, by restoring the instance's verified

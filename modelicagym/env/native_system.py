@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.env.native_fmu import FmuCalls, bind_instance, fmu_error, instance_calls
+from modelicagym.env.native_fmu import FmuCalls, bind_instance, bind_snapshot, fmu_error, input_starts, instance_calls
 from modelicagym.fmu.errors import FMUError
 from modelicagym.native.abi import MgComponent, MgEnv, MgLink, MgSystem, MgTable, ValueType
 from modelicagym.system import SystemInstance
-from modelicagym.system.table import TableInstance
+from modelicagym.system.table import TIME_OFFSET, TableInstance
 
 __all__ = ["NativeSystem"]
 
@@ -51,7 +51,7 @@ class NativeSystem:
     def __init__(self, system: SystemInstance, time_step: float):
         self.system = system
         self._keep: list[Any] = []  # the arrays the structs point to
-        self._fmus: list[tuple[MgEnv, Any, FmuCalls]] = []
+        self._fmus: list[tuple[str, MgEnv, Any, FmuCalls]] = []
         order = system.description.order
         components = (MgComponent * len(order))()
         by_target = {name: [] for name in order}
@@ -65,7 +65,7 @@ class NativeSystem:
             if isinstance(component, TableInstance):
                 struct.table = ctypes.addressof(self._table(component))
             else:
-                struct.env = ctypes.addressof(self._fmu(component, time_step / system.substeps))
+                struct.env = ctypes.addressof(self._fmu(name, component, time_step / system.substeps))
             links, struct.n_links = self._keep_links(by_target[name])
             struct.links = ctypes.addressof(links)
             action_links, struct.n_action_links = self._keep_links(actions[name])
@@ -76,18 +76,20 @@ class NativeSystem:
                                jacobi=system.master == "jacobi", substeps=system.substeps,
                                output_links=ctypes.addressof(outputs), n_output_links=n_outputs)
         self.address = ctypes.addressof(self.struct)
-        self.bind()
 
     def _keep_links(self, pairs: list[tuple[np.ndarray, np.ndarray, float, float]]) -> tuple[ctypes.Array, int]:
         links, n = _links(pairs)
         self._keep.append(links)
         return links, n
 
-    def _fmu(self, fmu: Any, time_step: float) -> MgEnv:
+    def _fmu(self, name: str, fmu: Any, time_step: float) -> MgEnv:
         """An FMU component's ``mg_env``: its own step, the inputs written by the master."""
+        starts = input_starts(fmu.inputs)
+        self._keep.append(starts)
         state = MgEnv(fmi_version=fmu.description.fmi_version, python_inputs=1, event_mode_inputs=fmu.event_mode_inputs,
-                      time_step=time_step, max_episode_steps=-1, clock=ctypes.pointer(fmu.clock))
-        self._fmus.append((state, fmu, instance_calls(fmu, state)))
+                      time_step=time_step, max_episode_steps=-1, clock=ctypes.pointer(fmu.clock),
+                      input_starts=starts.ctypes.data)
+        self._fmus.append((name, state, fmu, instance_calls(fmu, state)))
         return state
 
     def _table(self, table: Any) -> MgTable:
@@ -101,14 +103,23 @@ class NativeSystem:
         self._keep.append(struct)
         return struct
 
-    def bind(self) -> None:
-        """Point each FMU's struct at its live instance (after a reset re-instantiated one)."""
-        for state, fmu, calls in self._fmus:
+    def bind(self, values: Any = None) -> bool:
+        """Point each FMU's struct at its live instance (after a reset re-instantiated one); whether
+        C may reset the system for a reset with ``values`` (the config's; None: only Python may):
+        every FMU restores its snapshot for its share of them, every table starts at the offset it
+        has now."""
+        split = None if values is None else self.system.split_values(values)
+        native = split is not None
+        for name, state, fmu, calls in self._fmus:
             bind_instance(state, fmu, calls)
+            native = bind_snapshot(state, fmu, None if split is None else split[name]) and native
+        for name, table in self.system.components.items():
+            if isinstance(table, TableInstance) and native:
+                native = table.offset == float(split[name].get(TIME_OFFSET, 0.0))
+        return native
 
     def error(self) -> FMUError:
         """The error of the component whose step failed in C, as the Python path raises it."""
-        name = self.system.description.order[self.struct.failed_component]
-        fmu = self.system.components[name]
-        state = next(state for state, instance, _ in self._fmus if instance is fmu)
+        failed = self.system.description.order[self.struct.failed_component]
+        _, state, fmu, _ = next(entry for entry in self._fmus if entry[0] == failed)
         return fmu_error(fmu, state)

@@ -64,6 +64,7 @@ class SystemInstance:
     """
 
     time = OnClock()
+    start_time = OnClock()
     steps = OnClock()
     _origin = OnClock()
     _dt = OnClock()
@@ -202,7 +203,7 @@ class SystemInstance:
     def reset(self, values: Mapping[str, Any] | None = None) -> None:
         """Start every component at ``start_time`` with the system's parameter values (its SSP's)
         updated by ``values`` (``component.variable``), then settle the connections once."""
-        split = self._split(values)
+        split = self.split_values(values)
         for name, component in self.components.items():
             component.reset(split[name])
         self._started()
@@ -211,12 +212,12 @@ class SystemInstance:
         """The pool's ``init="once"``: every component starts from its part of ``state`` (saved right
         after another instance's reset with the same ``values``) instead of its initialization."""
         self.check_state(state)
-        split = self._split(values)
+        split = self.split_values(values)
         for name, component in self.components.items():
             component.start_from(state.components[name], split[name])
         self._started()
 
-    def _split(self, values: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
+    def split_values(self, values: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
         """``{component: {variable: value}}`` of the SSP's values updated by ``values``."""
         split: dict[str, dict[str, Any]] = {name: {} for name in self.components}
         for name, value in {**self.description.parameter_values, **(values or {})}.items():
@@ -258,7 +259,7 @@ class SystemInstance:
     def load_state(self, state: SystemState, values: Mapping[str, Any] | None = None) -> None:
         """Put back a state `save_state` gave: every component's, and the system's clock."""
         self.check_state(state)
-        split = self._split(values)
+        split = self.split_values(values)
         for name, component in self.components.items():
             component.load_state(state.components[name], split[name])
         self.time, self.steps, self._origin, self._dt = state.time, state.steps, state.origin, state.dt

@@ -119,6 +119,35 @@ def test_the_native_path_steps_a_system_as_the_python_path(system_fmus, tmp_path
     assert runs["native"][2] == runs["python"][2]
 
 
+@pytest.mark.parametrize("master", ["gauss-seidel", "jacobi"])
+def test_c_resets_a_system_as_python_does(system_fmus, tmp_path, master, monkeypatch):
+    """Once every FMU's snapshot rung is verified, C resets the system (each FMU's snapshot, the
+    tables' clocks, the connections settled): the episodes are those of Python's resets."""
+    from modelicagym.system import SystemInstance
+
+    motor, inertia = system_fmus
+    table = tmp_path / "load.csv"
+    table.write_text("time,torque\n0,-0.01\n0.2,0.03\n")
+    config = unbounded(system_config(motor, inertia, master=master,
+                                     fmus={"motor": str(motor), "plant": {"fmu": str(inertia), "mode": "me"},
+                                           "load": str(table)},
+                                     connections=[*system_config(motor, inertia)["connections"],
+                                                  ("load.torque", "plant.tau_load")],
+                                     parameters={"load.time_offset": 0.05, "plant.J": 0.02}))
+    python_resets = []
+    original = SystemInstance.reset
+    monkeypatch.setattr(SystemInstance, "reset", lambda self, values=None: (python_resets.append(1),
+                                                                            original(self, values))[1])
+    runs = {}
+    for step_path in ("auto", "python"):
+        python_resets.clear()
+        with FMUEnv({**config, "step_path": step_path}) as env:
+            runs[step_path] = [run(env, ACTIONS[:12]) for _ in range(6)]
+        runs[step_path + " resets"] = len(python_resets)
+    np.testing.assert_array_equal(np.array(runs["auto"]), np.array(runs["python"]))
+    assert runs["python resets"] == 6 and runs["auto resets"] < 6
+
+
 @pytest.mark.parametrize("step_path", ["auto", "python"])
 def test_a_failing_component_truncates_the_episode_naming_it(system_fmus, family_fmu, step_path):
     motor, inertia = system_fmus

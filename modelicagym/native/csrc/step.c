@@ -280,7 +280,9 @@ static bool copy_links(const mg_link *links, int64_t n) {
     return changed;
 }
 
-/* TableInstance.step: the clock moved as an FMU's, each output read at the new time, as numpy.interp. */
+static void read_table(mg_table *table);
+
+/* TableInstance.step: the clock moved as an FMU's, each output read at the new time. */
 static void advance_table(mg_table *table, double dt) {
     mg_clock *clock = table->clock;
     if (dt != clock->dt) {
@@ -290,6 +292,12 @@ static void advance_table(mg_table *table, double dt) {
     }
     clock->steps += 1;
     clock->time = clock->origin + (double)clock->steps * dt;
+    read_table(table);
+}
+
+/* TableInstance.read_outputs: each output at the table's time, as numpy.interp. */
+static void read_table(mg_table *table) {
+    mg_clock *clock = table->clock;
     int64_t started = mg_now_ns();
     const double *x = table->times;
     int64_t n = table->n_times;
@@ -375,6 +383,59 @@ static int32_t advance_system(mg_env *env) {
     return 0;
 }
 
+/* SystemInstance.reset on the snapshot rung of every FMU (Python checked each one's snapshot and
+ * key, and each table's offset, in bind): every component back at its start, the connections
+ * settled once in stepping order (SystemInstance._started), the observation read. */
+static int32_t reset_system(mg_env *env) {
+    mg_system *system = env->system;
+    for (int64_t c = 0; c < system->n_components; c++) {
+        mg_component *component = &system->components[c];
+        if (component->table) {
+            mg_clock *clock = component->table->clock;
+            clock->time = clock->origin = clock->start_time;
+            clock->dt = 0.0;
+            clock->steps = 0;
+            read_table(component->table);
+            continue;
+        }
+        int32_t flags = mg_env_reset(component->env);
+        if (flags) {
+            system->failed_component = c;
+            env->fmi_status = component->env->fmi_status;
+            env->failed_call = component->env->failed_call;
+            return flags;
+        }
+    }
+    for (int64_t c = 0; c < system->n_components; c++) {
+        mg_component *component = &system->components[c];
+        copy_links(component->links, component->n_links);
+        mg_env *fmu = component->env;
+        if (!component->n_links || !fmu || fmu->event_mode_inputs)
+            continue;
+        int call = MG_CALL_SET_INPUTS;
+        int status = set_inputs(fmu);
+        if (status <= WARNING) {
+            call = MG_CALL_GET_OUTPUTS;
+            status = get_outputs(fmu);
+        }
+        if (status > WARNING) {
+            system->failed_component = c;
+            env->fmi_status = status;
+            env->failed_call = call;
+            return fail(fmu, call, status);
+        }
+    }
+    mg_clock *clock = env->clock;
+    clock->time = clock->origin = clock->start_time;
+    clock->dt = 0.0;
+    clock->steps = 0;
+    clock->terminated = 0;
+    copy_links(system->output_links, system->n_output_links);
+    get_outputs(env);
+    env->elapsed_steps = 0;
+    return 0;
+}
+
 int32_t mg_env_step(mg_env *env, const void *action, double *reward) {
     *reward = 0.0;
     if (action && !env->python_inputs && !write_action(env, action))
@@ -408,6 +469,8 @@ int32_t mg_env_reset(mg_env *env) {
     mg_clock *clock = env->clock;
     if (clock->broken || !env->native_reset)
         return MG_FMU_ERROR;
+    if (env->system)
+        return reset_system(env);
     int64_t started = mg_now_ns();
     int status = ((set_state_t)env->set_state)(env->component, env->snapshot);
     if (status > WARNING) {
