@@ -35,6 +35,7 @@ from typing import Any
 from modelicagym.fmu import FMUDescription, open_fmu
 from modelicagym.fmu.errors import FMUValidationError, InvalidFMUError
 from modelicagym.fmu.variables import Variable
+from modelicagym.system import SystemDescription, is_system, open_system
 
 _MODE_NAMES = {"cs": "co-simulation", "me": "model exchange"}
 _NOT_IN_SPACES = ("binary", "clock", "string")  # no action or observation space for these
@@ -170,6 +171,15 @@ def _split_inputs(actions: list[Variable]) -> tuple[list[Variable], list[Variabl
         "every episode")
 
 
+def _as_declared(v: Variable, d: FMUDescription | SystemDescription) -> tuple[Variable, FMUDescription]:
+    """``v`` as the FMU declaring it names it, and that FMU's description (a system's variable is
+    its component's)."""
+    if isinstance(d, SystemDescription):
+        component, local = d.locate(v.name)
+        return local, component.description
+    return v, d
+
+
 def _held_value(v: Variable, d: FMUDescription) -> tuple[Any, str]:
     """The value to hold input ``v`` at, and the comment that says where it comes from (and the
     range to give it in ``action_bounds`` should it become an action)."""
@@ -295,7 +305,12 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
     it works as pasted.
     """
     d = description
-    if not d.modes:
+    system = isinstance(d, SystemDescription)
+    if system:
+        unrunnable = [c for c in d.components.values() if c.description is not None and not c.description.modes]
+        if unrunnable:
+            return suggest(unrunnable[0].description, validate)
+    elif not d.modes:
         scheduled = " (it offers scheduled execution only)" if getattr(d.raw, "scheduledExecution", None) else ""
         return Suggestion(None, f"{d.name} supports neither co-simulation nor model exchange{scheduled}: "
                                 "modelicagym cannot run it, so there is no config")
@@ -316,24 +331,28 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
     if split_note:
         notes.insert(0, split_note)
     acted = {v.name for v in actions}
-    inferred = {v.name: infer_bounds(v, d) for v in actions if v.kind == "float" and (v.min is None or v.max is None)}
-    fixed = {v.name: _held_value(v, d) for v in held}
+    inferred = {v.name: infer_bounds(*_as_declared(v, d)) for v in actions
+                if v.kind == "float" and (v.min is None or v.max is None)}
+    fixed = {v.name: _held_value(*_as_declared(v, d)) for v in held}
     step = d.default_experiment.step_size
+    parameters = {v.name: v.start for v in d.parameters
+                  if v.start is not None and v.kind not in _NOT_IN_SPACES and v.causality != "structuralParameter"}
+    if system:  # the SSP's parameter sets, as the system applies them
+        parameters.update(d.parameter_values)
+        notes.append(f"a system of {len(d.components)} components, stepped by Gauss-Seidel in the order "
+                     f"{', '.join(d.order)} ('master': 'jacobi' for Jacobi); its parameters hold the SSP's values")
     config: dict[str, Any] = {
         "fmu": str(d.path),
         "inputs": [v.name for v in actions],
         "outputs": [v.name for v in observations],
-        "parameters": {
-            v.name: v.start for v in d.parameters
-            if v.start is not None and v.kind not in _NOT_IN_SPACES and v.causality != "structuralParameter"
-            and v.name not in acted
-        },
+        "parameters": {name: value for name, value in parameters.items() if name not in acted},
     }
     if fixed:
         config["fixed_inputs"] = {name: value for name, (value, _) in fixed.items()}
     if inferred:
         config["action_bounds"] = {name: None if b.placeholder else (b.low, b.high) for name, b in inferred.items()}
-    config.update({"time_step": step if step else 0.1, "mode": d.default_mode(), "max_episode_steps": 500})
+    config.update({"time_step": step if step else 0.1, **({} if system else {"mode": d.default_mode()}),
+                   "max_episode_steps": 500})
     if not validate:
         config["validate"] = False
     return Suggestion(config, None, notes, inferred, {name: comment for name, (_, comment) in fixed.items()})
@@ -491,9 +510,49 @@ def format_info(description: FMUDescription, validate: bool = True) -> str:
     return "\n".join(lines)
 
 
+def _component_line(component: Any) -> str:
+    if component.table is not None:
+        table = component.table
+        return (f"  {component.name}: table {component.source.name}, {table.times.size} rows from {table.times[0]:g} "
+                f"to {table.times[-1]:g} s, columns {', '.join(table.columns)} (linear, ends held)")
+    d = component.description
+    mode = component.mode or d.default_mode()
+    saved = saved_states_line(d).replace(" (env.unwrapped.get_state() / set_state)", "")
+    return f"  {component.name}: {d.name}, model {d.model_name!r}, FMI {d.raw.fmiVersion}, {_MODE_NAMES[mode]}; {saved}"
+
+
+def format_system_info(system: SystemDescription, validate: bool = True) -> str:
+    """The report ``modelicagym info`` prints for a system: its components, connections (with
+    their unit conversions), stepping order, variables, and the config to start from."""
+    lines = [f"{system.name}: system {system.model_name!r} of {len(system.components)} components", "components:",
+             *[_component_line(c) for c in system.components.values()], "connections:"]
+    for link in system.links:
+        conversion = link.conversion
+        converted = "" if conversion.identity else f"  (converted: x {conversion.scale:.12g} + {conversion.shift:.12g})"
+        lines.append(f"  {link.label}{converted}")
+    if not system.links:
+        lines.append("    (none)")
+    lines += [f"stepping order (Gauss-Seidel): {', '.join(system.order)}", "",
+              "inputs (not connected):", *_table(system.inputs), "", "outputs:", *_table(system.outputs), "",
+              "parameters:", *_table(system.parameters), ""]
+    suggestion = suggest(system, validate)
+    if suggestion.config is None:
+        return "\n".join([*lines, f"no config: {suggestion.refusal}"])
+    lines.append("a config to start from (Python):")
+    lines += [f"  - {note}" for note in suggestion.notes]
+    if suggestion.placeholders:
+        lines.append(f"  - action bounds to fill in for {', '.join(suggestion.placeholders)}: see action_bounds")
+    lines.append("")
+    lines += ["    " + line if line else "" for line in format_config(suggestion)]
+    return "\n".join(lines)
+
+
 def describe_fmu(path: str | os.PathLike[str], validate: bool = True) -> str:
-    """``modelicagym info PATH``: the report, or an `InvalidFMUError` in one line when the model
-    description fails validation (naming the rules, the variables and how to go on)."""
+    """``modelicagym info PATH``: the report (for an FMU, or an SSP system), or an
+    `InvalidFMUError` in one line when a model description fails validation (naming the rules, the
+    variables and how to go on)."""
+    if is_system(path):
+        return format_system_info(open_system(path, validate=validate), validate)
     try:
         description = open_fmu(path, validate=validate)
     except FMUValidationError as error:

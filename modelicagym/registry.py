@@ -20,8 +20,8 @@ from typing import Any
 import gymnasium as gym
 
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ModelicaGymError
-from modelicagym.fmu import open_fmu
 from modelicagym.fmu.library_copies import check_instances_per_process
+from modelicagym.system import open_model
 
 ENVIRONMENTS: dict[str, tuple[str, str]] = {
     "cartpole": ("ModelicaGym/CartPole-v0", "modelicagym.models.cartpole.env:CartPoleEnv"),
@@ -143,8 +143,9 @@ def make_vec(
     once_per_process = False
     if isinstance(name, Mapping):
         entry_point, options = "modelicagym.env:FMUEnv", {**name, **options}
-        once_per_process = open_fmu(options["fmu"], validate=options.get("validate", True)).once_per_process(
-            options.get("mode"))
+        model = open_model(options.get("fmu"), fmus=options.get("fmus"), connections=options.get("connections", ()),
+                           validate=options.get("validate", True))
+        once_per_process = model.once_per_process(options.get("mode"))
     else:
         entry_point = _entry_point(name)
     env_keys = _env_option_names(_load(entry_point))

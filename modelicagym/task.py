@@ -3,7 +3,7 @@
 
 A task file is Python that defines ``config``, an `FMUEnv` config (the one ``modelicagym info``
 prints, pasted, plus a reward, a termination, lambdas); a config file is the same as a JSON object.
-A relative ``fmu`` path in either is relative to the file's folder, not to the folder the command
+A relative ``fmu`` path in either (and a system's relative ``fmus`` paths) is relative to the file's folder, not to the folder the command
 runs in: a task kept beside its FMU works from anywhere.
 """
 
@@ -21,16 +21,29 @@ __all__ = ["load_config_file", "load_task", "relative_to"]
 
 
 def relative_to(config: dict[str, Any], path: Path) -> dict[str, Any]:
-    """``config`` with a relative ``fmu`` made relative to the folder of the file ``path`` it was read from."""
-    fmu = config.get("fmu")
+    """``config`` with a relative ``fmu`` (and each relative path of a system's ``fmus``) made
+    relative to the folder of the file ``path`` it was read from."""
+    config = dict(config)
+    if "fmu" in config:
+        config["fmu"] = _resolved(config["fmu"], path, "fmu")
+    fmus = config.get("fmus")
+    if isinstance(fmus, dict):
+        config["fmus"] = {name: {**source, "fmu": _resolved(source.get("fmu"), path, f"fmus[{name!r}]")}
+                          if isinstance(source, dict) else _resolved(source, path, f"fmus[{name!r}]")
+                          for name, source in fmus.items()}
+    return config
+
+
+def _resolved(fmu: Any, path: Path, key: str) -> Any:
+    """``fmu`` relative to the folder of ``path`` when it is a relative path; else as it is."""
     if not isinstance(fmu, (str, os.PathLike)) or Path(fmu).expanduser().is_absolute():
-        return config
+        return fmu
     resolved = path.parent / fmu
     if not resolved.exists() and Path(fmu).exists():
-        raise NotFoundError(f"{path}: its fmu {str(fmu)!r} is relative to the file's folder, and there is no "
+        raise NotFoundError(f"{path}: its {key} {str(fmu)!r} is relative to the file's folder, and there is no "
                             f"{resolved} (it is in the current folder: write {os.path.relpath(fmu, path.parent)!r} "
                             "or an absolute path)")
-    return {**config, "fmu": str(resolved)}
+    return str(resolved)
 
 
 def _existing(path: str | os.PathLike[str]) -> Path:

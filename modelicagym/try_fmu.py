@@ -23,8 +23,9 @@ from typing import Any
 from modelicagym.env import FMUEnv
 from modelicagym.env.strip_chart import MAX_PANELS
 from modelicagym.errors import ConfigError
-from modelicagym.fmu import UnsupportedFeatureError, open_fmu
+from modelicagym.fmu import UnsupportedFeatureError
 from modelicagym.info import suggest
+from modelicagym.system import open_model
 from modelicagym.task import load_config_file, load_task
 
 __all__ = ["TRY_BOUNDS", "TryConfig", "TryResult", "parse_setting", "prepare", "try_config", "try_fmu"]
@@ -106,7 +107,7 @@ def _base_config(target: Path, validate: bool) -> dict[str, Any]:
         return load_task(target)
     if target.suffix == ".json":
         return load_config_file(target)
-    suggestion = suggest(open_fmu(target, validate=validate), validate=validate)
+    suggestion = suggest(open_model(target, validate=validate), validate=validate)
     if suggestion.config is None:
         raise UnsupportedFeatureError(suggestion.refusal)
     return suggestion.config

@@ -139,6 +139,10 @@ VARIANTS: dict[str, Variant] = {
     # too) that change the dynamics and the events, a stop input that ends the simulation in the inputs'
     # event, and a jam_gear parameter that makes an event update fail (tests/fmus/me_discrete)
     "me_discrete": Variant(FMUS_DIR / "me_discrete"),
+    # the actuator and plant of the system tests (tests/system): a torque motor with a lag and back-EMF
+    # whose speed input is in rpm (FMI 2.0), and a shaft with friction reporting rad/s (FMI 3.0)
+    "motor": Variant(FMUS_DIR / "motor"),
+    "inertia": Variant(FMUS_DIR / "inertia"),
 }
 
 

@@ -20,13 +20,14 @@ from extras import requires
 
 ROOT = Path(__file__).resolve().parent.parent
 #: the guides a reader finds in the navigation, by their source in docs/
-GUIDES = ("index", "getting-started", "own-fmu", "env", "pool", "training", "train-own-fmu", "ray", "cli", "speed",
+GUIDES = ("index", "getting-started", "own-fmu", "env", "systems", "pool", "training", "train-own-fmu", "ray", "cli", "speed",
           "paper", "reproduction", "cartpole-solver", "design")
 #: API page -> modules whose public names (``__all__``) it documents
 API_PAGES = {
     "modelicagym": ("modelicagym",),
     "env": ("modelicagym.env",),
     "vector": ("modelicagym.vector",),
+    "system": ("modelicagym.system",),
     "sb3": ("modelicagym.sb3",),
     "distributed": ("modelicagym.distributed",),
     "errors": ("modelicagym.errors", "modelicagym.fmu.errors"),

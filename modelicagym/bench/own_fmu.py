@@ -1,6 +1,7 @@
 """Throughput of your own FMU: a single env, SyncVectorEnv, AsyncVectorEnv and the pool, side by side.
 
-``modelicagym bench fmu MY.fmu`` makes envs from the config ``modelicagym info`` prints for the FMU
+``modelicagym bench fmu MY.fmu`` (or ``system.ssp``: then also its step against its FMUs stepped
+alone, `modelicagym.bench.system_alone`) makes envs from the config ``modelicagym info`` prints for the FMU
 (``--config file.json`` and ``--set key=value`` change it, as for ``modelicagym try``) and, for
 each number of envs n (``--n``, default 2 8 64), times interleaved over several rounds, random
 actions sampled from the action space (seeded):
@@ -36,12 +37,12 @@ from typing import Any
 import gymnasium as gym
 
 import modelicagym
-from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
+from modelicagym.bench import add_round_arguments, conditions, format_table, median, system_alone, write_json
 from modelicagym.bench.throughput import ASYNC_MAX_N, Run, interleaved_rates
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ArgumentError
-from modelicagym.fmu import open_fmu
 from modelicagym.registry import EnvFactory
+from modelicagym.system import SystemDescription, open_model
 from modelicagym.try_fmu import try_config
 
 logger = logging.getLogger(__name__)
@@ -273,11 +274,18 @@ def run(args: argparse.Namespace) -> int:
         raise ArgumentError(f"bench fmu --seconds: more than 0, got {args.seconds}")
     load_before = os.getloadavg()
     config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
-    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    description = open_model(config.get("fmu"), fmus=config.get("fmus"), connections=config.get("connections", ()),
+                             validate=config.get("validate", True))
     once = description.once_per_process(config.get("mode"))
     one_per_process = once and config.get("instances_per_process", "copies") == "one"
-    head = {"fmu": str(config["fmu"]), "model": description.model_name, "fmi_version": description.fmi_version,
-            "mode": config.get("mode") or description.default_mode(), "once_per_process": once,
+    if isinstance(description, SystemDescription):  # a system: its FMUs' versions, and the master as the mode
+        fmi_version: Any = "+".join(sorted({str(c.description.fmi_version) for c in description.components.values()
+                                            if c.description is not None}))
+        mode = f"system, {config.get('master', 'gauss-seidel')}"
+    else:
+        fmi_version, mode = description.fmi_version, config.get("mode") or description.default_mode()
+    head = {"fmu": str(config.get("fmu") or description.name), "model": description.model_name,
+            "fmi_version": fmi_version, "mode": mode, "once_per_process": once,
             "config": json.loads(json.dumps(config, default=str))}
     candidates = [1 + sum(skipped(c, n, one_per_process) is None for c in VECTORS) for n in args.n]  # single + vectors
     total = sum(1 + k * (1 + args.repeats) + 1 for k in candidates)
@@ -285,9 +293,14 @@ def run(args: argparse.Namespace) -> int:
     with progress_reporter(total) as progress:
         for n in args.n:
             results.append(measure_group(config, n, args.repeats, args.seconds, one_per_process, progress))
+        if isinstance(description, SystemDescription):
+            head["alone"] = system_alone.measure(config, description, args.repeats, args.seconds, single_loop,
+                                                 progress=lambda what: progress(f"alone: {what}"))
     head["step_path"] = results[0]["single_step_path"]
     line, data = conditions(load_before, args.repeats, args.seconds)
     print(report(head, results))
+    if "alone" in head:
+        print("\n" + "\n".join(system_alone.report_lines(head["alone"])))
     print(f"\n{line}")
     out = args.json or f"bench-results/fmu-{Path(args.fmu).stem}.json"
     data = {**head, **data, "repeats": args.repeats, "seconds": args.seconds, "results": results}

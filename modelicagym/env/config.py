@@ -37,7 +37,15 @@ class FMUEnvConfig:
     """Everything `FMUEnv` needs to know about an FMU.
 
     Attributes:
-        fmu: path of the ``.fmu`` file (or extracted folder).
+        fmu: path of the ``.fmu`` file (or extracted folder), or of an SSP system (an ``.ssp``
+            archive or a folder with ``SystemStructure.ssd``: `modelicagym.system`).
+        fmus / connections: a system of FMUs instead of ``fmu``: ``{name: path}`` of its
+            components (FMUs, or CSV/MAT time tables; ``{"fmu": path, "mode": "me"}`` runs an FMU
+            in a mode of its own) and ``[("motor.tau", "plant.tau"), ...]`` (output, input). A
+            system's variables are named ``component.variable`` everywhere in the config.
+        master: a system's master algorithm, ``"gauss-seidel"`` (default) or ``"jacobi"``
+            (`modelicagym.system.master`).
+        substeps: a system's communication steps per env step (default 1).
         inputs: input variables driven by the action, in order.
         outputs: variables observed after every step, in order.
         parameters: values (or callables ``f(np_random) -> value``) applied at every reset.
@@ -82,7 +90,11 @@ class FMUEnvConfig:
             the env's generator (e.g. a plant's recorded operating points).
     """
 
-    fmu: str | os.PathLike[str]
+    fmu: str | os.PathLike[str] | None = None
+    fmus: Mapping[str, Any] | None = None
+    connections: Sequence[Any] = ()
+    master: str = "gauss-seidel"
+    substeps: int = 1
     inputs: Sequence[str] = ()
     outputs: Sequence[str] = ()
     parameters: Mapping[str, Any] = field(default_factory=dict)
@@ -126,8 +138,9 @@ class FMUEnvConfig:
                 close = difflib.get_close_matches(key, known, n=2)
                 hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
                 raise ConfigTypeError(f"unknown FMUEnv config key {key!r}.{hint} Known keys: {', '.join(known)}")
-        if "fmu" not in mapping:
-            raise ConfigTypeError("an FMUEnv config needs 'fmu': the path of the .fmu file")
+        if "fmu" not in mapping and "fmus" not in mapping:
+            raise ConfigTypeError("an FMUEnv config needs 'fmu': the path of the .fmu file (or of an SSP system; or "
+                                  "'fmus' and 'connections' for a system of FMUs)")
         config = cls(**mapping)
         config.inputs = list([config.inputs] if isinstance(config.inputs, str) else config.inputs)
         config.outputs = list([config.outputs] if isinstance(config.outputs, str) else config.outputs)

@@ -73,15 +73,18 @@ from modelicagym.env.saved_state import EnvState, generator_state, restored_gene
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import StripChart, require_matplotlib
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
-from modelicagym.fmu import FMUCallError, FMUError, FMUInstance, open_fmu
+from modelicagym.fmu import FMUCallError, FMUError
 from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
+from modelicagym.system import new_instance, open_model
 
 logger = logging.getLogger(__name__)
 
 
 class FMUEnv(gym.Env):
-    """A Gymnasium environment around one FMU instance.
+    """A Gymnasium environment around one FMU instance, or a system of connected FMUs and time
+    tables (``fmus`` and ``connections``, or an SSP archive as ``fmu``: `modelicagym.system`), whose
+    variables are then named ``component.variable``.
 
     Example::
 
@@ -125,21 +128,25 @@ class FMUEnv(gym.Env):
         if self._draws_strip_chart:
             require_matplotlib()  # before the FMU is loaded: a missing extra is one line, nothing to free
         used = [*cfg.inputs, *cfg.outputs, *cfg.parameters, *cfg.fixed_inputs]  # bounds are on outputs
-        self.description = description = open_fmu(cfg.fmu, validate=cfg.validate, used=used)
+        self.description = description = open_model(cfg.fmu, fmus=cfg.fmus, connections=cfg.connections,
+                                                    validate=cfg.validate, used=used)
         if not cfg.outputs:
             raise ConfigError(f"{description.name}: 'outputs' is empty; outputs of this FMU: "
                              f"{', '.join(v.name for v in description.outputs) or 'none'}")
         for name, value in cfg.parameters.items():
             check_parameter(description.name, description.settable_variable(name), value)
         held = check_fixed_input_names(description.name, cfg.fixed_inputs, description.variables, description.inputs)
-        for variable in held:
-            check_parameter(description.name, variable, cfg.fixed_inputs[variable.name], "fixed input")
+        for variable in held:  # settable: a system refuses an input a connection feeds
+            check_parameter(description.name, description.settable_variable(variable.name),
+                            cfg.fixed_inputs[variable.name], "fixed input")
         check_action_bound_names(description.name, cfg.action_bounds or {}, list(cfg.inputs))
         self.time_step = float(cfg.time_step or description.default_experiment.step_size or 0.0)
         if not self.time_step > 0:
             raise ConfigError(f"{description.name} declares no default step size: give 'time_step'")
-        self.fmu = FMUInstance(
+        self.fmu = new_instance(
             description,
+            master=cfg.master,
+            substeps=cfg.substeps,
             mode=cfg.mode,
             inputs=cfg.inputs,
             outputs=cfg.outputs,
@@ -187,8 +194,10 @@ class FMUEnv(gym.Env):
                                       python_observation=self._python_observation)
             self.python_edges = python_edges(inputs_reason, observation_reason)
             self.step_path = "native"
+            components = getattr(self.fmu, "components", None)
             self.step_path_reason = native_path_reason(inputs_reason, observation_reason,
-                                                       [] if endings is None else endings.parts)
+                                                       [] if endings is None else endings.parts,
+                                                       None if components is None else len(components))
         else:
             self.step_path, self.step_path_reason = "python", reason
 
@@ -358,7 +367,10 @@ class FMUEnv(gym.Env):
 
     @property
     def fault_label(self) -> str:
-        """What this env runs, for the line that names it if its FMU ends the process: the FMU's path."""
+        """What this env runs, for the line that names it if its FMU ends the process: the FMU's path
+        (a system's, or its components')."""
+        if self.config.fmus is not None:
+            return f"system of FMUs {', '.join(str(path) for path in self.config.fmus.values())}"
         return f"FMU {self.config.fmu}"
 
     @property

@@ -26,6 +26,9 @@ A pool's native slice (one C call for many envs) runs the same edges per env aro
 (`modelicagym.vector.slice.slice_edges`): ``mg_env.python_inputs`` tells C to step the env from
 the inputs Python wrote, ``mg_env.python_observation`` to write none of its observation rows.
 
+A system of FMUs (`modelicagym.system`) steps in C too: its ``mg_env`` runs the master algorithm
+over an ``mg_env`` per FMU and the copies along its connections (`modelicagym.env.native_system`).
+
 `NativeStep` fills in ``mg_env`` (``csrc/step.h``) with pointers into the instance's own value
 buffers and clock, so both paths read and write the same memory and either can take any step. C calls
 one fmiSet/fmiGet per FMI type (the buffers are grouped so), converts the action's values into the
@@ -46,11 +49,13 @@ import numpy as np
 from gymnasium import spaces
 
 from modelicagym.env.endings import overridden
+from modelicagym.env.native_fmu import bind_instance, bind_snapshot, fmu_error, input_starts, instance_calls
+from modelicagym.env.native_system import NativeSystem
 from modelicagym.env.spaces import write_values
-from modelicagym.fmu.binding import DISCARD
 from modelicagym.fmu.errors import FMUError
-from modelicagym.native.abi import FailedCall, MgCall, MgEnv, MgMove, ValueType
+from modelicagym.native.abi import MgEnv, MgMove, ValueType
 from modelicagym.native.library import NativeBuildError, load_library
+from modelicagym.system import SystemInstance
 
 __all__ = ["NativeStep", "action_storage_dtype", "native_path_reason", "python_edges", "python_inputs_reason",
            "python_observation_reason", "python_path_reason"]
@@ -59,12 +64,6 @@ logger = logging.getLogger(__name__)
 
 #: the spaces whose values C reads from a flat row (a Dict of them: one row per key, in input order)
 _ARRAY_SPACES = (spaces.Box, spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary)
-#: the function a native reset restores the snapshot with (FMI 1.0 has none)
-_SET_STATE = {2: "fmi2SetFMUstate", 3: "fmi3SetFMUState"}
-#: ``failed_call`` codes -> how the Python path names the failing call
-_FAILED_CALLS = {FailedCall.SET_INPUTS: "set inputs", FailedCall.DO_STEP: "fmiDoStep",
-                 FailedCall.GET_OUTPUTS: "get outputs", FailedCall.SET_STATE: "set FMU state",
-                 FailedCall.INTEGRATE: "integrate"}
 
 
 def action_storage_dtype(space: spaces.Space) -> np.dtype:
@@ -126,10 +125,14 @@ def python_path_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     cls = type(env)
     if config.step_path == "python":
         return "the config asks for step_path='python'"
+    if isinstance(fmu, SystemInstance):
+        reason = fmu.python_step_reason()
+        if reason is not None:
+            return reason
+    elif fmu.mode == "me" and fmu.integrator_path != "native":
+        return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
     if env.strip_chart is not None:
         return "render_mode='rgb_array' records every step for the strip chart, in Python"
-    if fmu.mode == "me" and fmu.integrator_path != "native":
-        return f"model exchange with its solver loop in Python: {fmu.integrator_path_reason}"
     if overridden(cls, base, "step"):
         return f"step is overridden by {cls.__name__}"
     try:
@@ -185,17 +188,21 @@ def python_edges(inputs_reason: str | None, observation_reason: str | None) -> s
     return _and(before + after) if before or after else None
 
 
-def native_path_reason(inputs_reason: str | None, observation_reason: str | None, endings: list[str]) -> str:
+def native_path_reason(inputs_reason: str | None, observation_reason: str | None, endings: list[str],
+                       components: int | None = None) -> str:
     """``step_path_reason`` of an env on the native path: what runs in C, and what in Python
     before it (the inputs) and after it (the observation, then ``endings``: its reward and
-    termination written in Python, `modelicagym.env.endings.PythonEndings.parts`)."""
+    termination written in Python, `modelicagym.env.endings.PythonEndings.parts`). ``components``:
+    the env is a system of that many components (all of them, and its connections, step in C)."""
     before, after = _edges(inputs_reason, observation_reason)
     after += endings
+    what = "the FMU" if components is None else f"the system ({components} components and its connections)"
     if not (before or after):
-        return "the config defines the whole step"
+        whole = "the config defines the whole step"
+        return whole if components is None else f"{whole}: {what} steps in C in one call"
     said = ([f"{_and(before)} in Python before it"] if before else []) + (
         [f"{_and(after)} in Python after it"] if after else [])
-    return f"the FMU steps in C; {'; '.join(said)}"
+    return f"{what} steps in C; {'; '.join(said)}"
 
 
 def _address(array: np.ndarray | ctypes.Array) -> int:
@@ -248,7 +255,7 @@ class NativeStep:
         self.library = load_library()
         fmu, config = env.fmu, env.config
         self.state = state = MgEnv()
-        state.fmi_version = fmu.description.fmi_version
+        state.fmi_version = 0 if isinstance(fmu, SystemInstance) else fmu.description.fmi_version
         state.event_mode_inputs = fmu.event_mode_inputs
         state.python_inputs, state.python_observation = python_inputs, python_observation
         inputs = [pair for v in fmu.input_variables for pair in _value_addresses(fmu.inputs, v)]
@@ -259,7 +266,7 @@ class NativeStep:
         bounds = [(name, float(low), float(high)) for name, (low, high) in termination.items()]
         # arrays the struct points to: kept alive by this object
         self._keep: dict[str, Any] = {
-            "input_starts": np.frombuffer(self._input_starts(), dtype=np.uint8).copy(),
+            "input_starts": input_starts(fmu.inputs),
             "bound_index": np.array([positions[names.index(name)] for name, _, _ in bounds], dtype=np.int64),
             "bound_low": np.array([low for _, low, _ in bounds], dtype=np.float64),
             "bound_high": np.array([high for _, _, high in bounds], dtype=np.float64),
@@ -268,7 +275,8 @@ class NativeStep:
         #: the input values are Python's: then C moves no action and checks no action bounds
         self.python_inputs = python_inputs
         #: model exchange with Python's inputs: the solver's restart rule, as the Python path applies it
-        self._note_inputs = fmu.note_written_inputs if python_inputs and fmu.mode == "me" else None
+        self._note_inputs = (fmu.note_written_inputs if python_inputs and not isinstance(fmu, SystemInstance)
+                             and fmu.mode == "me" else None)
         #: a Dict action's entries in the action row C reads: ``(name, byte offset, bytes, dtype)``
         self.action_layout: list[tuple[str, int, int, np.dtype]] | None = None
         #: a Dict observation's entries in the row C writes: ``{name: (byte offset, bytes)}``
@@ -293,9 +301,12 @@ class NativeStep:
             setattr(state, field, _address(array))
         state.n_inputs, state.n_outputs, state.n_bounds = len(sources), len(outputs), len(bounds)
         state.observation_bytes = observation.nbytes
-        self._calls = {"set": self._make_calls(fmu.inputs), "get": self._make_calls(fmu.outputs)}
-        state.set_calls, state.n_set_calls = ctypes.addressof(self._calls["set"][0]), len(self._calls["set"][1])
-        state.get_calls, state.n_get_calls = ctypes.addressof(self._calls["get"][0]), len(self._calls["get"][1])
+        #: a system's components in C (`NativeSystem`); None for one FMU, whose own calls C makes
+        self._system = NativeSystem(fmu, env.time_step) if isinstance(fmu, SystemInstance) else None
+        if self._system is None:
+            self._calls = instance_calls(fmu, state)
+        else:
+            state.system = self._system.address
         state.time_step = env.time_step
         state.positive_reward, state.negative_reward = env.positive_reward, env.negative_reward
         state.max_episode_steps = -1 if env.max_episode_steps is None else env.max_episode_steps
@@ -309,15 +320,6 @@ class NativeStep:
         self._state_ref = ctypes.byref(state)
         self._reward_ref = ctypes.byref(self._reward)
         self.bind()
-
-    def _input_starts(self) -> bytes:
-        """The input buffers' bytes as a reset leaves them (their start values)."""
-        inputs = self.env.fmu.inputs
-        current = inputs.snapshot()
-        inputs.fill_start_values()
-        starts = inputs.snapshot()
-        inputs.load(current)
-        return starts
 
     def _action_row(self, parts: list[tuple[str | None, spaces.Space]]) -> list[tuple[int, int]]:
         """Lay out the action row C reads (one typed array per part, in input order) and return
@@ -367,40 +369,17 @@ class NativeStep:
         entries = [(name, readers[name]) for name in space]
         return lambda: {name: read() for name, read in entries}
 
-    def _make_calls(self, buffer: Any) -> tuple[ctypes.Array, list[tuple[str, str]]]:
-        """One ``mg_call`` per FMI type of ``buffer`` (its function is bound in :meth:`bind`), and
-        the function names to bind."""
-        groups = buffer.groups()
-        calls = (MgCall * max(len(groups), 1))()
-        binding = self.env.fmu.binding
-        names = []
-        for call, (fmi_type, refs, n_refs, values, n_values, n_bytes) in zip(calls, groups):
-            call.refs, call.n_refs, call.values, call.n_values, call.n_bytes = refs, n_refs, values, n_values, n_bytes
-            names.append((fmi_type, binding.TYPE_FUNCTIONS[fmi_type][0]))
-        return calls, names
-
     def bind(self) -> None:
-        """Point the struct at the instance as it is now: its component, functions and snapshot."""
+        """Point the struct at the instance as it is now: its component, functions and snapshot
+        (a system's: each of its FMUs')."""
         fmu, state = self.env.fmu, self.state
-        binding = fmu.binding
-        prefix = binding.PREFIX
-        state.component = binding.component
-        for verb, (calls, names) in zip(("Set", "Get"), (self._calls["set"], self._calls["get"])):
-            for call, (_, suffix) in zip(calls, names):
-                call.function = binding.function_address(prefix + verb + suffix)
-        integrator = fmu.native_integrator
-        if integrator is None:
-            state.do_step = binding.function_address(prefix + "DoStep")
-            state.get_boolean_status = binding.function_address("fmi2GetBooleanStatus") if prefix == "fmi2" else None
-        state.integrator = None if integrator is None else ctypes.addressof(integrator.state)
         # a native reset stands for reset() without options: the config's parameters
-        snapshot = None if self._random_parameters else fmu.restorable_snapshot(self.env.config.reset_values)
-        state.set_state = None if snapshot is None else binding.function_address(_SET_STATE[state.fmi_version])
-        state.snapshot = snapshot
-        state.native_reset = snapshot is not None
-        next_event = fmu.snapshot_next_event_time
-        state.snapshot_has_next_event = next_event is not None
-        state.snapshot_next_event_time = next_event or 0.0
+        values = None if self._random_parameters else self.env.config.reset_values
+        if self._system is not None:
+            state.native_reset = self._system.bind(values)
+            return
+        bind_instance(state, fmu, self._calls)
+        bind_snapshot(state, fmu, values)
 
     def reset(self) -> bool:
         """Start an episode with the config's parameters in C, by restoring the instance's verified
@@ -441,12 +420,6 @@ class NativeStep:
 
     def error(self) -> FMUError:
         """The error of a step that returned ``Flags.FMU_ERROR``, as the Python path raises it."""
-        state = self.state
-        if state.failed_call == FailedCall.LOG_ERRORS:
-            return self.env.fmu.error_loop()
-        call = _FAILED_CALLS[state.failed_call]
-        if call == "integrate":
-            return self.env.fmu.native_integrator.error()
-        if call == "fmiDoStep" and state.fmi_status == DISCARD:
-            call = "fmiDoStep (discard without termination)"
-        return self.env.fmu.binding.fail(call, state.fmi_status)
+        if self._system is not None:
+            return self._system.error()
+        return fmu_error(self.env.fmu, self.state)

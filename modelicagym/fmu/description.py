@@ -429,21 +429,27 @@ def _content_hash(guid: str, library: str, size: int, mtime_ns: int) -> str:
 def _extract(path: Path) -> Path:
     """Extract ``path`` into the cache once per content (the same bytes anywhere are one entry),
     checked against its manifest on every open; safe across processes."""
+    return extract_archive(path)
+
+
+def extract_archive(path: Path, required: str = "modelDescription.xml", kind: str = "an FMU") -> Path:
+    """Extract the zip archive ``path`` (``kind``, which holds ``required`` at its top: an FMU, an
+    SSP archive) into the cache once per content, within the extraction limits, as FMUs are."""
     if not zipfile.is_zipfile(path):
-        raise InvalidFMUError(f"{path} is not an FMU: an FMU is a zip archive, and this file is not one (or is cut short)")
+        raise InvalidFMUError(f"{path} is not {kind}: {kind} is a zip archive, and this file is not one (or is cut short)")
     stat = path.stat()
     key = _content_key(str(path.resolve()), stat.st_size, stat.st_mtime_ns)
     target = cache_dir() / "extracted" / key
-    return ensure(target, lambda: _extract_into(path, target), f"the extracted FMU {path.name}")
+    return ensure(target, lambda: _extract_into(path, target, required, kind), f"the extracted {path.name}")
 
 
-def _extract_into(path: Path, target: Path) -> None:
+def _extract_into(path: Path, target: Path, required: str, kind: str) -> None:
     target.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{path.stem}-", dir=target.parent))
     try:
         with zipfile.ZipFile(path) as archive:
-            if "modelDescription.xml" not in archive.namelist():
-                raise InvalidFMUError(f"{path} is not an FMU: the zip archive has no modelDescription.xml")
+            if required not in archive.namelist():
+                raise InvalidFMUError(f"{path} is not {kind}: the zip archive has no {required}")
             _check_expansion(path, archive)
             archive.extractall(staging)
         write_manifest(staging)

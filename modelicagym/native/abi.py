@@ -38,6 +38,10 @@ __all__ = [
     "IntegratorOutcome",
     "MgBarrier",
     "MgBatch",
+    "MgComponent",
+    "MgLink",
+    "MgSystem",
+    "MgTable",
     "MgCall",
     "MgCollector",
     "MgEnv",
@@ -346,6 +350,59 @@ class MgEnv(ctypes.Structure):
         ("fmi_status", ctypes.c_int32),
         ("failed_call", ctypes.c_int32),
         ("clock", ctypes.POINTER(StepClock)),
+        ("system", ctypes.c_void_p),
+    ]
+
+
+class MgLink(ctypes.Structure):
+    """``mg_link`` (``csrc/step.h``): one connection of a system, ``target = scale * source + shift``."""
+
+    _fields_ = [
+        ("source", ctypes.c_int64),
+        ("target", ctypes.c_int64),
+        ("source_type", ctypes.c_int32),
+        ("target_type", ctypes.c_int32),
+        ("scale", ctypes.c_double),
+        ("shift", ctypes.c_double),
+    ]
+
+
+class MgTable(ctypes.Structure):
+    """``mg_table`` (``csrc/step.h``): a time table of a system, interpolated in C."""
+
+    _fields_ = [
+        ("times", ctypes.c_void_p),
+        ("n_times", ctypes.c_int64),
+        *_pointers("values", "outputs"),
+        ("n_outputs", ctypes.c_int64),
+        ("offset", ctypes.c_void_p),
+        ("clock", ctypes.POINTER(StepClock)),
+    ]
+
+
+class MgComponent(ctypes.Structure):
+    """``mg_component`` (``csrc/step.h``): one component of a system, in stepping order."""
+
+    _fields_ = [
+        *_pointers("env", "table", "links"),
+        ("n_links", ctypes.c_int64),
+        ("action_links", ctypes.c_void_p),
+        ("n_action_links", ctypes.c_int64),
+        ("inputs_changed", ctypes.c_int32),
+    ]
+
+
+class MgSystem(ctypes.Structure):
+    """``mg_system`` (``csrc/step.h``): a system env's master algorithm over its components."""
+
+    _fields_ = [
+        ("components", ctypes.c_void_p),
+        ("n_components", ctypes.c_int64),
+        ("jacobi", ctypes.c_int32),
+        ("substeps", ctypes.c_int32),
+        ("output_links", ctypes.c_void_p),
+        ("n_output_links", ctypes.c_int64),
+        ("failed_component", ctypes.c_int64),
     ]
 
 
@@ -493,6 +550,10 @@ STRUCTS: dict[str, type[ctypes.Structure]] = {
     "mg_call": MgCall,
     "mg_move": MgMove,
     "mg_env": MgEnv,
+    "mg_link": MgLink,
+    "mg_table": MgTable,
+    "mg_component": MgComponent,
+    "mg_system": MgSystem,
     "mg_batch": MgBatch,
     "mg_part": MgPart,
     "mg_range": MgRange,

@@ -107,3 +107,12 @@ def test_one_file_ppo_resumed_from_its_checkpoint_ends_as_an_uninterrupted_run(t
     assert "stopped after update 9" in first and "resumed from" in resumed
     fingerprint = re.compile(r"^network fingerprint: \w+$", re.MULTILINE)
     assert fingerprint.findall(resumed) == fingerprint.findall(uninterrupted) != fingerprint.findall(first)
+
+
+@requires("rl")
+def test_system_sac_trains_on_a_pool_of_connected_fmus():
+    out = run_example("system_sac.py", "--envs", "2", "--steps", "600", "--max-episode-steps", "50")
+    assert "2 envs of a system of 3 components" in out
+    assert "step path: native (the system (3 components and its connections) steps in C;" in out
+    assert "trained 600 steps" in out
+    assert re.search(r"mean speed error: trained policy \d+\.\d+ rad/s, a fixed command of 0.1 \d+\.\d+ rad/s", out)

@@ -16,6 +16,7 @@ import pickle
 import runpy
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -75,12 +76,14 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
         k: v for k, v in printed["parameters"].items() if k != "T_0"}
 
     # 3. train, briefly (SAC starts learning after 500 steps)
-    temp = tmp_path / "temp"
-    temp.mkdir()
-    out = run(str(EXAMPLES / "train_own_fmu.py"), "heater_task.py", "--out", "run", "--steps", "700", "--envs", "2",
-              "--eval-episodes", "2", cwd=tmp_path, temp=temp).stdout
+    # a short temporary folder: the pool's fork server puts its socket there, and a socket's path is at
+    # most 107 bytes (pytest-xdist's tmp_path alone takes 80)
+    with tempfile.TemporaryDirectory(prefix="mg-") as short:
+        temp = Path(short)
+        out = run(str(EXAMPLES / "train_own_fmu.py"), "heater_task.py", "--out", "run", "--steps", "700", "--envs",
+                  "2", "--eval-episodes", "2", cwd=tmp_path, temp=temp).stdout
+        assert not list(temp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
     assert "trained 700 steps" in out and "evaluation, 2 episodes" in out and "no training episode ended" not in out
-    assert not list(temp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
     folder = tmp_path / "run"
     summary = json.loads((folder / "run.json").read_text())
     assert sorted(p.name for p in folder.iterdir()) == sorted([*summary["files"], "run.json"]), "temporary files left"

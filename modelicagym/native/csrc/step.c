@@ -204,8 +204,12 @@ static int32_t set_inputs_in_event_mode(mg_env *env, double now, bool *ended) {
     return 0;
 }
 
+static int32_t advance_system(mg_env *env);
+
 /* FMUInstance.step: set inputs, doStep (or integrate) to origin + (steps + 1) * dt, get outputs. */
 static int32_t advance(mg_env *env) {
+    if (env->system)
+        return advance_system(env);
     mg_clock *clock = env->clock;
     double dt = env->time_step;
     if (dt != clock->dt) {
@@ -259,6 +263,179 @@ static int32_t advance(mg_env *env) {
     return 0;
 }
 
+/* -- systems (step.h) --------------------------------------------------------------------------- */
+
+/* Copy `links` as SystemInstance._copy does; true if a target's bytes changed. */
+static bool copy_links(const mg_link *links, int64_t n) {
+    bool changed = false;
+    for (int64_t k = 0; k < n; k++) {
+        const mg_link *l = &links[k];
+        value v = load((const void *)(intptr_t)l->source, l->source_type);
+        if (l->scale != 1.0 || l->shift != 0.0) {
+            v.d = l->scale * as_double(v) + l->shift;
+            v.kind = AS_DOUBLE;
+        }
+        changed |= store((void *)(intptr_t)l->target, l->target_type, v);
+    }
+    return changed;
+}
+
+static void read_table(mg_table *table);
+
+/* TableInstance.step: the clock moved as an FMU's, each output read at the new time. */
+static void advance_table(mg_table *table, double dt) {
+    mg_clock *clock = table->clock;
+    if (dt != clock->dt) {
+        clock->origin = clock->time;
+        clock->dt = dt;
+        clock->steps = 0;
+    }
+    clock->steps += 1;
+    clock->time = clock->origin + (double)clock->steps * dt;
+    read_table(table);
+}
+
+/* TableInstance.read_outputs: each output at the table's time, as numpy.interp. */
+static void read_table(mg_table *table) {
+    mg_clock *clock = table->clock;
+    int64_t started = mg_now_ns();
+    const double *x = table->times;
+    int64_t n = table->n_times;
+    double t = clock->time + *table->offset;
+    int64_t j = 0; /* x[j] <= t < x[j + 1] */
+    if (t > x[0] && t < x[n - 1]) {
+        int64_t high = n - 1;
+        while (high - j > 1) {
+            int64_t mid = (j + high) / 2;
+            if (x[mid] <= t)
+                j = mid;
+            else
+                high = mid;
+        }
+    }
+    for (int64_t k = 0; k < table->n_outputs; k++) {
+        const double *y = table->values + k * n;
+        double result;
+        if (!(t > x[0]))
+            result = y[0];
+        else if (!(t < x[n - 1]))
+            result = y[n - 1];
+        else if (x[j] == t)
+            result = y[j];
+        else {
+            double slope = (y[j + 1] - y[j]) / (x[j + 1] - x[j]);
+            result = slope * (t - x[j]) + y[j];
+            if (result != result) /* NaN: numpy's second try */
+                result = slope * (t - x[j + 1]) + y[j + 1];
+        }
+        *table->outputs[k] = result;
+    }
+    clock->fmu_time_ns += mg_now_ns() - started;
+}
+
+/* SystemInstance.step (system/master.py), whose docstring states the master algorithm. */
+static int32_t advance_system(mg_env *env) {
+    mg_system *system = env->system;
+    mg_clock *clock = env->clock;
+    double dt = env->time_step;
+    if (dt != clock->dt) {
+        clock->origin = clock->time;
+        clock->dt = dt;
+        clock->steps = 0;
+    }
+    for (int64_t c = 0; c < system->n_components; c++) {
+        mg_component *component = &system->components[c];
+        component->inputs_changed = copy_links(component->action_links, component->n_action_links);
+    }
+    bool ended = false;
+    for (int32_t sub = 0; sub < system->substeps && !ended; sub++) {
+        for (int64_t c = 0; c < system->n_components && system->jacobi; c++) {
+            mg_component *component = &system->components[c];
+            component->inputs_changed |= copy_links(component->links, component->n_links);
+        }
+        for (int64_t c = 0; c < system->n_components; c++) {
+            mg_component *component = &system->components[c];
+            if (!system->jacobi)
+                component->inputs_changed |= copy_links(component->links, component->n_links);
+            if (component->table) {
+                advance_table(component->table, dt / system->substeps);
+                continue;
+            }
+            mg_env *fmu = component->env;
+            if (fmu->integrator && component->inputs_changed) /* as FMUInstance.note_written_inputs */
+                fmu->integrator->continuous = 0;
+            component->inputs_changed = 0;
+            int32_t flags = advance(fmu);
+            if (flags) {
+                system->failed_component = c;
+                env->fmi_status = fmu->fmi_status;
+                env->failed_call = fmu->failed_call;
+                return flags;
+            }
+            ended |= fmu->clock->terminated != 0;
+        }
+    }
+    clock->steps += 1;
+    clock->time = clock->origin + (double)clock->steps * dt;
+    clock->terminated = ended;
+    copy_links(system->output_links, system->n_output_links);
+    get_outputs(env); /* no FMU calls of its own: the observation moves */
+    return 0;
+}
+
+/* SystemInstance.reset on the snapshot rung of every FMU (Python checked each one's snapshot and
+ * key, and each table's offset, in bind): every component back at its start, the connections
+ * settled once in stepping order (SystemInstance._started), the observation read. */
+static int32_t reset_system(mg_env *env) {
+    mg_system *system = env->system;
+    for (int64_t c = 0; c < system->n_components; c++) {
+        mg_component *component = &system->components[c];
+        if (component->table) {
+            mg_clock *clock = component->table->clock;
+            clock->time = clock->origin = clock->start_time;
+            clock->dt = 0.0;
+            clock->steps = 0;
+            read_table(component->table);
+            continue;
+        }
+        int32_t flags = mg_env_reset(component->env);
+        if (flags) {
+            system->failed_component = c;
+            env->fmi_status = component->env->fmi_status;
+            env->failed_call = component->env->failed_call;
+            return flags;
+        }
+    }
+    for (int64_t c = 0; c < system->n_components; c++) {
+        mg_component *component = &system->components[c];
+        copy_links(component->links, component->n_links);
+        mg_env *fmu = component->env;
+        if (!component->n_links || !fmu || fmu->event_mode_inputs)
+            continue;
+        int call = MG_CALL_SET_INPUTS;
+        int status = set_inputs(fmu);
+        if (status <= WARNING) {
+            call = MG_CALL_GET_OUTPUTS;
+            status = get_outputs(fmu);
+        }
+        if (status > WARNING) {
+            system->failed_component = c;
+            env->fmi_status = status;
+            env->failed_call = call;
+            return fail(fmu, call, status);
+        }
+    }
+    mg_clock *clock = env->clock;
+    clock->time = clock->origin = clock->start_time;
+    clock->dt = 0.0;
+    clock->steps = 0;
+    clock->terminated = 0;
+    copy_links(system->output_links, system->n_output_links);
+    get_outputs(env);
+    env->elapsed_steps = 0;
+    return 0;
+}
+
 int32_t mg_env_step(mg_env *env, const void *action, double *reward) {
     *reward = 0.0;
     if (action && !env->python_inputs && !write_action(env, action))
@@ -292,6 +469,8 @@ int32_t mg_env_reset(mg_env *env) {
     mg_clock *clock = env->clock;
     if (clock->broken || !env->native_reset)
         return MG_FMU_ERROR;
+    if (env->system)
+        return reset_system(env);
     int64_t started = mg_now_ns();
     int status = ((set_state_t)env->set_state)(env->component, env->snapshot);
     if (status > WARNING) {

@@ -72,8 +72,10 @@ typedef struct {
     int32_t source_type, target_type; /* MG_TYPE_* */
 } mg_move;
 
+typedef struct mg_system mg_system;
+
 typedef struct {
-    int32_t fmi_version; /* 1, 2 or 3 */
+    int32_t fmi_version; /* 1, 2 or 3 (0: a system, `system`) */
     int32_t discrete;    /* 1: action is an int64 index into action_table; 0: an action row */
     int32_t python_inputs;      /* 1: Python writes the input values (action_to_inputs) before each step:
                                    mg_env_step moves and checks no action, whatever it is given */
@@ -111,7 +113,54 @@ typedef struct {
     int32_t fmi_status;   /* the failing FMI status when MG_FMU_ERROR is returned */
     int32_t failed_call;  /* which call failed: MG_CALL_* */
     mg_clock *clock;
+    mg_system *system; /* not NULL: this env steps a system of components (below), not one FMU */
 } mg_env;
+
+/* -- systems of FMUs (modelicagym/system/master.py, its master algorithm in C) ----------------------
+ * A system env's mg_env has no FMU calls of its own: its action moves write the system's input
+ * values, its observation moves read the system's output values, and `advance` runs the master:
+ * the action's values to the components' inputs, then per communication step each component's own
+ * step (an FMU: its mg_env, python_inputs, no action, bounds or observation; a table: mg_table),
+ * the connections copied along the way (Gauss-Seidel: into each component just before it steps;
+ * Jacobi: all of them first), then the components' outputs to the system's output values. */
+
+/* One connection: target = scale * source + shift (the identity copies as a move does). */
+typedef struct {
+    int64_t source, target; /* addresses in the components' (or the system's) value buffers */
+    int32_t source_type, target_type;
+    double scale, shift;
+} mg_link;
+
+/* A time table: each output interpolated linearly in time (+ *offset), its end values held, as numpy's interp. */
+typedef struct {
+    const double *times;
+    int64_t n_times;
+    const double *values; /* n_outputs rows of n_times: output k's column */
+    double *const *outputs; /* where output k goes */
+    int64_t n_outputs;
+    const double *offset;
+    mg_clock *clock;
+} mg_table;
+
+typedef struct {
+    mg_env *env;         /* an FMU component (NULL: a table) */
+    mg_table *table;
+    const mg_link *links; /* the connections into it */
+    int64_t n_links;
+    const mg_link *action_links; /* the system's input values -> its inputs */
+    int64_t n_action_links;
+    int32_t inputs_changed; /* scratch: its input bytes changed since its last step (model exchange restarts) */
+} mg_component;
+
+struct mg_system {
+    mg_component *components; /* in stepping order */
+    int64_t n_components;
+    int32_t jacobi;
+    int32_t substeps;
+    const mg_link *output_links; /* the components' outputs -> the system's output values */
+    int64_t n_output_links;
+    int64_t failed_component; /* the component (stepping order) whose call failed, with MG_FMU_ERROR */
+};
 
 /* Flags returned by mg_env_step / per env by mg_step_batch (slice.h). */
 enum {

@@ -1,0 +1,177 @@
+"""What a system declares, in the shape `FMUEnv` reads an FMU's (`FMUDescription`): its
+variables named ``component.variable``, its inputs (the components' inputs no connection feeds),
+outputs and parameters, the checked connections and the order Gauss-Seidel steps in.
+
+`open_system` opens one from an SSP archive or folder, or from a config's ``fmus`` and
+``connections``; reading it loads no FMU binary.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+from modelicagym.errors import ConfigError
+from modelicagym.fmu.description import DefaultExperiment
+from modelicagym.fmu.errors import VariableError
+from modelicagym.fmu.variables import Variable
+from modelicagym.system.components import Component, open_component
+from modelicagym.system.graph import ConnectionSpec, Link, check_connections, split_name, stepping_order
+from modelicagym.system.ssp import SystemSpec, read_ssp
+from modelicagym.system.units import Unit, conversion, declared_unit
+
+#: the master algorithms: how the components' inputs are updated within a communication step
+MASTERS = ("gauss-seidel", "jacobi")
+
+
+class SystemDescription:
+    """A system of components (FMUs and tables) and their connections, checked."""
+
+    def __init__(self, spec: SystemSpec, path: Path | None, validate: bool = True):
+        self.path = path
+        self.name = path.name if path is not None else f"system({', '.join(spec.components)})"
+        self.model_name = spec.name
+        self.components: dict[str, Component] = {
+            name: open_component(name, source, validate=validate) for name, source in spec.components.items()}
+        if not self.components:
+            raise ConfigError(f"{self.name}: a system needs at least one component")
+        self.links: list[Link] = check_connections(self.components, spec.connections, self.name)
+        self.order = stepping_order(list(self.components), self.links)
+        self._fed = {(link.target, link.target_variable): link for link in self.links}
+        self.start_time = spec.start_time
+        #: the values the SSP's parameter sets give (in their variables' units), applied under the
+        #: env's own at every reset
+        self.parameter_values: dict[str, Any] = {name: self._in_own_unit(name, value, spec.parameter_units.get(name))
+                                                 for name, value in spec.parameters.items()}
+
+    def _in_own_unit(self, name: str, value: Any, unit: Unit | None) -> Any:
+        """``value`` of parameter ``name``, given in ``unit``, in the unit its variable declares."""
+        variable = self.settable_variable(name)
+        component = self.components[name.split(".", 1)[0]]
+        convert = conversion(unit, declared_unit(variable.unit, component.units), f"{self.name}: parameter {name!r}")
+        return value if convert.identity else convert.scale * value + convert.shift
+
+    def __repr__(self) -> str:
+        return f"SystemDescription({self.name!r}, components={list(self.components)})"
+
+    @cached_property
+    def variables(self) -> dict[str, Variable]:
+        """Every component's variables, named ``component.variable``."""
+        return {f"{c.name}.{v.name}": replace(v, name=f"{c.name}.{v.name}")
+                for c in self.components.values() for v in c.variables.values()}
+
+    @cached_property
+    def inputs(self) -> list[Variable]:
+        """The components' inputs no connection feeds: what actions (or ``fixed_inputs``) drive."""
+        return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() for v in c.inputs
+                if (c.name, v.name) not in self._fed]
+
+    @cached_property
+    def outputs(self) -> list[Variable]:
+        return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() for v in c.outputs]
+
+    @cached_property
+    def parameters(self) -> list[Variable]:
+        return [v for v in self.variables.values() if v.is_parameter and v.settable]
+
+    @cached_property
+    def state_variables(self) -> list[Variable]:
+        """The FMUs' continuous states, named ``component.variable``."""
+        return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() if c.description is not None
+                for v in c.description.state_variables]
+
+    def locate(self, name: str) -> tuple[Component, Variable]:
+        """The component of ``component.variable`` and the variable as the component names it."""
+        head, local = name.split(".", 1)
+        component = self.components[head]
+        return component, component.variables[local]
+
+    @property
+    def default_experiment(self) -> DefaultExperiment:
+        """The SSP's start time, and the first FMU's step size (the env's default time step)."""
+        first = next((c.description for c in self.components.values() if c.description is not None), None)
+        declared = first.default_experiment if first is not None else DefaultExperiment()
+        start = declared.start_time if self.start_time is None else self.start_time
+        return DefaultExperiment(start, declared.stop_time, declared.step_size, declared.tolerance)
+
+    def once_per_process(self, mode: str | None = None) -> bool:
+        """Whether some FMU of the system may be instantiated only once per process."""
+        return any(c.description.once_per_process(c.mode) for c in self.components.values()
+                   if c.description is not None)
+
+    def fed_by(self, name: str) -> Link | None:
+        """The connection feeding input ``component.variable``, or None."""
+        head, _, local = name.partition(".")
+        return self._fed.get((head, local))
+
+    # -- variables by name, checked as an FMU's are ----------------------------------------------
+
+    def _local(self, name: str, role: str, candidates: Sequence[Variable]) -> tuple[Component, Variable]:
+        component, local = split_name(name, self.components, f"{self.name}: {role} {name!r}")
+        prefix = component.name + "."
+        own = [component.variables[v.name[len(prefix):]] for v in candidates if v.name.startswith(prefix)]
+        return component, component.variable(local, role, own)
+
+    def variable(self, name: str, candidates: list[Variable] | None = None, role: str = "variable") -> Variable:
+        """The variable ``component.variable``; an error with close matches when there is none."""
+        self._local(name, role, candidates or [])
+        return self.variables[name]
+
+    def input_variable(self, name: str) -> Variable:
+        """``name`` checked to be driveable by an action: an unconnected input or a tunable parameter."""
+        component, variable = self._local(name, "input", self.inputs)
+        link = self.fed_by(name)
+        if link is not None:
+            raise VariableError(f"{self.name}: {name!r} cannot be an action: the connection {link.label} feeds it")
+        if component.description is not None:
+            component.description.input_variable(variable.name)  # its own checks and messages
+        elif not variable.is_input:
+            raise VariableError(f"{self.name}: {name!r} cannot be an action: a table has outputs only")
+        return self.variables[name]
+
+    def observable_variable(self, name: str) -> Variable:
+        component, variable = self._local(name, "output", self.outputs)
+        if component.description is not None:
+            component.description.observable_variable(variable.name)
+        return self.variables[name]
+
+    def settable_variable(self, name: str) -> Variable:
+        component, variable = self._local(name, "parameter", self.parameters)
+        link = self.fed_by(name)
+        if link is not None:
+            raise VariableError(f"{self.name}: {name!r} cannot be set: the connection {link.label} feeds it")
+        if component.description is not None:
+            component.description.settable_variable(variable.name)
+        elif not variable.is_parameter:
+            raise VariableError(f"{self.name}: {name!r} cannot be set: a table's only parameter is time_offset")
+        return self.variables[name]
+
+
+def open_system(fmu: str | os.PathLike[str] | None = None, *, fmus: Mapping[str, Any] | None = None,
+                connections: Sequence[Any] = (), validate: bool = True) -> SystemDescription:
+    """Open a system: an SSP archive or folder (``fmu``), or components and connections from a
+    config (``fmus={"plant": "plant.fmu", "load": "load.csv"}``,
+    ``connections=[("motor.tau", "plant.tau"), ...]``)."""
+    if fmus is not None:
+        if fmu is not None:
+            raise ConfigError("give 'fmu' (one FMU, or an SSP system) or 'fmus' (components to connect), not both")
+        if not isinstance(fmus, Mapping):
+            raise ConfigError(f"fmus must be {{name: path}}, got {fmus!r} ({type(fmus).__name__})")
+        spec = SystemSpec("system", dict(fmus), [_connection(c) for c in connections])
+        return SystemDescription(spec, None, validate)
+    if connections:
+        raise ConfigError("'connections' needs 'fmus' (the components they connect)")
+    return SystemDescription(read_ssp(fmu), Path(fmu).expanduser(), validate)
+
+
+def _connection(connection: Any) -> ConnectionSpec:
+    """A config's connection: ``("a.y", "b.u")`` (or ``"a.y -> b.u"``)."""
+    if isinstance(connection, str) and "->" in connection:
+        connection = [part.strip() for part in connection.split("->")]
+    if isinstance(connection, (str, bytes)) or not hasattr(connection, "__len__") or len(connection) != 2:
+        raise ConfigError(f"a connection is a pair ('component.output', 'component.input'), got {connection!r}")
+    return ConnectionSpec(*connection)
