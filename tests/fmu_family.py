@@ -70,6 +70,8 @@ class Variant:
     once_per_process: bool = False
     snapshots: bool = True
     start_time: float | None = None
+    #: the FMI versions its folder has a model description for (the system tests' members have one each)
+    fmi_versions: tuple[int, ...] = (2, 3)
 
 
 def _probe(*flags: str, **options: object) -> Variant:
@@ -141,8 +143,8 @@ VARIANTS: dict[str, Variant] = {
     "me_discrete": Variant(FMUS_DIR / "me_discrete"),
     # the actuator and plant of the system tests (tests/system): a torque motor with a lag and back-EMF
     # whose speed input is in rpm (FMI 2.0), and a shaft with friction reporting rad/s (FMI 3.0)
-    "motor": Variant(FMUS_DIR / "motor"),
-    "inertia": Variant(FMUS_DIR / "inertia"),
+    "motor": Variant(FMUS_DIR / "motor", fmi_versions=(2,)),
+    "inertia": Variant(FMUS_DIR / "inertia", fmi_versions=(3,)),
 }
 
 

@@ -206,17 +206,22 @@ static int32_t set_inputs_in_event_mode(mg_env *env, double now, bool *ended) {
 
 static int32_t advance_system(mg_env *env);
 
+/* A new time step counts its steps from the current time (simulation time is origin + steps * dt: no drift). */
+static void rebase_clock(mg_clock *clock, double dt) {
+    if (dt != clock->dt) {
+        clock->origin = clock->time;
+        clock->dt = dt;
+        clock->steps = 0;
+    }
+}
+
 /* FMUInstance.step: set inputs, doStep (or integrate) to origin + (steps + 1) * dt, get outputs. */
 static int32_t advance(mg_env *env) {
     if (env->system)
         return advance_system(env);
     mg_clock *clock = env->clock;
     double dt = env->time_step;
-    if (dt != clock->dt) {
-        clock->origin = clock->time;
-        clock->dt = dt;
-        clock->steps = 0;
-    }
+    rebase_clock(clock, dt);
     double now = clock->time;
     double target = clock->origin + (double)(clock->steps + 1) * dt;
     int64_t started = mg_now_ns();
@@ -338,11 +343,7 @@ static int32_t advance_system(mg_env *env) {
     mg_system *system = env->system;
     mg_clock *clock = env->clock;
     double dt = env->time_step;
-    if (dt != clock->dt) {
-        clock->origin = clock->time;
-        clock->dt = dt;
-        clock->steps = 0;
-    }
+    rebase_clock(clock, dt);
     for (int64_t c = 0; c < system->n_components; c++) {
         mg_component *component = &system->components[c];
         component->inputs_changed = copy_links(component->action_links, component->n_action_links);
