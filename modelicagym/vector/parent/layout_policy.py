@@ -69,7 +69,8 @@ class LayoutPolicy:
     that loses waits twice as long before the next.
 
     Args:
-        shapes: per target, the layout it makes (`Placement.shapes`); ``shapes[0].home_envs`` is
+        shapes: per target, the layout it makes (`modelicagym.vector.parent.placement.layout_shapes`);
+            ``shapes[0].home_envs`` is
             the caller's own slice.
         cores: the usable cores (`modelicagym.cores.usable_cores`).
         clock: seconds, monotonic (a parameter for tests).
@@ -141,7 +142,7 @@ class LayoutPolicy:
         idle = self._idle_cores()
         target, why = 0, f"{idle:.1f} idle cores: the workers are tried again"
         if idle < IDLE_CORES_TO_PROBE:
-            if self._left is None or not self._parts:
+            if self._left is None or not self._parts or self._left.home_env_us <= 0:
                 return False
             home_env_us = statistics.median(part[1] for part in self._parts)
             scale = home_env_us / self._left.home_env_us
