@@ -19,9 +19,12 @@ a test that starts one unmarked. The rest is the fast subset, ``pytest -m "not p
 
 from __future__ import annotations
 
+import atexit
 import functools
 import gc
+import os
 import platform
+import sys
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -42,6 +45,8 @@ PROCESS_FOLDERS = ("vector", "distributed", "examples", "bench")
 #: fixtures whose setup starts processes (the fork server, the resource tracker)
 PROCESS_FIXTURES = {"pool_services", "no_leaks"}
 GUARD = ProcessGuard()
+#: the status the test session ends with (`pytest_sessionfinish`), for `pytest_unconfigure`
+_SESSION_STATUS: list[int] = []
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -71,6 +76,30 @@ def pytest_runtest_teardown(item: pytest.Item, nextitem: pytest.Item | None) -> 
     if starts and item.get_closest_marker(MARKER) is None:
         pytest.fail(failure_message(item.nodeid, starts), pytrace=False)
     return result
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    _SESSION_STATUS[:] = [int(exitstatus)]
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """End a test process that ran a Ray driver without the interpreter's final teardown.
+
+    Ray leaves its gRPC threads running after ``ray.shutdown()`` (ten of them here); when the
+    interpreter then exits, C++ static destructors free what those threads use, and one of them may
+    jump into freed memory: the process dies of SIGSEGV after every test passed (seen in CI, exit
+    status 139, the fault in a thread other than the main one). So the exit handlers run now, as the
+    interpreter would run them, and the process leaves with pytest's status by ``os._exit``. Not in
+    a pytest-xdist worker, which reports to its controller after this.
+    """
+    if "ray._raylet" not in sys.modules or hasattr(config, "workerinput") or not _SESSION_STATUS:
+        return
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr, sys.__stdout__, sys.__stderr__):
+        if stream is not None:
+            stream.flush()
+    os._exit(_SESSION_STATUS[0])
 
 
 @pytest.fixture(params=FMI_VERSIONS, ids=[f"fmi{v}" for v in FMI_VERSIONS])

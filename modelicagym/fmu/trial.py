@@ -219,8 +219,11 @@ def _watch_child(description: FMUDescription, mode: str, timeout: float) -> _Rep
 
 def _child_environment() -> dict[str, str]:
     """This environment; where this modelicagym comes from a source folder rather than an installed
-    package, that folder first on the path, so that the child runs the same code."""
+    package, that folder first on the path, so that the child runs the same code. Without Python's
+    fault handler: its traceback of the trial's own frames would push what the FMU printed before
+    it crashed out of the report's last lines."""
     environment = dict(os.environ)
+    environment.pop("PYTHONFAULTHANDLER", None)
     root = Path(__file__).resolve().parents[2]
     installed = {Path(folder).resolve() for folder in (*site.getsitepackages(), site.getusersitepackages())}
     if root not in installed:
