@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyTimes
+from modelicagym.vector.parent.party_times import SAMPLE_EVERY, PartyTimes
 from modelicagym.vector.parent.cost_model import Costs, Shape, batch_us, best_shape, sharing
 from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, LayoutPolicy
 from modelicagym.vector.parent.placement import PART_BATCHES, layout_shapes, move_order

@@ -23,7 +23,7 @@ from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.parent import placement
-from modelicagym.vector.parent.cost_balance import SAMPLE_EVERY, PartyCosts, PartyTimes, balance_shift
+from modelicagym.vector.parent.party_times import SAMPLE_EVERY, PartyTimes
 from modelicagym.vector.parent.dispatch import go_poll_time
 from modelicagym.vector.parent.layout_policy import (
     PROBE_FIRST_SECONDS,
@@ -32,6 +32,9 @@ from modelicagym.vector.parent.layout_policy import (
     ConsolidationPolicy,
 )
 from modelicagym.vector.wire.sync import futex_library
+
+#: a stand-in's layouts: one worker of 4 envs and the stand-in with 4 (the stand-in is the home party)
+STAND_IN_SHAPES = placement.layout_shapes([range(4)], 4)
 
 pytestmark = [
     pytest.mark.timeout(180),
@@ -177,7 +180,7 @@ def test_a_users_envs_moving_to_the_stand_in_worker_keep_sync_results(monkeypatc
 
 def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> None:
     now = [0.0]
-    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0])
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: now[0])
 
     def window(batch_us: float, settled: bool = True) -> bool:
         changed = False
@@ -205,7 +208,7 @@ def test_a_failed_try_that_took_long_to_undo_delays_the_next_one_in_proportion()
     """Envs move only at episode boundaries: a failed try of heavy envs runs a whole episode in
     the slower layout before they are back, and the tries must not eat the pool's time."""
     now = [0.0]
-    policy = ConsolidationPolicy(4, 4, clock=lambda: now[0])
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: now[0])
 
     def window(batch_us: float, settled: bool = True) -> bool:
         changed = False
@@ -289,12 +292,18 @@ def _party_times(worker_us: float, stand_in_us: float, lent: int) -> PartyTimes:
     return times
 
 
-def test_the_balance_moves_half_the_excess_of_the_busier_party() -> None:
-    costs = PartyCosts(worker_us=400.0, worker_envs=4, stand_in_us=20.0, stand_in_envs=4)
-    assert balance_shift(costs, lent=0, movable=4) == 2  # 100 us an env: two of them even it
-    assert balance_shift(PartyCosts(100.0, 4, 80.0, 4), lent=0, movable=4) == 0  # less than 1.5 envs' worth
-    assert balance_shift(PartyCosts(100.0, 2, 400.0, 8), lent=2, movable=4) == -2  # back, at most those lent
-    assert balance_shift(PartyCosts(4000.0, 4, 0.0, 4), lent=0, movable=4) == 2  # an idle stand-in: half of them
+def test_the_spread_layout_takes_the_target_the_cost_model_predicts_fastest(tmp_path: Path) -> None:
+    """Both parties are workers, so an env costs the same in either: 4 envs of 100 us in the worker
+    against 4 of 5 us in the stand-in are even with 2 moved (220 us against 200 us a batch), not 3
+    (320 against 100); when the stand-in's envs grow costlier, envs go back."""
+    machine = Machine(tmp_path)
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, pressure=machine.path)
+    window = _windows_of(policy, machine, stall_share=0.0)
+    assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
+    assert "predicted 220.0 us" in policy.last_decision
+    assert not window(220.0, 200.0, 220.0) and policy.target == 2  # balanced: stays
+    assert window(420.0, 200.0, 420.0) and policy.target == 1  # 320 us predicted with one back: better by 10%
+    assert not window(320.0, 300.0, 320.0) and policy.target == 1
 
 
 def _windows_of(policy: ConsolidationPolicy, machine: Machine, stall_share: float) -> Callable[..., bool]:
@@ -315,7 +324,7 @@ def _windows_of(policy: ConsolidationPolicy, machine: Machine, stall_share: floa
 @pytest.mark.parametrize("quiet", [True, False])
 def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs(quiet: bool, tmp_path: Path) -> None:
     machine = Machine(tmp_path)
-    policy = ConsolidationPolicy(4, 4, clock=lambda: machine.now, pressure=machine.path)
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, pressure=machine.path)
     window = _windows_of(policy, machine, stall_share=0.0 if quiet else 0.3)  # 0.3: a busy process beside
 
     assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
@@ -338,7 +347,7 @@ def test_a_consolidation_try_waits_until_the_machine_watch_can_tell(tmp_path: Pa
     """The pool's start-up crowds the machine; the policy's watch starts at its first window, and a
     try that the party costs rule out waits until the watch has seen the machine for a while."""
     machine = Machine(tmp_path)
-    policy = ConsolidationPolicy(4, 4, clock=lambda: machine.now, pressure=machine.path)
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, pressure=machine.path)
     machine.run(PROBE_FIRST_SECONDS, 0.5)  # start-up: workers spawned, FMUs instantiated
     window = _windows_of(policy, machine, stall_share=0.0)
     assert not window(220.0, 210.0, 220.0)  # the first window: the watch starts, cannot tell yet
@@ -349,7 +358,7 @@ def test_a_consolidation_try_waits_until_the_machine_watch_can_tell(tmp_path: Pa
 
 
 def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:
-    """The balance's input: the parties time their steps while a stand-in layout adapts, whatever
+    """The cost model's input: the parties time their steps while a stand-in layout adapts, whatever
     the user's ``set_timing`` says (the pool's own timing summary stays off)."""
     with PoolVectorEnv([partial(_users_cartpole, max_episode_steps=50)] * 4, cores=2) as pool:
         assert pool.layout.envs_in_stand_in == 2, pool.layout

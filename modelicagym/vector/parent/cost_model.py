@@ -38,9 +38,10 @@ class Costs:
     worker_env_us: float
     #: what the workers' side of a batch adds to their stepping: wake-ups and done signals
     handover_us: float
-    #: what the home party adds to its own stepping (0 for the calling process; a woken stand-in
-    #: worker pays a hand-over too)
-    home_handover_us: float = 0.0
+    #: what the home party's time adds to its envs times ``home_env_us``: 0 for the calling process;
+    #: for a stand-in worker, whose envs cost what they cost wherever they run, its measured time
+    #: less its envs at ``home_env_us`` (negative where its own envs are the cheaper ones)
+    home_offset_us: float = 0.0
     #: the usable cores, and the stepping parties the costs were measured with
     cores: int = 1
     parties: int = 1
@@ -63,7 +64,7 @@ def sharing(parties: int, cores: int) -> float:
 def batch_us(costs: Costs, shape: Shape) -> float:
     """The predicted time of one batch in ``shape``."""
     scale = sharing(shape.workers + 1, costs.cores) / sharing(costs.parties, costs.cores)
-    home = (costs.home_handover_us + shape.home_envs * costs.home_env_us) * scale
+    home = (costs.home_offset_us + shape.home_envs * costs.home_env_us) * scale
     if shape.workers == 0 or shape.worker_envs == 0:
         return home
     return max(home, costs.handover_us + shape.worker_envs * costs.worker_env_us * scale)

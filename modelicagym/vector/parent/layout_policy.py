@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from modelicagym.vector.parent.cost_balance import PartyCosts, PartyTimes, balance_shift
+from modelicagym.vector.parent.party_times import PartyCosts, PartyTimes
 from modelicagym.vector.parent.cost_model import Costs, Shape, best_shape
 from modelicagym.vector.parent.cost_model import batch_us as batch_us_of
 from modelicagym.vector.parent.machine_watch import PSI_CPU, READ_EVERY, MachineWatch
@@ -57,7 +57,7 @@ class LayoutPolicy:
     ``target`` is that number: 0 is the planned layout (every movable env in its worker),
     ``movable`` is every env in the caller. Over a window of parts it measures, as medians, one
     env's step in the caller (its own slice's time), one env's step in the workers (their own
-    stepping times, `modelicagym.vector.parent.cost_balance.PartyTimes`) and the hand-over (what
+    stepping times, `modelicagym.vector.parent.party_times.PartyTimes`) and the hand-over (what
     the batch took beyond its busiest worker's stepping, when the caller waited for the workers),
     and asks the cost model (`modelicagym.vector.parent.cost_model`) which target gives the
     shortest batch; it moves there when that is faster than the current one by `MARGIN`.
@@ -194,46 +194,53 @@ class LayoutPolicy:
 
 class ConsolidationPolicy:
     """Decides whether a stand-in worker steps every env (consolidated) or shares them with the
-    other workers (spread), and in the spread layout how many of theirs it takes (balanced by cost).
+    other workers (spread), and in the spread layout how many of theirs it takes.
 
     Where the calling process may not step a user's envs, a worker stands in for it
-    (`modelicagym.vector.parent.assembly`), and its costs cannot be told apart from the other workers'
-    in the parent's measurement: so this policy compares the two layouts by what the parent
-    measures, its wait for the workers per batch (the rest of a batch, the parent's own Python, is
-    the same in both). After a window (as `LayoutPolicy`'s, taken only once the envs have moved:
+    (`modelicagym.vector.parent.assembly`): it is the home party of the cost model
+    (`modelicagym.vector.parent.cost_model`), and ``target`` counts the workers' envs it steps.
+
+    *The spread layout* is chosen by the model, as `LayoutPolicy` chooses: from a window's party
+    costs (`modelicagym.vector.parent.party_times.PartyTimes`: the stand-in's and the workers'
+    stepping times) it takes the spread target predicted fastest by `MARGIN`, so that a
+    synchronous step does not wait on one party while another's core idles. Unlike the calling
+    process, the stand-in is a worker like the others: an env costs the same in either, and the
+    envs that move carry the workers' mean cost (`_spread_model`).
+
+    *Consolidation* is what the model cannot predict: one stand-in for every env saves the
+    workers' wake-ups, which cost most on a crowded machine, where two woken workers may share a
+    core and each party's time counts the other's turn. So the two layouts are compared by what
+    the parent measures, its wait per batch: after a window (taken once the envs have moved:
     ``settled``) in one layout, and once ``probe_wait`` has passed, it tries the other; it keeps
     the other if its batches are faster by `MARGIN`, else goes back and waits twice as long
     before the next try (0.5 s up to 30 s), and long enough that failed tries cost at most
     `TRY_SHARE` of the time. On a quiet machine (``quiet``: threads waited for a core less than
-    `TRUST_STALL_SHARE` of the last `TRUST_QUIET_FOR` seconds), consolidation is not tried while
-    the parties' own stepping times, summed, fill the spread layout's batch (within `MARGIN`): one
-    worker stepping every env takes
-    at least that, so the try could only lose, and envs move back only at episode boundaries (8
-    envs of ~1 ms a step lost 4-6 s at half speed to the first try). On a crowded machine those
-    times are wall times that may include another party's turn on a shared core: tries go on. ``target``: the workers' envs the stand-in steps,
-    ``spread`` in the spread layout (0 at first: the planned one) or ``movable`` (every env).
-
-    In the spread layout, a window's party costs (`modelicagym.vector.parent.cost_balance`: what the
-    busiest worker and the stand-in took to step their envs) move envs from the busier to the
-    other (`balance_shift`), so that a synchronous step does not wait on one party while the
-    other's core idles; the parent's comparison of the two layouts then sees the balanced one.
+    `TRUST_STALL_SHARE` of the last `TRUST_QUIET_FOR` seconds) the model does rule out a try: one
+    worker stepping every env takes at least the parties' stepping summed, and a try is skipped
+    while that fills the spread layout's batch within `MARGIN` (envs move back only at episode
+    boundaries: 8 envs of ~1 ms a step lost 4-6 s at half speed to the first try).
+    ``target``: ``spread`` in the spread layout (0 at first: the planned one) or ``movable``.
 
     Args:
-        movable: the other workers' envs; ``home``: the stand-in's own.
+        shapes: per target, the layout it makes (`modelicagym.vector.parent.placement.layout_shapes`,
+            the stand-in as the home party).
+        cores: the usable cores (`modelicagym.cores.usable_cores`).
         clock: seconds, monotonic (a parameter for tests).
         pressure: the CPU pressure file the policy's `MachineWatch` reads (started at its first
             window, after the pool's start-up; a parameter for tests).
     """
 
-    def __init__(self, movable: int, home: int, clock: Callable[[], float] = time.monotonic,
+    def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float] = time.monotonic,
                  pressure: Path = PSI_CPU) -> None:
-        self.movable, self.home = movable, home
+        self.shapes = shapes
+        self.movable, self.home = len(shapes) - 1, shapes[0].home_envs
+        self.cores = cores
         self._pressure = pressure
         self._quiet: Callable[[], bool] | None = None
         #: when the policy's own watch started (it cannot tell a quiet machine for a while)
         self._watch_started: float | None = None
         self.target = 0
-        #: the target of the spread layout, moved by the balance
+        #: the target of the spread layout, chosen by the cost model
         self.spread = 0
         self.switches = 0
         self.last_decision = ""
@@ -287,15 +294,18 @@ class ConsolidationPolicy:
             self._given_up = True
             return self._switch(self._other(), now, f"the parent waited {batch_us:.1f} us a batch with {here}, "
                                                     f"{left_us:.1f} us with {there}")
-        if costs is not None and self.target != self.movable and (shift := balance_shift(costs, self.target,
-                                                                                         self.movable)):
-            self.spread = self.target + shift
-            return self._switch(self.spread, None, f"the busiest worker stepped its {costs.worker_envs} envs in "
-                                                   f"{costs.worker_us:.1f} us a batch, the stand-in its "
-                                                   f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us")
+        spread = None if costs is None or self.target == self.movable else self._spread_model(costs)
+        if spread is not None and (target := best_shape(spread, self.shapes[: self.movable], self.target,
+                                                        MARGIN)) != self.target:
+            self.spread = target
+            predicted = batch_us_of(spread, self.shapes[target])
+            return self._switch(target, None, f"the busiest worker stepped its {costs.worker_envs} envs in "
+                                              f"{costs.worker_us:.1f} us a batch, the stand-in its "
+                                              f"{costs.stand_in_envs} in {costs.stand_in_us:.1f} us: predicted "
+                                              f"{predicted:.1f} us of stepping")
         if now - self._switched_at < self._probe_wait:
             return False
-        if self.target != self.movable and costs is not None and MARGIN * costs.total_us >= batch_us:
+        if spread is not None and MARGIN * self._consolidated_us(costs) >= batch_us:
             # the parties' own stepping alone fills the batch: on a quiet machine, one stand-in for all
             # cannot be faster; until the watch can tell, the try waits
             if quiet:
@@ -305,6 +315,25 @@ class ConsolidationPolicy:
         self._left_us, self._try_started = batch_us, now
         return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
                                                 "are tried")
+
+    def _spread_model(self, costs: PartyCosts) -> Costs | None:
+        """The cost model of the spread layout from a window's party costs (``None`` where a party
+        steps nothing). Both parties are workers, so an env costs what it costs wherever it runs: an
+        env that moves adds the workers' mean cost to the stand-in's measured time, or takes it off.
+        The hand-over is left out: every spread target wakes the same parties."""
+        if costs.stand_in_envs == 0 or costs.all_worker_envs == 0:
+            return None
+        env_us = costs.workers_total_us / costs.all_worker_envs
+        return Costs(env_us, env_us, 0.0, home_offset_us=costs.stand_in_us - costs.stand_in_envs * env_us,
+                     cores=self.cores, parties=self.shapes[self.target].workers + 1)
+
+    def _consolidated_us(self, costs: PartyCosts) -> float:
+        """What the model predicts for every env in the stand-in, its hand-over left out: the
+        parties' stepping summed, without their sharing of the cores."""
+        envs = costs.stand_in_envs + costs.all_worker_envs
+        every_env_us = costs.total_us / envs
+        model = Costs(every_env_us, every_env_us, 0.0, cores=self.cores, parties=self.shapes[self.target].workers + 1)
+        return batch_us_of(model, self.shapes[self.movable])
 
     def _machine_quiet(self, now: float) -> bool | None:
         """Whether the machine has been quiet for `TRUST_QUIET_FOR` seconds; ``None`` while the

@@ -44,7 +44,7 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
-from modelicagym.vector.parent.cost_balance import PartyTimes
+from modelicagym.vector.parent.party_times import PartyTimes
 from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.parent.cost_model import Shape
 from modelicagym.vector.parent.worker_set import WorkerSet
@@ -109,7 +109,7 @@ class Placement:
             ``worker_slices``, that holds a copy of every env (`modelicagym.vector.parent.assembly`),
             rather than by the calling process.
         env_ns: for an adaptive layout, the pool's ``timing[:, ENV_NS]``: the parties' stepping
-            times are sampled from it for the policy (`modelicagym.vector.parent.cost_balance`).
+            times are sampled from it for the policy (`modelicagym.vector.parent.party_times`).
     """
 
     def __init__(
@@ -155,7 +155,7 @@ class Placement:
 
     @property
     def samples_parties(self) -> bool:
-        """Whether the parties must time their steps (``timing_enabled``) for the balance."""
+        """Whether the parties must time their steps (``timing_enabled``) for the layout policy (`party_times`)."""
         return self._party_times is not None
 
     @property
@@ -282,7 +282,7 @@ def place_envs(
     ``adapt_layout=True`` cannot be, saying why."""
     autoreset_mode = config.autoreset_mode
     if stand_in_slice is not None:
-        return _place_with_stand_in(workers, stand_in_slice, autoreset_mode), None
+        return _place_with_stand_in(workers, stand_in_slice, config), None
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
     reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
@@ -317,17 +317,17 @@ def place_envs(
     return placement, local
 
 
-def _place_with_stand_in(workers: WorkerSet, home: range, autoreset_mode: AutoresetMode) -> Placement:
+def _place_with_stand_in(workers: WorkerSet, home: range, config: WorkerConfig) -> Placement:
     """The placement of a pool whose calling process steps nothing: a worker stands in for it,
     with a copy of every env, and steps ``home``; it takes every env when that is faster (the
     pool made it only for a layout that can adapt: `stand_in_fixed_reason`)."""
-    policy = ConsolidationPolicy(workers.num_envs - len(home), len(home))
+    worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
+    policy = ConsolidationPolicy(layout_shapes(worker_slices, len(home)), config.cores)
     reason = ("every env is in a worker: its envs do not all say they are safe in the calling process "
               "(safe_in_caller; caller_steps=True puts a slice there); they can move to one worker at episode "
               "boundaries")
-    worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
     buffers = workers.buffers
-    return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, autoreset_mode, policy, reason,
+    return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, config.autoreset_mode, policy, reason,
                      stand_in=True, env_ns=buffers.timing[:, SharedBuffers.ENV_NS])
 
 

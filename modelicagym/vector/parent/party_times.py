@@ -1,12 +1,13 @@
-"""Balancing a pool's envs by their measured step cost: the workers against the stand-in worker.
+"""The parties' own stepping times, sampled while an adaptive layout runs: what the cost model is fed.
 
-Where a worker stands in for the calling process (`modelicagym.vector.parent.assembly`), it holds a copy
-of every env, so it can take any of the workers' envs at an episode boundary, and give them back.
-When the envs' step costs differ (a stiff phase, an event storm, a parameter that makes one env
-costlier than another), a synchronous step waits for the slowest party while the other's core
-idles. The parties' own stepping times, sampled from the pool's shared ``timing`` array every
-`SAMPLE_EVERY` steps, say which party is the bottleneck and what one of its envs costs;
-`balance_shift` turns that into a number of envs to move (`ConsolidationPolicy` decides when).
+A batch's wall time says little about where it went: on many cores it is mostly wake-ups and the
+calling process's wait. So while a layout adapts, each party times its own stepping (one clock
+reading per env in C, into the pool's shared ``timing`` array), and `PartyTimes` samples those
+times every `SAMPLE_EVERY` steps: the busiest stepping worker's, the stand-in's and all the
+workers' together. `PartyCosts` are a window's medians, with the envs behind each, from which the
+layout policies (`modelicagym.vector.parent.layout_policy`) take the costs of the model: an env's
+step in a worker, and in a stand-in, which the parent cannot tell apart from the other workers'
+by its own clock.
 """
 
 from __future__ import annotations
@@ -16,13 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SAMPLE_EVERY", "PartyCosts", "PartyTimes", "balance_shift"]
+__all__ = ["SAMPLE_EVERY", "PartyCosts", "PartyTimes"]
 
 #: steps between two samples of the parties' stepping times (a sample costs a few microseconds)
 SAMPLE_EVERY = 8
-#: one env moves only if the busier party's excess is at least this many of its envs' mean cost
-#: (1 would make a move that merely swaps the bottleneck; above it, the batch gets shorter)
-MOVE_AT = 1.5
 
 
 @dataclass(frozen=True)
@@ -44,25 +42,6 @@ class PartyCosts:
     def total_us(self) -> float:
         """The parties' stepping times summed: a lower bound of a batch with every env in the stand-in."""
         return self.workers_total_us + self.stand_in_us
-
-
-def balance_shift(costs: PartyCosts, lent: int, movable: int) -> int:
-    """Envs to move from the workers to the stand-in (positive) or back (negative) so that both
-    finish a batch at about the same time: the excess of the busier party, over twice the mean
-    cost of one of its envs (moving half the excess evens them), rounded down after `MOVE_AT`.
-    ``lent``: the workers' envs the stand-in steps now (it can give back no more); ``movable``:
-    all the workers' envs (at least one stays with them: every env in the stand-in is the
-    consolidated layout, which the policy tries on its own)."""
-    excess = costs.worker_us - costs.stand_in_us
-    giver_us, giver_envs = ((costs.worker_us, costs.worker_envs) if excess > 0
-                            else (costs.stand_in_us, costs.stand_in_envs))
-    if giver_envs <= 0 or giver_us <= 0:
-        return 0
-    env_us = giver_us / giver_envs
-    envs = int((abs(excess) / env_us - MOVE_AT) / 2 + 1) if abs(excess) >= MOVE_AT * env_us else 0
-    if excess > 0:
-        return min(envs, movable - 1 - lent, costs.worker_envs - 1)
-    return -min(envs, lent)
 
 
 class PartyTimes:
