@@ -10,13 +10,15 @@ choose."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
+from cpu_pressure import Machine
 
 from modelicagym.vector.parent.party_times import SAMPLE_EVERY, PartyTimes
 from modelicagym.vector.parent.cost_model import Costs, Shape, batch_us, best_shape, sharing
-from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, LayoutPolicy
+from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.parent.placement import PART_BATCHES, layout_shapes, move_order
 from modelicagym.vector.parent.plan import plan_workers
 
@@ -103,6 +105,82 @@ class SimulatedPool:
         for _ in range(windows):
             self.window()
         return self.machine.batch(self.shapes[self.policy.target])[1] / self.machine.best(self.shapes)
+
+
+class SimulatedStandIn:
+    """A pool whose envs are not safe in the calling process, on an idle machine of ``cores``
+    cores: a worker stands in for the caller, and each env costs ``env_us[i]`` wherever it runs.
+    Its `ConsolidationPolicy` is fed what such a pool measures (the parent's wait per batch, the
+    parties' own stepping times); envs move as soon as it says."""
+
+    def __init__(self, cores: int, env_us: list[float], tmp_path: Path) -> None:
+        slices = plan_workers(len(env_us), None, None, cores)
+        self.home, self.worker_slices = slices[-1], slices[:-1]
+        self.shapes = layout_shapes(self.worker_slices, len(self.home))
+        self.machine = Machine(tmp_path)
+        self.policy = ConsolidationPolicy(self.shapes, cores, clock=lambda: self.machine.now, pressure=self.machine.path)
+        self.env_us = np.array(env_us)
+        self.in_caller = np.zeros(len(env_us), dtype=np.uint8)
+        self.stepping = np.ones(len(self.worker_slices) + 1, dtype=np.uint8)
+        self.env_ns = np.zeros(len(self.worker_slices) + 1, dtype=np.int64)
+        self.parties = PartyTimes(self.env_ns, self.in_caller, self.worker_slices, self.stepping)
+        self._order = move_order(self.worker_slices)
+
+    def parties_us(self, target: int) -> tuple[list[float], float]:
+        """Each worker's stepping and the stand-in's, with ``target`` of the workers' envs in it."""
+        held = np.zeros(len(self.env_us), dtype=bool)
+        held[self.home.start : self.home.stop] = True
+        held[self._order[:target]] = True
+        return [float(self.env_us[s.start : s.stop][~held[s.start : s.stop]].sum()) for s in self.worker_slices], \
+            float(self.env_us[held].sum())
+
+    def batch(self, target: int) -> float:
+        """The true batch time with ``target`` of the workers' envs in the stand-in."""
+        workers, stand_in = self.parties_us(target)
+        return WAKE_US + max(stand_in, *workers)
+
+    def window(self) -> None:
+        target = self.policy.target
+        self.in_caller[:] = 0
+        self.in_caller[self.home.start : self.home.stop] = 1
+        self.in_caller[self._order[:target]] = 1
+        workers, stand_in = self.parties_us(target)
+        self.stepping[: len(workers)] = [us > 0 for us in workers]
+        self.env_ns[:] = [round(us * 1e3) for us in workers] + [round(stand_in * 1e3)]
+        for _ in range(WINDOW_PARTS):
+            for _ in range(PART_BATCHES // SAMPLE_EVERY * SAMPLE_EVERY):
+                self.parties.count()
+            self.machine.run(0.01, 0.0)
+            if self.policy.observe(PART_BATCHES, 0, round(PART_BATCHES * self.batch(target) * 1e3), 0,
+                                   len(self.env_us), parties=self.parties):
+                return
+
+    def settle(self, windows: int = 40) -> float:
+        """Run ``windows`` windows; the true batch time of the spread layout the policy ends in, over
+        the best spread layout's."""
+        for _ in range(windows):
+            self.window()
+        best = min(self.batch(target) for target in range(self.policy.movable))
+        return self.batch(self.policy.spread) / best
+
+
+@pytest.mark.parametrize("cores", [2, 4, 8, 16])
+@pytest.mark.parametrize("heavy_us", [MEDIUM, HEAVY], ids=["100us", "1ms"])
+def test_a_stand_in_takes_envs_until_the_parties_finish_together(cores: int, heavy_us: float, tmp_path: Path) -> None:
+    """The first worker's envs, or the first half of all envs, cost ``heavy_us``, the rest 5 us:
+    the stand-in, planned with light envs only, takes heavy ones where that shortens the batch
+    (within the model's margin: on 8 cores half the envs make four heavy workers, which one
+    stand-in cannot relieve), and stays spread: one worker for every env would take longer.
+    The model knows each party's time, not each env's: an env that moves carries the workers' mean
+    cost, so where one worker holds every heavy env it may end a few envs off (8 cores: 18 envs in
+    the stand-in, 1.11 times the best batch, which has 12)."""
+    num_envs = 4 * cores
+    for heavy, margin in ((4, 1.15), (num_envs // 2, 1.1)):
+        pool = SimulatedStandIn(cores, [heavy_us if i < heavy else 5.0 for i in range(num_envs)], tmp_path)
+        assert pool.settle() <= margin, (heavy, pool.policy.last_decision)
+        assert pool.policy.target == pool.policy.spread, pool.policy.last_decision
+        if cores == 2:
+            assert pool.policy.spread == 2, pool.policy.last_decision  # 220 us against 200 a batch
 
 
 def test_the_plan_has_a_party_per_core_and_none_beyond_the_envs() -> None:

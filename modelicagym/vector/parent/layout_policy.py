@@ -318,13 +318,16 @@ class ConsolidationPolicy:
 
     def _spread_model(self, costs: PartyCosts) -> Costs | None:
         """The cost model of the spread layout from a window's party costs (``None`` where a party
-        steps nothing). Both parties are workers, so an env costs what it costs wherever it runs: an
-        env that moves adds the workers' mean cost to the stand-in's measured time, or takes it off.
-        The hand-over is left out: every spread target wakes the same parties."""
-        if costs.stand_in_envs == 0 or costs.all_worker_envs == 0:
+        steps nothing). Both parties are workers, so an env costs what it costs wherever it runs:
+        the envs that move (from every worker in turn, `modelicagym.vector.parent.placement.move_order`)
+        carry the workers' mean cost into the stand-in's measured time, or out of it; the batch's
+        worker side is its busiest worker's, at that worker's cost per env. The hand-over is left
+        out: every spread target wakes the same parties."""
+        if costs.stand_in_envs == 0 or costs.all_worker_envs == 0 or costs.worker_envs == 0:
             return None
-        env_us = costs.workers_total_us / costs.all_worker_envs
-        return Costs(env_us, env_us, 0.0, home_offset_us=costs.stand_in_us - costs.stand_in_envs * env_us,
+        moved_env_us = costs.workers_total_us / costs.all_worker_envs
+        return Costs(moved_env_us, costs.worker_us / costs.worker_envs, 0.0,
+                     home_offset_us=costs.stand_in_us - costs.stand_in_envs * moved_env_us,
                      cores=self.cores, parties=self.shapes[self.target].workers + 1)
 
     def _consolidated_us(self, costs: PartyCosts) -> float:
