@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 from cpu_pressure import Machine
 
-from modelicagym.vector.parent.party_times import SAMPLE_EVERY, PartyTimes
-from modelicagym.vector.parent.cost_model import Costs, Shape, batch_us, best_shape, sharing
+from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, Costs, PartyTimes, Shape, batch_us, best_shape, sharing
 from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.parent.placement import PART_BATCHES, layout_shapes, move_order
 from modelicagym.vector.parent.plan import plan_workers

@@ -23,7 +23,7 @@ from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.parent import placement
-from modelicagym.vector.parent.party_times import SAMPLE_EVERY, PartyTimes
+from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, PartyTimes
 from modelicagym.vector.parent.dispatch import go_poll_time
 from modelicagym.vector.parent.layout_policy import (
     PROBE_FIRST_SECONDS,

@@ -16,8 +16,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from modelicagym.vector.parent.party_times import PartyCosts, PartyTimes
-from modelicagym.vector.parent.cost_model import Costs, Shape, best_shape
+from modelicagym.vector.parent.cost_model import Costs, PartyCosts, PartyTimes, Shape, best_shape
 from modelicagym.vector.parent.cost_model import batch_us as batch_us_of
 from modelicagym.vector.parent.machine_watch import PSI_CPU, READ_EVERY, MachineWatch
 
@@ -57,7 +56,7 @@ class LayoutPolicy:
     ``target`` is that number: 0 is the planned layout (every movable env in its worker),
     ``movable`` is every env in the caller. Over a window of parts it measures, as medians, one
     env's step in the caller (its own slice's time), one env's step in the workers (their own
-    stepping times, `modelicagym.vector.parent.party_times.PartyTimes`) and the hand-over (what
+    stepping times, `modelicagym.vector.parent.cost_model.PartyTimes`) and the hand-over (what
     the batch took beyond its busiest worker's stepping, when the caller waited for the workers),
     and asks the cost model (`modelicagym.vector.parent.cost_model`) which target gives the
     shortest batch; it moves there when that is faster than the current one by `MARGIN`.
@@ -201,7 +200,7 @@ class ConsolidationPolicy:
     (`modelicagym.vector.parent.cost_model`), and ``target`` counts the workers' envs it steps.
 
     *The spread layout* is chosen by the model, as `LayoutPolicy` chooses: from a window's party
-    costs (`modelicagym.vector.parent.party_times.PartyTimes`: the stand-in's and the workers'
+    costs (`modelicagym.vector.parent.cost_model.PartyTimes`: the stand-in's and the workers'
     stepping times) it takes the spread target predicted fastest by `MARGIN`, so that a
     synchronous step does not wait on one party while another's core idles. Unlike the calling
     process, the stand-in is a worker like the others: an env costs the same in either, and the

@@ -44,9 +44,8 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
-from modelicagym.vector.parent.party_times import PartyTimes
 from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
-from modelicagym.vector.parent.cost_model import Shape
+from modelicagym.vector.parent.cost_model import PartyTimes, Shape
 from modelicagym.vector.parent.worker_set import WorkerSet
 from modelicagym.vector.slice.creation import close_envs, create_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
@@ -109,7 +108,7 @@ class Placement:
             ``worker_slices``, that holds a copy of every env (`modelicagym.vector.parent.assembly`),
             rather than by the calling process.
         env_ns: for an adaptive layout, the pool's ``timing[:, ENV_NS]``: the parties' stepping
-            times are sampled from it for the policy (`modelicagym.vector.parent.party_times`).
+            times are sampled from it for the policy (`modelicagym.vector.parent.cost_model.PartyTimes`).
     """
 
     def __init__(
@@ -155,7 +154,7 @@ class Placement:
 
     @property
     def samples_parties(self) -> bool:
-        """Whether the parties must time their steps (``timing_enabled``) for the layout policy (`party_times`)."""
+        """Whether the parties must time their steps (``timing_enabled``) for the layout policy (`cost_model.PartyTimes`)."""
         return self._party_times is not None
 
     @property
