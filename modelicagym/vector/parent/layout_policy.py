@@ -50,7 +50,45 @@ TRUST_QUIET_FOR = 0.3
 TRUST_STALL_SHARE = 0.1
 
 
-class LayoutPolicy:
+class _Policy:
+    """What both policies share: the layouts they choose among (``shapes``: per target, the layout
+    it makes as the cost model sees it, `modelicagym.vector.parent.placement.layout_shapes`), the
+    target they are in, the window of parts they measure, and the record of each change."""
+
+    #: the home party, as the record of a change names it
+    HOME = ""
+
+    def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float]) -> None:
+        self.shapes = shapes
+        self.movable, self.home = len(shapes) - 1, shapes[0].home_envs
+        self.cores = cores
+        self.target = 0
+        self.switches = 0
+        self.last_decision = ""
+        self._clock = clock
+        self._probe_wait = PROBE_FIRST_SECONDS
+        self._switched_at = clock()
+        self._window()
+
+    def _window(self) -> None:
+        """Start a window: its parts (per part, in microseconds) and the parties' samples."""
+        self._parts: list = []
+        self._party_samples: list[tuple[int, int, int]] = []
+        self._window_start = self._clock()
+
+    def _switch(self, target: int, now: float | None, why: str) -> bool:
+        """Take ``target``; ``now``: when the layout changed (``None``: a change that does not
+        delay the next try)."""
+        self.target = target
+        if now is not None:
+            self._switched_at = now
+        self.switches += 1
+        self.last_decision = f"{self.home + target} envs to {self.HOME}: {why}"
+        logger.debug("pool layout: %s", self.last_decision)
+        return True
+
+
+class LayoutPolicy(_Policy):
     """Decides, from what batches cost, how many movable envs the calling process steps.
 
     ``target`` is that number: 0 is the planned layout (every movable env in its worker),
@@ -76,6 +114,8 @@ class LayoutPolicy:
         idle_cores: idle cores since the last call (a parameter for tests; default reads ``/proc/stat``).
     """
 
+    HOME = "the calling process"
+
     def __init__(
         self,
         shapes: list[Shape],
@@ -83,28 +123,13 @@ class LayoutPolicy:
         clock: Callable[[], float] = time.monotonic,
         idle_cores: Callable[[], float] | None = None,
     ) -> None:
-        self.shapes = shapes
-        self.movable, self.home = len(shapes) - 1, shapes[0].home_envs
-        self.cores = cores
-        self.target = 0
-        self.switches = 0
-        self.last_decision = ""
         #: the last hand-over measured while the caller waited for the workers (us; ``None``: none yet)
         self.handover_us: float | None = None
         #: the costs measured when every env last moved to the caller
         self._left: Costs | None = None
-        self._clock = clock
         self._idle_cores = idle_cores or IdleCores(cores)
-        self._probe_wait = PROBE_FIRST_SECONDS
         self._probing = False
-        self._switched_at = clock()
-        self._window()
-
-    def _window(self) -> None:
-        #: per part, in microseconds: (a batch, an env in the caller, the caller's own slice)
-        self._parts: list[tuple[float, float, float]] = []
-        self._party_samples: list[tuple[int, int, int]] = []
-        self._window_start = self._clock()
+        super().__init__(shapes, cores, clock)
 
     def observe(
         self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
@@ -121,6 +146,7 @@ class LayoutPolicy:
             return False
         if batches and local_envs:
             local_us = local_ns / batches / 1e3
+            # a batch, an env in the caller, the caller's own slice
             self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_us / local_envs, local_us))
             self._party_samples += samples
         now = self._clock()
@@ -183,15 +209,9 @@ class LayoutPolicy:
                                          f"{self.home + target}/{self.home + self.movable} envs in the calling "
                                          f"process are predicted to take {predicted:.1f} us")
 
-    def _switch(self, target: int, now: float, why: str) -> bool:
-        self.target, self._switched_at = target, now
-        self.switches += 1
-        self.last_decision = f"{self.home + target} envs to the calling process: {why}"
-        logger.debug("pool layout: %s", self.last_decision)
-        return True
 
 
-class ConsolidationPolicy:
+class ConsolidationPolicy(_Policy):
     """Decides whether a stand-in worker steps every env (consolidated) or shares them with the
     other workers (spread), and in the spread layout how many of theirs it takes.
 
@@ -229,34 +249,22 @@ class ConsolidationPolicy:
             window, after the pool's start-up; a parameter for tests).
     """
 
+    HOME = "the stand-in worker"
+
     def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float] = time.monotonic,
                  pressure: Path = PSI_CPU) -> None:
-        self.shapes = shapes
-        self.movable, self.home = len(shapes) - 1, shapes[0].home_envs
-        self.cores = cores
         self._pressure = pressure
         self._quiet: Callable[[], bool] | None = None
         #: when the policy's own watch started (it cannot tell a quiet machine for a while)
         self._watch_started: float | None = None
-        self.target = 0
         #: the target of the spread layout, chosen by the cost model
         self.spread = 0
-        self.switches = 0
-        self.last_decision = ""
-        self._clock = clock
-        self._probe_wait = PROBE_FIRST_SECONDS
-        self._switched_at = clock()
         #: the batch time of the layout a try left, while the try's window runs
         self._left_us: float | None = None
         #: when the last try started, and whether it failed and its envs are on their way back
         self._try_started = 0.0
         self._given_up = False
-        self._window()
-
-    def _window(self) -> None:
-        self._parts: list[float] = []
-        self._party_samples: list[tuple[int, int, int]] = []
-        self._window_start = self._clock()
+        super().__init__(shapes, cores, clock)
 
     def observe(
         self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
@@ -356,16 +364,6 @@ class ConsolidationPolicy:
         if target == self.movable:
             return "every env in the stand-in worker"
         return "the envs in their workers" if target == 0 else f"{target} of the workers' envs in the stand-in"
-
-    def _switch(self, target: int, now: float | None, why: str) -> bool:
-        """Take ``target``; ``now``: a change of layout (a balance, ``None``, does not delay the next try)."""
-        self.target = target
-        if now is not None:
-            self._switched_at = now
-        self.switches += 1
-        self.last_decision = f"{self.home + self.target} envs to the stand-in worker: {why}"
-        logger.debug("pool layout: %s", self.last_decision)
-        return True
 
 
 class IdleCores:
