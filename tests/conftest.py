@@ -25,6 +25,7 @@ import gc
 import os
 import platform
 import sys
+import threading
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -84,22 +85,33 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
 
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config: pytest.Config) -> None:
-    """End a test process that ran a Ray driver without the interpreter's final teardown.
+    """End a test process that runs threads Python does not know of without the interpreter's teardown.
 
-    Ray leaves its gRPC threads running after ``ray.shutdown()`` (ten of them here); when the
-    interpreter then exits, C++ static destructors free what those threads use, and one of them may
-    jump into freed memory: the process dies of SIGSEGV after every test passed (seen in CI, exit
-    status 139, the fault in a thread other than the main one). So the exit handlers run now, as the
-    interpreter would run them, and the process leaves with pytest's status by ``os._exit``. Not in
-    a pytest-xdist worker, which reports to its controller after this.
+    Ray leaves its gRPC threads running after ``ray.shutdown()`` (ten of them here), and libraries
+    such as torch keep thread pools; when the interpreter exits, C++ static destructors free what
+    those threads use, and one of them may jump into freed memory: the process dies of SIGSEGV
+    after every test passed (seen in CI: exit status 139, the fault in a thread other than the
+    main one, at an address in the heap). So the exit handlers run now, as the interpreter would
+    run them, and the process leaves with pytest's status by ``os._exit``. Not in a pytest-xdist
+    worker, which reports to its controller after this.
     """
-    if "ray._raylet" not in sys.modules or hasattr(config, "workerinput") or not _SESSION_STATUS:
+    if hasattr(config, "workerinput") or not _SESSION_STATUS or not _foreign_threads():
         return
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr, sys.__stdout__, sys.__stderr__):
         if stream is not None:
             stream.flush()
     os._exit(_SESSION_STATUS[0])
+
+
+def _foreign_threads() -> bool:
+    """Whether this process runs threads that Python did not start (or Ray was loaded, which
+    starts them; where ``/proc`` cannot say)."""
+    try:
+        threads = len(os.listdir("/proc/self/task"))
+    except OSError:
+        return "ray._raylet" in sys.modules
+    return threads > threading.active_count()
 
 
 @pytest.fixture(params=FMI_VERSIONS, ids=[f"fmi{v}" for v in FMI_VERSIONS])
