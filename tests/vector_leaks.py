@@ -64,9 +64,15 @@ def shm_entries() -> set[str]:
     return {name for name in os.listdir("/dev/shm") if name.startswith(_SHM_PREFIXES)}
 
 
-def open_fds() -> int:
-    """How many file descriptors this process has open."""
-    return len(os.listdir("/proc/self/fd"))
+def open_fds() -> dict[int, str]:
+    """The file descriptors this process has open, and what each refers to."""
+    fds = {}
+    for entry in os.listdir("/proc/self/fd"):
+        try:
+            fds[int(entry)] = os.readlink(f"/proc/self/fd/{entry}")
+        except OSError:  # the listing's own descriptor, closed by now
+            continue
+    return fds
 
 
 @dataclass
@@ -75,7 +81,7 @@ class Snapshot:
 
     processes: set[int]
     shm: set[str]
-    fds: int
+    fds: dict[int, str]
 
     @classmethod
     def take(cls) -> Snapshot:
@@ -88,11 +94,11 @@ class Snapshot:
             now = Snapshot.take()
             extra_processes = now.processes - self.processes
             extra_shm = now.shm - self.shm
-            extra_fds = now.fds - self.fds
+            extra_fds = len(now.fds) - len(self.fds)
             if not extra_processes and not extra_shm and extra_fds <= 0:
                 return
             if time.monotonic() > deadline:
-                raise AssertionError(
-                    f"leaked: processes {sorted(extra_processes)}, /dev/shm {sorted(extra_shm)}, fds {extra_fds}"
-                )
+                new = {fd: target for fd, target in now.fds.items() if self.fds.get(fd) != target}
+                raise AssertionError(f"leaked: processes {sorted(extra_processes)}, /dev/shm {sorted(extra_shm)}, "
+                                     f"fds {extra_fds} (new since: {new})")
             time.sleep(0.05)
