@@ -205,7 +205,6 @@ def measure_group(load: str, setting: str, n: int, repeats: int, seconds: float)
     names = [*candidates(setting), "c_loop"] if load == "idle" and not python_path else list(candidates(setting))
     after = learner_work() if load == "learner" else (lambda: None)
     samples: dict[str, list[float]] = {name: [] for name in names}
-    layout = None
     with ExitStack() as stack:
         makers = {name: make_candidate(name, setting, n, stack) for name in names}
         runs = {name: maker(after) for name, maker in makers.items()}
