@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -60,11 +62,14 @@ def test_ray_rollouts_sample_on_a_local_ray():
 @requires("rl", "plots")
 @pytest.mark.parametrize("env", ["cartpole", "cartpole-continuous", "pendulum"])
 def test_sb3_ppo_trains_evaluates_and_plots(tmp_path, env):
-    plot, tmp = tmp_path / "curve.png", tmp_path / "tmp"
-    tmp.mkdir()
-    out = run_example("sb3_ppo.py", "--env", env, "--envs", "4", "--steps", "4096", "--max-episode-steps", "100",
-                      "--eval-episodes", "2", "--plot", str(plot), env={**os.environ, "TMPDIR": str(tmp)})
-    assert not list(tmp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
+    # a temporary folder of its own, short: the pool's fork server puts a Unix socket in it
+    plot, tmp = tmp_path / "curve.png", Path(tempfile.mkdtemp(prefix="mg-", dir="/tmp"))
+    try:
+        out = run_example("sb3_ppo.py", "--env", env, "--envs", "4", "--steps", "4096", "--max-episode-steps", "100",
+                          "--eval-episodes", "2", "--plot", str(plot), env={**os.environ, "TMPDIR": str(tmp)})
+        assert not list(tmp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
     assert re.search(r"^\s+\d+ steps .* steps/s\s+mean return .* mean length", out, re.MULTILINE), out
     assert "evaluation: 2 episodes" in out
     assert plot.stat().st_size > 0

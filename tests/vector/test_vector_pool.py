@@ -5,8 +5,12 @@ from __future__ import annotations
 import dataclasses
 import doctest
 import multiprocessing
+import os
 import pickle
+import subprocess
+import sys
 from functools import partial
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -302,3 +306,20 @@ def test_envs_without_fmu_time_count_as_python_time() -> None:
 def test_docstring_example_runs() -> None:
     results = doctest.testmod(modelicagym.vector.pool, optionflags=doctest.ELLIPSIS)
     assert results.attempted > 0 and results.failed == 0
+
+
+def test_a_temporary_folder_too_deep_for_the_fork_servers_socket_is_named(tmp_path) -> None:
+    """The fork server listens on a Unix socket in a folder of ``TMPDIR``; where that path is longer
+    than a socket's may be, the pool says what to change instead of Python's "AF_UNIX path too long"."""
+    deep = tmp_path / ("d" * 60) / ("e" * 60)
+    deep.mkdir(parents=True)
+    script = ("from modelicagym.vector import PoolVectorEnv\n"
+              "from vector_envs import CountEnv\n"
+              "PoolVectorEnv([CountEnv] * 2, num_workers=1, start_method='forkserver')\n")
+    tests = str(Path(__file__).resolve().parents[1])
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                            env={**os.environ, "TMPDIR": str(deep), "PYTHONPATH": tests})
+    assert result.returncode == 1
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("modelicagym.errors.ConfigError: the fork server's socket"), result.stderr
+    assert str(deep) in last and "set TMPDIR to a shorter folder" in last and "start_method='spawn'" in last

@@ -5,6 +5,7 @@ from __future__ import annotations
 import enum
 import logging
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -16,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
+from modelicagym.errors import ConfigError
 from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, Reply, WorkerConfig
 from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal
@@ -91,8 +93,17 @@ class WorkerHandle:
             daemon=True,
         )
         self.conn = parent_conn
-        with clear_mpi_env_vars(), main_module_hidden():
-            self.process.start()
+        try:
+            with clear_mpi_env_vars(), main_module_hidden():
+                self.process.start()
+        except OSError as error:
+            if "AF_UNIX path too long" not in str(error):
+                raise
+            raise ConfigError(
+                f"the fork server's socket, in a folder of the temporary folder {tempfile.gettempdir()}, has a longer "
+                "path than a Unix socket may (107 bytes): set TMPDIR to a shorter folder (e.g. /tmp), or pass "
+                "start_method='spawn'"
+            ) from error
         child_conn.close()
 
     def is_alive(self) -> bool:
