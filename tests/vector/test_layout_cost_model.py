@@ -282,6 +282,10 @@ def test_the_model_predicts_the_slowest_party_and_the_sharing_of_cores() -> None
     shapes = [Shape(4, 4, 3), Shape(16, 0, 0)]
     assert best_shape(costs, shapes, current=1, margin=1.1) == 0
     assert best_shape(Costs(2.0, 3.0, 21.0, cores=4, parties=4), shapes, current=1, margin=1.1) == 1  # 33 vs 32
+    # a stand-in (home) whose 4 own envs take 5 us each, beside workers' envs of 100 us that move to it
+    stand_in = Costs(100.0, 100.0, 0.0, home_offset_us=20.0 - 4 * 100.0, cores=2, parties=2)
+    assert batch_us(stand_in, Shape(4, 4, 1)) == 400.0  # the worker's side
+    assert batch_us(stand_in, Shape(6, 2, 1)) == 220.0  # the stand-in's: 20 us and two moved envs
 
 
 def test_layout_shapes_follow_the_move_order() -> None:
