@@ -13,9 +13,9 @@ from vector_envs import CountEnv, FaultyEnv, SafeCountEnv, count_fns
 from vector_leaks import Snapshot
 from vector_rollouts import assert_same, rollout
 
+from modelicagym.cores import usable_cores
 from modelicagym.errors import ConfigError
 from modelicagym.vector import EnvError, PoolVectorEnv
-from modelicagym.cores import usable_cores
 
 pytestmark = pytest.mark.timeout(120)
 

@@ -20,9 +20,9 @@ from step_paths import probe_env
 from vector_envs import MadeElsewhere, SafeCountEnv, count_fns
 
 import modelicagym
+from modelicagym.cores import usable_cores
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
-from modelicagym.cores import usable_cores
 from modelicagym.vector.parent.dispatch import CROWDED_COLLECT_SPIN, collect_poll_time, go_poll_time
 from modelicagym.vector.wire.sync import futex_library
 

@@ -13,24 +13,19 @@ from typing import Any
 
 import numpy as np
 import pytest
-from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from cpu_pressure import Machine
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from step_paths import cartpole_fns
 from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_layouts
 
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.parent import placement
 from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, PartyTimes
 from modelicagym.vector.parent.dispatch import go_poll_time
-from modelicagym.vector.parent.layout_policy import (
-    PROBE_FIRST_SECONDS,
-    TRY_SHARE,
-    WINDOW_PARTS,
-    ConsolidationPolicy,
-)
+from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
+from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.wire.sync import futex_library
 
 #: a stand-in's layouts: one worker of 4 envs and the stand-in with 4 (the stand-in is the home party)

@@ -6,7 +6,6 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <linux/futex.h>
-#include <sched.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/syscall.h>
@@ -81,7 +80,7 @@ int mg_signal_try(mg_signal *signal) {
 static struct {
     int fd;               /* /proc/pressure/cpu or /proc/loadavg; -1: neither readable */
     int psi;              /* fd is PSI */
-    int cores;            /* cores this process may run on */
+    long host_cpus;       /* the CPUs /proc/loadavg counts runnable threads on: all the host's online ones */
     int64_t checked_ns;   /* last reading */
     int64_t stall_us;     /* PSI "some" total at the last reading */
     int64_t until_ns;     /* sleep at once until then */
@@ -106,10 +105,9 @@ static void open_machine(void) {
     }
     if (!machine.psi)
         machine.fd = open("/proc/loadavg", O_RDONLY | O_CLOEXEC);
-    cpu_set_t set;
-    machine.cores = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : 1;
-    if (machine.cores < 1)
-        machine.cores = 1;
+    machine.host_cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    if (machine.host_cpus < 1)
+        machine.host_cpus = 1;
 }
 
 /* Crowded since the last reading, by the kernel's own account. */
@@ -125,7 +123,8 @@ static int read_crowded(int64_t now, int64_t elapsed_ns) {
         machine.stall_us = stall_us;
         return before > 0 && elapsed_ns > 0 && (double)(stall_us - before) * 1e3 > CROWDED_STALL_SHARE * (double)elapsed_ns;
     }
-    /* "0.03 0.18 0.10 2/85 2439": runnable threads (this one included) / all */
+    /* "0.03 0.18 0.10 2/85 2439": runnable threads (this one included) / all, on the whole host (a
+     * container's too), so they are compared with the host's CPUs, not with this process's affinity */
     char *slash = strchr(buffer, '/');
     if (!slash)
         return 0;
@@ -133,7 +132,7 @@ static int read_crowded(int64_t now, int64_t elapsed_ns) {
     while (runnable > buffer && runnable[-1] != ' ')
         runnable--;
     (void)now;
-    return strtol(runnable, NULL, 10) > machine.cores;
+    return strtol(runnable, NULL, 10) > machine.host_cpus;
 }
 
 static void hold(int64_t now) {

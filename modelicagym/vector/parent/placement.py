@@ -44,8 +44,8 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
-from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.parent.cost_model import PartyTimes, Shape
+from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.parent.worker_set import WorkerSet
 from modelicagym.vector.slice.creation import close_envs, create_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
