@@ -16,6 +16,7 @@ from step_paths import cartpole_fns
 
 import modelicagym
 from modelicagym import FMUEnv
+from modelicagym.errors import ConfigError
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.wire.sync import futex_library
@@ -74,6 +75,11 @@ CASES: dict[str, tuple[Callable[[], PoolVectorEnv], tuple[str, ...], str]] = {
     "user's FMU, default": (lambda: PoolVectorEnv(users(), cores=2),
                             ("do not all say they are safe in the calling process",
                              "they can move to one worker at episode boundaries"), "stand-in"),
+    "user's FMU, one core": (lambda: PoolVectorEnv(users(), cores=1),
+                             ("do not all say they are safe in the calling process",
+                              "one worker steps them all, the pool's one party for 4 env(s) on 1 core(s)"), "stand-in"),
+    "user's FMU, one env": (lambda: PoolVectorEnv(users(1), cores=4),
+                            ("one worker steps them all, the pool's one party for 1 env(s) on 4 core(s)",), "stand-in"),
     "user's FMU, fixed": (lambda: PoolVectorEnv(users(), adapt_layout=False, cores=2),
                           ("do not all say they are safe in the calling process",
                            "no worker stands in for it, as the layout does not adapt: adapt_layout=False"), "workers"),
@@ -120,3 +126,9 @@ def test_the_layout_says_truly_why_its_envs_run_where_they_do(case: str) -> None
         assert layout.envs_in_caller == 0 and layout.envs_in_stand_in > 0 and in_workers, layout
     else:
         assert layout.envs_in_caller == 0 and not layout.stand_in and in_workers, layout
+
+
+def test_adapt_layout_true_with_one_party_for_a_users_envs_says_why_it_cannot() -> None:
+    """One core and envs not safe in the calling process: one worker steps them all, nothing can move."""
+    with pytest.raises(ConfigError, match="adapt_layout=True, but the layout cannot adapt: .*one worker steps them all"):
+        PoolVectorEnv(users(), cores=1, adapt_layout=True)

@@ -206,24 +206,40 @@ def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how:
     assert result.returncode == (3 if how == "exit" else -signal.SIGSEGV), result.stderr
 
 
-def test_the_calling_process_polls_briefly_for_workers_that_fill_the_cores() -> None:
-    cores = usable_cores()
+@pytest.mark.parametrize("cores", [2, 4, 16, 64])
+def test_the_calling_process_polls_briefly_for_workers_that_fill_the_cores(cores: int) -> None:
     assert collect_poll_time(1e-4, cores - 1, cores) == 1e-4
     assert collect_poll_time(1e-4, cores, cores) == CROWDED_COLLECT_SPIN < 1e-4
     assert collect_poll_time(1e-5, cores + 1, cores) == 1e-5  # never longer than asked
 
 
-def test_workers_poll_for_their_next_command_only_while_the_pollers_fit_the_cores() -> None:
+def test_on_one_core_the_calling_process_sleeps_while_a_worker_steps() -> None:
+    """A poll there holds the only core the worker needs to finish the step."""
+    assert collect_poll_time(1e-4, 1, 1) == 0.0
+    assert collect_poll_time(1e-4, 3, 1) == 0.0
+
+
+@pytest.mark.parametrize("cores", [2, 4, 16, 64])
+def test_workers_poll_for_their_next_command_only_while_the_pollers_fit_the_cores(cores: int) -> None:
     """Pollers must not outnumber the cores: the calling process takes part in every step, so a
     worker polls for its next command only while it and the other stepping workers leave the
-    calling process a core; otherwise it sleeps as soon as it waits. The choice lives in shared
-    memory, where the workers read it at every wait."""
-    cores = usable_cores()
+    calling process a core; otherwise it sleeps as soon as it waits."""
     assert go_poll_time(1e-4, cores, cores) == 0.0
     assert go_poll_time(1e-4, cores - 1, cores) == 1e-4
     # a stand-in's workers on a quiet machine may fill the cores (the adaptive layout leaves a light spread)
     assert go_poll_time(1e-4, cores, cores, quiet_stand_in=True) == 1e-4
     assert go_poll_time(1e-4, cores + 1, cores, quiet_stand_in=True) == 0.0
+
+
+def test_on_one_core_no_worker_polls() -> None:
+    """Its poll would hold the core the calling process needs, even a quiet stand-in's."""
+    assert go_poll_time(1e-4, 1, 1) == 0.0
+    assert go_poll_time(1e-4, 1, 1, quiet_stand_in=True) == 0.0
+
+
+def test_the_workers_read_their_poll_time_from_shared_memory_at_every_wait() -> None:
+    """The choice lives in shared memory, written for the pool's stepping workers and usable cores."""
+    cores = usable_cores()
     fns = [MadeElsewhere(users_cartpole, os.getpid())] * 4
     with PoolVectorEnv(fns, adapt_layout=False, spin_time=1e-4) as pool:
         assert pool.num_workers == min(cores, 4)

@@ -496,15 +496,20 @@ CROWDED_COLLECT_SPIN = 50e-6
 def collect_poll_time(spin_time: float, stepping_workers: int, cores: int) -> float:
     """Seconds the calling process polls for the workers' answers to a step before it sleeps:
     ``spin_time`` while the stepping workers leave it a core; where they fill the cores, at most
-    `CROWDED_COLLECT_SPIN`.
+    `CROWDED_COLLECT_SPIN`, and on one core not at all.
 
     Its waiter polls again as soon as a post comes within that time, and sleeps at once after
     one that does not. Where the workers fill the cores, a poll takes a core from one of them, so
     it pays only for short batches: a batch of 8 Feedthrough envs on the Python step path in two
     workers (~80 µs each) ran at 0.44x one env with the calling process polling for up to 100 µs,
     0.68-0.84x with 50 µs, where light batches (a wake-up and a few µs of work) kept their figures.
+    On one core the poll holds the core the worker needs to finish (8 light envs in a stand-in,
+    pinned to one CPU: 0.74x one env polling, 1.13x asleep), and inside a 1-CPU quota it is CPU
+    time charged to the quota while the worker steps (0.76x against 1.21x, halt polling on).
     """
-    return spin_time if stepping_workers < cores else min(spin_time, CROWDED_COLLECT_SPIN)
+    if stepping_workers < cores:
+        return spin_time
+    return min(spin_time, CROWDED_COLLECT_SPIN) if cores > 1 else 0.0
 
 
 def go_poll_time(spin_time: float, stepping_workers: int, cores: int, quiet_stand_in: bool = False) -> float:
@@ -522,6 +527,9 @@ def go_poll_time(spin_time: float, stepping_workers: int, cores: int, quiet_stan
     fill the cores pay when their batches are long: 8 isolated envs of ~70 µs in two workers ran
     at 1.75x one env polling, 1.39x asleep. Light batches lose (two workers polling: 217 µs a batch
     of 8 light envs where one consolidated worker took 60 µs), which a stand-in's adaptive layout
-    measures and leaves, so only such a pool's workers fill the cores.
+    measures and leaves, so only such a pool's workers fill the cores. On one core no worker
+    polls: its poll would hold the core the calling process needs, and inside a 1-CPU quota it is
+    CPU time charged to the quota (8 light envs in a stand-in inside a 1-CPU quota on 2 cores, the
+    guest's halt polling on: 1.21x one env asleep, 1.12x polling).
     """
-    return spin_time if stepping_workers + (not quiet_stand_in) <= cores else 0.0
+    return spin_time if stepping_workers + (not quiet_stand_in) <= cores and cores > 1 else 0.0

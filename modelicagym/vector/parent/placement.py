@@ -281,7 +281,7 @@ def place_envs(
     ``adapt_layout=True`` cannot be, saying why."""
     autoreset_mode = config.autoreset_mode
     if stand_in_slice is not None:
-        return _place_with_stand_in(workers, stand_in_slice, config), None
+        return _place_with_stand_in(workers, stand_in_slice, config, adapt_layout), None
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
     reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
@@ -316,18 +316,26 @@ def place_envs(
     return placement, local
 
 
-def _place_with_stand_in(workers: WorkerSet, home: range, config: WorkerConfig) -> Placement:
+def _place_with_stand_in(workers: WorkerSet, home: range, config: WorkerConfig, adapt_layout: bool | None) -> Placement:
     """The placement of a pool whose calling process steps nothing: a worker stands in for it,
     with a copy of every env, and steps ``home``; it takes every env when that is faster (the
-    pool made it only for a layout that can adapt: `stand_in_fixed_reason`)."""
+    pool made it only for a layout that can adapt: `stand_in_fixed_reason`); with no other worker to
+    share them (one core), it steps them all in a fixed layout."""
     worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
-    policy = ConsolidationPolicy(layout_shapes(worker_slices, len(home)), config.cores)
-    reason = ("every env is in a worker: its envs do not all say they are safe in the calling process "
-              "(safe_in_caller; caller_steps=True puts a slice there); they can move to one worker at episode "
-              "boundaries")
+    unsafe = ("every env is in a worker: its envs do not all say they are safe in the calling process "
+              "(safe_in_caller; caller_steps=True puts a slice there); ")
     buffers = workers.buffers
-    return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, config.autoreset_mode, policy, reason,
-                     stand_in=True, env_ns=buffers.timing[:, SharedBuffers.ENV_NS])
+    if not worker_slices:  # one party for one core: nothing to move
+        reason = unsafe + (f"one worker steps them all, the pool's one party for {len(home)} env(s) on "
+                           f"{config.cores} core(s)")
+        if adapt_layout:
+            raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+        return Placement(buffers.in_caller, buffers.needs_reset, [], home, config.autoreset_mode, None, reason,
+                         stand_in=True)
+    policy = ConsolidationPolicy(layout_shapes(worker_slices, len(home)), config.cores)
+    return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, config.autoreset_mode, policy,
+                     unsafe + "they can move to one worker at episode boundaries", stand_in=True,
+                     env_ns=buffers.timing[:, SharedBuffers.ENV_NS])
 
 
 def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
