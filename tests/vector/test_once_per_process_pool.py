@@ -50,10 +50,11 @@ def test_a_pool_of_once_per_process_envs_shares_workers_with_the_results_of_one_
         packed.close()
     assert copy_folders(pid) == []  # the worker removed its copies as it ended
 
-    default = modelicagym.make_vec(env_config, n=N)  # the default layout: adaptive, a stand-in worker
+    default = modelicagym.make_vec(env_config, n=N)  # the default layout: a stand-in worker, adaptive beside others
     try:
         pids = default.worker_pids
-        assert default.layout.adaptive and default.layout.num_workers < N
+        layout = default.layout
+        assert layout.stand_in and layout.num_workers < N and layout.adaptive == (layout.num_workers > 0), layout
         assert rollout(default) == expected
     finally:
         default.close()
