@@ -352,6 +352,20 @@ def test_a_consolidation_try_waits_until_the_machine_watch_can_tell(tmp_path: Pa
     assert crowded(220.0, 210.0, 220.0) and policy.target == 4, policy.last_decision  # tried
 
 
+def test_a_lone_stand_in_keeps_watching_the_machine(monkeypatch: pytest.MonkeyPatch) -> None:
+    """One env: the stand-in is the pool's one worker, in a fixed layout, and it still polls only
+    on a quiet machine, so the pool keeps looking at the machine after each window of steps."""
+    monkeypatch.setattr(placement, "PART_BATCHES", 4)
+    with PoolVectorEnv([partial(_users_cartpole, max_episode_steps=50)], cores=2) as pool:
+        assert not pool.layout.adaptive and pool.layout.stand_in, pool.layout
+        looks = []
+        monkeypatch.setattr(pool._dispatcher, "watch_machine", lambda: looks.append(1))
+        pool.reset(seed=0)
+        for _ in range(12):
+            pool.step(np.zeros(1, dtype=np.int64))
+    assert len(looks) == 3
+
+
 def test_a_stand_in_pool_samples_its_parties_stepping_times_with_timing_off() -> None:
     """The cost model's input: the parties time their steps while a stand-in layout adapts, whatever
     the user's ``set_timing`` says (the pool's own timing summary stays off)."""

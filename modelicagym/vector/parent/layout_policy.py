@@ -210,7 +210,6 @@ class LayoutPolicy(_Policy):
                                          f"process are predicted to take {predicted:.1f} us")
 
 
-
 class ConsolidationPolicy(_Policy):
     """Decides whether a stand-in worker steps every env (consolidated) or shares them with the
     other workers (spread), and in the spread layout how many of theirs it takes.

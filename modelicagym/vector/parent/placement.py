@@ -146,8 +146,9 @@ class Placement:
             self._movable[self._order] = True
         self._settled = True
         self._pending: np.ndarray | None = None
-        #: steps until the next window of measurements is taken in; a fixed layout never is
-        self._countdown = PART_BATCHES if policy is not None else 1 << 62
+        #: steps until the next window of measurements is taken in (and the pool looks at the machine,
+        #: which a stand-in's polling depends on); a fixed layout without a stand-in never is
+        self._countdown = PART_BATCHES if policy is not None or stand_in else 1 << 62
         self._caller_envs = int(in_caller.sum())
         self._party_times = (None if env_ns is None or policy is None
                              else PartyTimes(env_ns, in_caller, worker_slices, self.stepping, stand_in))
@@ -192,7 +193,8 @@ class Placement:
             times = take_times()
             policy, envs = self.policy, len(self.in_caller)
             parties = {} if self._party_times is None else {"parties": self._party_times}
-            if times is not None and policy.observe(*times, self._caller_envs, envs, self._settled, **parties):
+            if times is not None and policy is not None and policy.observe(*times, self._caller_envs, envs,
+                                                                          self._settled, **parties):
                 self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
