@@ -12,13 +12,15 @@ import json
 import logging
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from modelicagym.console import add_debug_flag, run_command
+from modelicagym.errors import NotFoundError
 from modelicagym.experiments.bounds import DEFAULT_BUDGET
 from modelicagym.experiments.config import ConfigError, SweepConfig, load_config
 from modelicagym.experiments.paper import PAPER_SWEEPS
 from modelicagym.experiments.ray_runner import RayRunner
-from modelicagym.experiments.report import console_summary, render_report
+from modelicagym.experiments.report import DOCS_NOTES, DOCS_PAGE, console_summary, render_report
 from modelicagym.experiments.runner import LocalRunner, run_sweeps
 
 __all__ = ["add_parsers", "main", "select_sweeps"]
@@ -59,13 +61,24 @@ def _reproduce(args: argparse.Namespace) -> int:
                bounds_budget=args.bounds_budget)
     print(console_summary(args.out, [c.name for c in configs]))
     if args.report:
-        render_report(args.out, args.docs)
+        print(f"report: {_render(args.out, docs=args.docs)}")
     return 0
 
 
 def _report(args: argparse.Namespace) -> int:
-    render_report(args.results, args.docs, notes_path=args.notes)
+    print(f"report: {_render(args.results, out=args.out, docs=args.docs, notes=args.notes)}")
     return 0
+
+
+def _render(results: str, *, out: str | None = None, docs: str | None = None, notes: str | None = None) -> Path:
+    """The report of ``results``: beside them (or in ``out``) as ``report.md``; with ``docs``, the
+    documentation's page ``<docs>/reproduction.md`` with ``<docs>/reproduction-notes.md``'s discussion."""
+    if notes is not None and not Path(notes).is_file():
+        raise NotFoundError(f"--notes {notes}: no such file")
+    if docs is None:
+        return render_report(results, out, notes_path=notes)
+    notes = notes if notes is not None else Path(docs) / DOCS_NOTES
+    return render_report(results, docs, notes_path=notes, output_name=DOCS_PAGE)
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
@@ -113,8 +126,12 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
         help="env steps per setting for the exhaustive search of the longest possible episode (0: skip; "
         f"default {DEFAULT_BUDGET})",
     )
-    reproduce.add_argument("--report", action="store_true", help="render the report into --docs afterwards")
-    reproduce.add_argument("--docs", default="docs", help="docs directory for --report (default: docs)")
+    reproduce.add_argument(
+        "--report", action="store_true", help="render the report afterwards: <out>/report.md and <out>/figures/"
+    )
+    reproduce.add_argument(
+        "--docs", metavar="DIR", help=f"with --report, maintainers: refresh <DIR>/{DOCS_PAGE} instead"
+    )
     reproduce.add_argument(
         "--show-config",
         action="store_true",
@@ -124,12 +141,27 @@ def add_parsers(subparsers: argparse._SubParsersAction) -> None:
 
     report = subparsers.add_parser(
         "report",
-        help="render docs/reproduction.md and its figures from a results directory",
-        description="Compare the results of the paper's sweeps with the paper's numbers and findings.",
+        help="render the comparison with the paper, and its figures, beside the results (<results>/report.md)",
+        description="Compare the results of the paper's sweeps with the paper's numbers and findings: "
+        "writes <results>/report.md and its figures in <results>/figures/, nothing elsewhere.",
     )
     report.add_argument("--results", default="results", help="results directory (default: results)")
-    report.add_argument("--docs", default="docs", help="output directory (default: docs)")
-    report.add_argument("--notes", help="hand-written discussion (default: <docs>/reproduction-notes.md)")
+    where = report.add_mutually_exclusive_group()
+    where.add_argument(
+        "--out", metavar="DIR", help="write report.md and figures/ here instead of the results directory"
+    )
+    where.add_argument(
+        "--docs",
+        metavar="DIR",
+        help=f"maintainers: refresh the documentation's page <DIR>/{DOCS_PAGE} and <DIR>/figures/, with the "
+        f"discussion of <DIR>/{DOCS_NOTES} (e.g. --docs docs in a clone)",
+    )
+    report.add_argument(
+        "--notes",
+        metavar="FILE",
+        help="hand-written discussion: its '## <sweep>' sections go under the matching headings "
+        f"(default: none; with --docs, <DIR>/{DOCS_NOTES})",
+    )
     report.set_defaults(func=_report)
 
 

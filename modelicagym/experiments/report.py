@@ -1,9 +1,12 @@
-"""Render ``docs/reproduction.md`` and its figures from a results directory.
+"""Render the reproduction report and its figures from a results directory.
 
-Every number and every verdict in the report is computed from the result files; the only prose
-written by hand is the discussion, kept in a notes file (``docs/reproduction-notes.md``) whose
-``## <sweep name>`` sections (and ``## method``, ``## summary``, ``## execution_time``) are inserted
-under the matching headings, so regenerating the report never loses it.
+A user's report goes beside its results (``results/report.md``, ``results/figures/<sweep>.png``):
+``modelicagym report`` writes nowhere else. Every number and every verdict in the report is
+computed from the result files; the only prose written by hand is an optional discussion, kept in a
+notes file whose ``## <sweep name>`` sections (and ``## method``, ``## summary``,
+``## execution_time``) are inserted under the matching headings, so regenerating the report never
+loses it. The documentation's page is the same report, rendered by maintainers into ``docs/``
+(``report --docs docs``: ``docs/reproduction.md`` with ``docs/reproduction-notes.md``'s discussion).
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from modelicagym.experiments.paper import FINDINGS, PAPER_NUMBERS, PAPER_SECONDS
 from modelicagym.experiments.plots import plot_sweep
 from modelicagym.experiments.results import SweepResult, completed_sweeps, read_sweep
 
-__all__ = ["TITLES", "read_notes", "render_report"]
+__all__ = ["DOCS_NOTES", "DOCS_PAGE", "REPORT_NAME", "TITLES", "read_notes", "render_report"]
 
 logger = logging.getLogger(__name__)
 
@@ -37,8 +40,14 @@ TITLES = {
     "time_step": "Simulation time step",
 }
 
+#: the report's file name in its output folder (the results folder unless told otherwise)
+REPORT_NAME = "report.md"
+#: the documentation's page of the report, and its hand-written discussion, in the docs folder
+DOCS_PAGE = "reproduction.md"
+DOCS_NOTES = "reproduction-notes.md"
+
 #: what to do, besides freeing space, when the report finds its disk full
-_ELSEWHERE = "choose another folder for the report (report --docs)"
+_ELSEWHERE = "choose another folder for the report (report --out)"
 _NO_NOTES = "_Discussion not written yet: add a `## {key}` section to `{notes}`._"
 
 
@@ -48,6 +57,14 @@ def read_notes(path: Path) -> dict[str, str]:
         return {}
     parts = re.split(r"^## +(\S+) *$", path.read_text(encoding="utf-8"), flags=re.MULTILINE)
     return {key: body.strip() for key, body in zip(parts[1::2], parts[2::2], strict=True)}
+
+
+def _discussion(notes: dict[str, str], key: str, notes_path: Path | None) -> list[str]:
+    """The hand-written section ``key`` (a reminder to write it if the notes file lacks it), or
+    nothing for a report without a notes file."""
+    if notes_path is None:
+        return []
+    return [notes.get(key, _NO_NOTES.format(key=key, notes=notes_path.as_posix()))]
 
 
 def _table(headers: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
@@ -195,7 +212,7 @@ def _paper_seconds_per_step(name: str, label: str | None = None) -> str:
     return _seconds_range(*PAPER_SECONDS_PER_STEP.get(label, PAPER_SECONDS_PER_STEP["default"]))
 
 
-def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], notes_path: Path) -> str:
+def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], notes_path: Path | None) -> str:
     rows = []
     for name, result in results.items():
         t = result.timing
@@ -255,13 +272,13 @@ def _execution_section(results: dict[str, SweepResult], notes: dict[str, str], n
             f"more with the longest time steps ({per_setting}).",
             table,
             fmu_table,
-            notes.get("execution_time", _NO_NOTES.format(key="execution_time", notes=notes_path)),
+            *_discussion(notes, "execution_time", notes_path),
         ]
     )
 
 
 def _sweep_section(
-    name: str, result: SweepResult, figure: Path | None, docs_dir: Path, notes: dict[str, str], notes_path: Path
+    name: str, result: SweepResult, figure: Path | None, out_dir: Path, notes: dict[str, str], notes_path: Path | None
 ) -> tuple[str, list[tuple[str, str, bool, str]]]:
     summaries = summarize(result)
     paper_sweep = _is_paper_sweep(result.config)
@@ -269,7 +286,7 @@ def _sweep_section(
     if name in PAPER_SWEEPS and not paper_sweep:
         parts.append("_This sweep's configuration differs from the paper's: no comparison._")
     if figure is not None:
-        parts.append(f"![{name}]({figure.relative_to(docs_dir).as_posix()})")
+        parts.append(f"![{name}]({figure.relative_to(out_dir).as_posix()})")
     parts.append(
         _table(
             [
@@ -298,36 +315,42 @@ def _sweep_section(
             "Paper's findings, checked on our runs:\n\n"
             + "\n".join(f"- {claim}: holds here: {_mark(holds)} ({evidence})" for claim, holds, evidence in findings)
         )
-    parts.append(notes.get(name, _NO_NOTES.format(key=name, notes=notes_path)))
+    parts += _discussion(notes, name, notes_path)
     return "\n\n".join(parts), [(name, claim, holds, evidence) for claim, holds, evidence in findings]
 
 
 def render_report(
     results_dir: str | Path,
-    docs_dir: str | Path = "docs",
+    out_dir: str | Path | None = None,
     *,
     notes_path: str | Path | None = None,
-    output_name: str = "reproduction.md",
+    output_name: str = REPORT_NAME,
 ) -> Path:
-    """Write ``<docs_dir>/<output_name>`` and ``<docs_dir>/figures/<sweep>.png`` from the results."""
-    results_dir, docs_dir = Path(results_dir), Path(docs_dir)
-    notes_path = Path(notes_path) if notes_path else docs_dir / "reproduction-notes.md"
+    """Write ``<out_dir>/<output_name>`` and ``<out_dir>/figures/<sweep>.png`` from the results.
+
+    ``out_dir`` defaults to ``results_dir``: the report lives beside the results it was made from.
+    The discussion comes from ``notes_path`` (see the module's docstring); without one, the report
+    holds the tables, figures and verdicts only. Returns the report's path.
+    """
+    results_dir = Path(results_dir)
+    out_dir = results_dir if out_dir is None else Path(out_dir)
+    notes_path = None if notes_path is None else Path(notes_path)
     names = completed_sweeps(results_dir)
     if not names:
         raise NotFoundError(f"no completed sweeps in {results_dir}")
     ordered = [n for n in PAPER_SWEEPS if n in names] + [n for n in names if n not in PAPER_SWEEPS]
     results = {name: read_sweep(results_dir, name) for name in ordered}
-    notes = read_notes(notes_path)
+    notes = {} if notes_path is None else read_notes(notes_path)
 
     sections, verdicts = [], []
     for name, result in results.items():
         figure = plot_sweep(
             result,
-            docs_dir / "figures" / f"{name}.png",
+            out_dir / "figures" / f"{name}.png",
             title=f"{TITLES.get(name, name)}: mean of {result.config.repeats} repeats, band = min..max",
             elsewhere=_ELSEWHERE,
         )
-        section, found = _sweep_section(name, result, figure, docs_dir, notes, notes_path)
+        section, found = _sweep_section(name, result, figure, out_dir, notes, notes_path)
         sections.append(section)
         verdicts += found
 
@@ -339,15 +362,16 @@ def render_report(
     document = "\n\n".join(
         [
             "# Reproducing the ModelicaGym cart-pole study",
-            f"_Generated by `modelicagym report` from `{results_dir.as_posix()}`; do not edit by hand. "
-            f"The discussion paragraphs come from `{notes_path.as_posix()}`._",
+            f"_Generated by `modelicagym report` from `{results_dir.as_posix()}`; do not edit by hand."
+            + (f" The discussion paragraphs come from `{notes_path.as_posix()}`." if notes_path else "")
+            + "_",
             "Paper: O. Lukianykhin, T. Bogodorova, *ModelicaGym: Applying Reinforcement Learning to Modelica Models*, "
             'EOOLT 2019. Paper numbers are the means over 5 runs it reports; "–": not reported.',
             _setup_section(results),
             *([notes["method"]] if "method" in notes else []),
             "## Summary",
             summary if verdicts else "_No sweep with paper findings among the results._",
-            notes.get("summary", _NO_NOTES.format(key="summary", notes=notes_path)),
+            *_discussion(notes, "summary", notes_path),
             *(
                 ["Settings run in several sweeps (same options and seeds):\n\n" + "\n".join(identical)]
                 if identical
@@ -357,7 +381,7 @@ def render_report(
             _execution_section(results, notes, notes_path),
         ]
     )
-    output = docs_dir / output_name
+    output = out_dir / output_name
     with atomic_write(output, elsewhere=_ELSEWHERE) as f:
         f.write(document + "\n")
     logger.info("wrote %s", output)
@@ -380,4 +404,6 @@ def console_summary(results_dir: str | Path, names: Sequence[str]) -> str:
     widths = [max(len(str(r[i])) for r in [headers, *rows]) for i in range(len(headers))]
     lines = ["  ".join(str(c).ljust(w) for c, w in zip(r, widths)).rstrip() for r in [headers, *rows]]
     findings = ["", "the paper's findings, checked on these runs:", *checks] if checks else []
-    return "\n".join(lines + findings + ["", f"the full comparison: modelicagym report --results {results_dir}"])
+    command = f"modelicagym report --results {results_dir}"
+    report = Path(results_dir) / REPORT_NAME
+    return "\n".join(lines + findings + ["", f"the full comparison, with figures: {command}   (writes {report})"])

@@ -441,7 +441,8 @@ def test_report_from_results(tmp_path):
     docs = tmp_path / "docs"
     docs.mkdir()
     (docs / "reproduction-notes.md").write_text("# notes\n\n## force\n\nForce prose.\n\n## summary\nSummary prose.\n")
-    output = render_report(tmp_path / "results", docs)
+    output = render_report(tmp_path / "results", docs, notes_path=docs / "reproduction-notes.md")
+    assert output == docs / "report.md"
     text = output.read_text()
     assert (docs / "figures" / "force.png").exists() and (docs / "figures" / "mine.png").exists()
     assert "![force](figures/force.png)" in text
@@ -453,13 +454,32 @@ def test_report_from_results(tmp_path):
     assert read_notes(docs / "reproduction-notes.md")["summary"] == "Summary prose."
 
 
-def test_report_flags_a_changed_paper_sweep(tmp_path):
-    paper = PAPER_SWEEPS["force"]
-    changed = replace(paper, repeats=2, episodes=3, base_options={**paper.base_options, "mode": "cs"})
-    run_sweeps([changed], tmp_path, make_vec=Recorder(), progress=False, bounds_budget=0)
-    text = render_report(tmp_path, tmp_path / "docs").read_text()
-    assert "differs from the paper's" in text and "5 N is too weak" not in text
-    assert "`mode='cs'`" in text
+def _files_under(folder) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@requires("plots")
+def test_report_writes_beside_the_results_and_nowhere_else(tmp_path, monkeypatch, capsys):
+    """``report --results results``, as a user types it: ``results/report.md`` and
+    ``results/figures/``, nothing in the current folder (it used to rewrite ``docs/reproduction.md``
+    there, a tracked file of the repository, or make a ``docs/`` folder), no discussion placeholders."""
+    results, cwd = tmp_path / "results", tmp_path / "cwd"
+    run_sweeps([PAPER_SWEEPS["force"].scaled(0.03)], results, make_vec=Recorder(), progress=False, bounds_budget=0)
+    (cwd / "docs").mkdir(parents=True)
+    (cwd / "docs" / "reproduction.md").write_text("tracked page\n")
+    before = _files_under(tmp_path)
+    monkeypatch.chdir(cwd)
+    assert main(["report", "--results", str(results)]) == 0
+    assert capsys.readouterr().out.strip() == f"report: {results / 'report.md'}"
+    written = {name: data for name, data in _files_under(tmp_path).items() if name not in before}
+    assert sorted(written) == ["results/figures/force.png", "results/report.md"]
+    assert all(_files_under(tmp_path)[name] == data for name, data in before.items())  # nothing else changed
+    text = written["results/report.md"].decode()
+    assert "![force](figures/force.png)" in text and "5 N is too weak" in text
+    assert "Discussion not written" not in text and "discussion paragraphs" not in text
+
+    assert main(["report", "--results", str(results), "--out", str(tmp_path / "elsewhere")]) == 0
+    assert sorted(_files_under(tmp_path / "elsewhere")) == ["figures/force.png", "report.md"]
 
 
 def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
@@ -467,15 +487,27 @@ def test_cli_reproduce_and_report(tmp_path, monkeypatch, capsys):
     out, docs = tmp_path / "results", tmp_path / "docs"
     argv = ["reproduce", "--out", str(out), "--sweeps", "force", "--episodes-scale", "0.03", "--no-progress"]
     argv += ["--bounds-budget", "0"]
-    assert main([*argv, "--report", "--docs", str(docs)]) == 0
-    assert "5 N is too weak" in capsys.readouterr().out  # the summary printed at the end
+    assert main([*argv, "--report"]) == 0
+    printed = capsys.readouterr().out
+    assert "5 N is too weak" in printed  # the summary printed at the end
+    assert f"modelicagym report --results {out}   (writes {out / 'report.md'})" in printed
     assert completed_sweeps(out) == ["force"] and read_sweep(out, "force").config.episodes == 3
-    assert (docs / "reproduction.md").exists()
+    assert (out / "report.md").exists() and not docs.exists()
+    # maintainers refresh the documentation's page explicitly, with its discussion file
+    assert main([*argv, "--resume", "--report", "--docs", str(docs)]) == 0
+    assert "add a `## force` section to `" + (docs / "reproduction-notes.md").as_posix() in (
+        docs / "reproduction.md"
+    ).read_text()
     assert main(["report", "--results", str(out), "--docs", str(docs)]) == 0
+    assert capsys.readouterr().out.endswith(f"report: {docs / 'reproduction.md'}\n")
     assert main([*argv, "--show-config"]) == 0
     assert json.loads(capsys.readouterr().out)[0]["episodes"] == 3
     assert main(["reproduce", "--sweeps", "nope"]) == 1
     assert main(["report", "--results", str(tmp_path / "empty")]) == 1
+    assert main(["report", "--results", str(out), "--notes", str(tmp_path / "missing.md")]) == 1
+    assert "--notes" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # one place for the report, not two
+        main(["report", "--results", str(out), "--out", str(tmp_path / "a"), "--docs", str(docs)])
 
 
 SMALLEST = ["--sweeps", "force,reward", "--episodes-scale", "0.03", "--no-progress", "--bounds-budget", "0"]

@@ -32,10 +32,9 @@ cp -a "$FS/results" "$OUT/before"
 modelicagym reproduce --out "$FS/results" --resume --sweeps force,reward {SMALL} > /dev/null 2> "$OUT/reproduce.err"
 echo $? > "$OUT/reproduce.rc"
 "$PY" -c "$FILL" "$FS" 0
-modelicagym report --results "$FS/results" --docs "$FS/docs" > /dev/null 2> "$OUT/report.err"
+modelicagym report --results "$FS/results" > /dev/null 2> "$OUT/report.err"
 echo $? > "$OUT/report.rc"
 cp -a "$FS/results" "$OUT/after"
-mkdir -p "$FS/docs" && cp -a "$FS/docs" "$OUT/docs"
 """
 
 
@@ -76,6 +75,6 @@ def test_reproduce_and_report_on_a_full_disk_say_so_in_one_line_and_leave_nothin
 
     assert (out / "report.rc").read_text().strip() == "1"
     line = _error_line((out / "report.err").read_text())
-    assert line.startswith(f"error: cannot write {fs}/docs/figures/force.png: no space left on device"), line
-    assert "free space" in line and "--docs" in line
-    assert not [p for p in (out / "docs").rglob("*") if p.is_file()]
+    assert line.startswith(f"error: cannot write {fs}/results/figures/force.png: no space left on device"), line
+    assert "free space" in line and "report --out" in line
+    assert not (after / "report.md").exists() and not [p for p in (after / "figures").rglob("*") if p.is_file()]
