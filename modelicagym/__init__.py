@@ -6,6 +6,8 @@ multi-process pool and ``modelicagym.fmu`` the FMI runtime underneath. Every err
 ``ModelicaGymError`` (its families are in ``modelicagym.errors``).
 """
 
+from importlib.metadata import PackageNotFoundError, version
+
 from modelicagym import errors
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.fmu_env import FMUEnv
@@ -14,5 +16,9 @@ from modelicagym.registry import make, make_vec, register_environments
 
 register_environments()
 
-__version__ = "0.1.0"
+try:
+    #: the installed distribution's version; pyproject.toml's ``version`` is its one source
+    __version__ = version("modelicagym")
+except PackageNotFoundError:  # imported from a source tree that was never installed
+    __version__ = "0+unknown"
 __all__ = ["FMUEnv", "FMUEnvConfig", "ModelicaGymError", "errors", "make", "make_vec", "register_environments"]

@@ -87,7 +87,10 @@ def build_parser() -> argparse.ArgumentParser:
     from modelicagym.experiments.cli import add_parsers as experiment_parsers
     from modelicagym.fmu.build import FMI_VERSIONS
 
+    from modelicagym import __version__
+
     parser = argparse.ArgumentParser(prog="modelicagym", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     add_debug_flag(parser)
     commands = parser.add_subparsers(dest="command", required=True)
