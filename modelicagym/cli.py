@@ -83,11 +83,10 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from modelicagym import __version__
     from modelicagym.bench import add_arguments as bench_arguments
     from modelicagym.experiments.cli import add_parsers as experiment_parsers
     from modelicagym.fmu.build import FMI_VERSIONS
-
-    from modelicagym import __version__
 
     parser = argparse.ArgumentParser(prog="modelicagym", description=__doc__)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")

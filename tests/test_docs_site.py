@@ -90,6 +90,14 @@ def test_the_api_reference_has_an_entry_per_public_name(site: Path, api_page: st
 
 @requires("docs")
 @pytest.mark.processes
+def test_every_page_shows_pyprojects_version_and_the_licence(site: Path) -> None:
+    version = re.search(r'^version = "([^"]+)"$', (ROOT / "pyproject.toml").read_text(encoding="utf-8"), re.MULTILINE)
+    for guide in ("index", "getting-started", "api/modelicagym"):
+        assert f"modelicagym {version.group(1)} · MIT License" in text(page(site, guide)), guide
+
+
+@requires("docs")
+@pytest.mark.processes
 def test_no_page_names_a_work_item(site: Path) -> None:
     for path in site.rglob("*.html"):
         found = WORK_ITEM.search(text(path.read_text(encoding="utf-8")))
