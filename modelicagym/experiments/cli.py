@@ -77,8 +77,7 @@ def _render(results: str, *, out: str | None = None, docs: str | None = None, no
         raise NotFoundError(f"--notes {notes}: no such file")
     if docs is None:
         return render_report(results, out, notes_path=notes)
-    notes = notes if notes is not None else Path(docs) / DOCS_NOTES
-    return render_report(results, docs, notes_path=notes, output_name=DOCS_PAGE)
+    return render_report(results, docs, notes_path=notes or Path(docs) / DOCS_NOTES, output_name=DOCS_PAGE)
 
 
 def add_parsers(subparsers: argparse._SubParsersAction) -> None:
