@@ -1,6 +1,6 @@
 """Which tests start processes: the ``processes`` marker, and the guard that keeps it true.
 
-The fast subset (``pytest -m "not processes"``, docs/getting-started.md, "Run the tests") is every test that starts no
+The fast subset (``pytest -m "not processes"``, docs/development/testing.md) is every test that starts no
 process: no pool worker, fork server or resource tracker, no Ray, no load trial in a child, no
 subprocess. The guard watches every way a process starts (``os.fork``/``posix_spawn``/``system``,
 ``subprocess.Popen``, ``multiprocessing``'s ``Process.start`` and its fork-server/resource-tracker

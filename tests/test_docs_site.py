@@ -11,6 +11,7 @@ import html
 import importlib
 import os
 import re
+import runpy
 import subprocess
 import sys
 from pathlib import Path
@@ -21,7 +22,11 @@ from extras import requires
 ROOT = Path(__file__).resolve().parent.parent
 #: the guides a reader finds in the navigation, by their source in docs/
 GUIDES = ("index", "getting-started", "own-fmu", "env", "systems", "pool", "training", "train-own-fmu", "ray", "cli", "speed",
-          "paper", "reproduction", "cartpole-solver", "design")
+          "faq", "glossary", "paper", "reproduction", "cartpole-solver", "design", "development/benchmark-log",
+          "development/testing", "development/bench-internals", "reproduction-notes")
+#: the bundled environments, each with a page and a GIF of an episode (docs/make_env_gifs.py)
+ENVIRONMENTS = ("cartpole", "cartpole-continuous", "pendulum")
+GIF_BYTES = 300_000
 #: API page -> modules whose public names (``__all__``) it documents
 API_PAGES = {
     "modelicagym": ("modelicagym",),
@@ -76,6 +81,33 @@ def test_the_site_has_a_page_per_guide_and_search(site: Path) -> None:
         assert "<h1" in source, guide
     assert (site / "search" / "search_index.json").exists()
     assert (site / "images" / "heater-try.png").exists()
+
+
+@requires("docs")
+@pytest.mark.processes
+def test_each_bundled_environment_has_a_page_with_its_gif(site: Path) -> None:
+    index = page(site, "environments")
+    for env in ENVIRONMENTS:
+        source = page(site, f"environments/{env}")
+        assert f'src="../../images/{env}.gif"' in source, env
+        assert f'href="{env}/"' in index, env
+        for section in ("Action space", "Observation space", "Reward", "Episode end", "Parameters"):
+            assert f">{section}<" in source, (env, section)
+        gif = site / "images" / f"{env}.gif"
+        assert gif.read_bytes()[:6] == b"GIF89a" and gif.stat().st_size < GIF_BYTES, env
+
+
+@requires("plots")
+def test_the_gif_script_renders_an_episode_of_each_environment(tmp_path: Path) -> None:
+    """docs/make_env_gifs.py, which made the committed GIFs, still runs and keeps them small."""
+    script = runpy.run_path(str(ROOT / "docs" / "make_env_gifs.py"))
+    assert set(script["POLICIES"]) == set(ENVIRONMENTS)
+    for env in ENVIRONMENTS:
+        frames = script["episode_frames"](env)
+        assert len(frames) > 20, env  # the controller keeps each episode going
+        path = tmp_path / f"{env}.gif"
+        frames[0].save(path, save_all=True, append_images=frames[1:], duration=100, loop=0, optimize=True)
+        assert path.stat().st_size < GIF_BYTES, env
 
 
 @requires("docs")

@@ -522,7 +522,7 @@ def go_poll_time(spin_time: float, stepping_workers: int, cores: int, quiet_stan
     each batch the wake-up of a sleeping worker (~20 µs on this project's VM): 8 light FMUs
     consolidated in one isolated worker ran at 1.5x one env with that worker polling, 0.8x with
     it asleep. Where they do not, the pollers hold the cores the parent needs: on 2 cores under
-    load, 100-180 µs a batch of a light env against 16-40 µs with the workers asleep (docs/speed.md,
+    load, 100-180 µs a batch of a light env against 16-40 µs with the workers asleep (benchmark-log.md,
     "Your own FMU"). On a quiet machine a woken parent gets a poller's core at once, and workers that
     fill the cores pay when their batches are long: 8 isolated envs of ~70 µs in two workers ran
     at 1.75x one env polling, 1.39x asleep. Light batches lose (two workers polling: 217 µs a batch
