@@ -86,6 +86,12 @@ class FMUEnv(gym.Env):
     tables (``fmus`` and ``connections``, or an SSP archive as ``fmu``: `modelicagym.system`), whose
     variables are then named ``component.variable``.
 
+    Args:
+        config: the config as a dict (e.g. loaded from a file): `FMUEnvConfig` lists every key.
+        render_mode: ``"rgb_array"``: `render` draws the episode's strip chart (the ``plots``
+            extra); ``None``: no rendering.
+        **options: config keys as keyword arguments; they override ``config``'s.
+
     Example::
 
         import numpy as np
@@ -103,9 +109,6 @@ class FMUEnv(gym.Env):
         )
         observation, info = env.reset(seed=0)
         observation, reward, terminated, truncated, info = env.step(np.array([5.0]))
-
-    ``config`` may be a dict (e.g. loaded from a file); keyword arguments override it. See
-    `FMUEnvConfig` for every key.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
