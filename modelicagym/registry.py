@@ -79,8 +79,25 @@ class EnvFactory:
 def make(name: str, **options: Any) -> gym.Env:
     """Create one environment by short name or Gymnasium id, e.g. ``make("cartpole", force=11.0)``.
 
-    Returns the environment itself (no Gymnasium wrappers, so nothing stands between you and the
-    FMU); ``gymnasium.make("ModelicaGym/CartPole-v0")`` gives the wrapped one.
+    Args:
+        name: a short name (``"cartpole"``, ``"cartpole-continuous"``, ``"pendulum"``) or its
+            Gymnasium id (``"ModelicaGym/CartPole-v0"``, ...); a name close to a known one is
+            suggested in the error.
+        **options: the environment's options: its class's keyword arguments (e.g. ``force`` for
+            the cart-pole) and any `FMUEnvConfig` key (e.g. ``max_episode_steps``).
+
+    Returns:
+        The environment itself (no Gymnasium wrappers, so nothing stands between you and the
+            FMU); ``gymnasium.make("ModelicaGym/CartPole-v0")`` gives the wrapped one.
+
+    Example::
+
+        import modelicagym
+
+        env = modelicagym.make("cartpole", max_episode_steps=200)
+        observation, info = env.reset(seed=0)
+        observation, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        env.close()
     """
     return _load(_entry_point(name))(**options)
 
@@ -98,19 +115,40 @@ def make_vec(
 ) -> gym.vector.VectorEnv:
     """Create ``n`` environments stepped in parallel by the multi-process pool (or on Ray).
 
-    ``name`` is a short name or Gymnasium id, or an `FMUEnv` config dict (``{"fmu": ..., ...}``):
-    any FMU can be pooled. Options go to every environment; ``options_per_env[i]`` (a list of ``n``
-    dicts) updates them for environment ``i`` — e.g. one parameter set per env for domain
-    randomisation. An option named like one of the pool's (`POOL_OPTIONS`: ``num_workers``,
-    ``autoreset_mode``, ``step_timeout``, ``restart_dead_workers``, ``caller_steps``, ... see
-    `PoolVectorEnv`) configures the pool instead. A name both accept is an error: say which you
-    mean with ``env_options={...}`` or ``pool_options={...}``, which go only where they say.
+    Options go to every environment, except those named like one of the pool's (the keyword
+    arguments of `~modelicagym.vector.PoolVectorEnv`: ``num_workers``, ``autoreset_mode``,
+    ``step_timeout``, ``restart_dead_workers``, ``caller_steps``, ...), which configure the pool
+    instead. A name both accept is an error: say which you mean with ``env_options`` or
+    ``pool_options``, which go only where they say.
 
-    ``backend``: ``"pool"`` (default, `~modelicagym.vector.PoolVectorEnv`), ``"sync"``
-    (Gymnasium's ``SyncVectorEnv`` over the same env fns; only ``autoreset_mode`` applies) or
-    ``"ray"`` (`~modelicagym.distributed.RayVectorEnv`: the envs in Ray actors, each stepping its
-    slice on a local pool that the pool options configure; `RAY_OPTIONS` such as ``num_actors``,
-    ``cpus_per_actor``, ``address`` go to it, as does ``ray_options={...}``).
+    Args:
+        name: a short name or Gymnasium id (as for `make`), or an `FMUEnv` config dict
+            (``{"fmu": ..., ...}``): any FMU can be pooled.
+        n: how many environments.
+        options_per_env: ``n`` dicts, the ``i``-th updating the options of environment ``i``
+            (e.g. one parameter set per env for domain randomisation). ``None``: every
+            environment gets the same options.
+        env_options: options for the environments only (for a name the pool also accepts).
+        pool_options: options for the pool only (the keyword arguments of
+            `~modelicagym.vector.PoolVectorEnv`).
+        backend: ``"pool"`` (`~modelicagym.vector.PoolVectorEnv`), ``"sync"`` (Gymnasium's
+            ``SyncVectorEnv`` over the same environments; of the pool options only
+            ``autoreset_mode`` applies) or ``"ray"`` (`~modelicagym.distributed.RayVectorEnv`:
+            the environments in Ray actors, each stepping its share on a local pool that the pool
+            options configure).
+        ray_options: options of `~modelicagym.distributed.RayVectorEnv` (``backend="ray"``
+            only): ``num_actors``, ``cpus_per_actor``, ``address``, ... (`~modelicagym.distributed.RAY_OPTIONS`); given
+            among ``options`` they go there too.
+        **options: options of every environment (as for `make`), or of the pool (see above).
+
+    Returns:
+        The vector env: a `~modelicagym.vector.PoolVectorEnv` with the default ``backend``.
+
+    Raises:
+        ArgumentTypeError: ``n`` is not an int.
+        ArgumentError: ``n`` below 1, ``options_per_env`` not of ``n`` entries, an unknown
+            ``backend``, an unknown pool or Ray option (with the close matches), or a name both the
+            environment and the pool accept.
 
     Example::
 

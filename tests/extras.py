@@ -19,7 +19,7 @@ EXTRAS = {
     "notebook": ("nbclient", "nbformat", "ipykernel"),
     "ray": ("ray",),
     "rl": ("stable_baselines3", "torch"),
-    "docs": ("mkdocs", "material", "mkdocstrings"),
+    "docs": ("mkdocs", "material", "mkdocstrings", "ruff"),
 }
 #: how to install an extra, when ``pip install 'modelicagym[extra]'`` is not the whole story
 _INSTALL = {"rl": "pip install torch==2.13.0 (a CPU build), then pip install 'modelicagym[rl]'"}

@@ -1,23 +1,30 @@
 """The documentation site and the README, as a reader meets them.
 
 ``mkdocs build --strict`` (mkdocs.yml) fails on a broken link, a missing anchor or a reference
-mkdocstrings cannot resolve; the built site must hold a page per guide and an API entry for every
-public name. The README stays short, points into the site, and keeps the CI's test command.
+mkdocstrings cannot resolve; the built site must hold a page per guide and one API entry for every
+public object, the front doors (``make``, ``make_vec``, ``FMUEnv``, the pool) first, their parameters
+in tables, their signatures one parameter a line and their references links. The README stays
+short, points into the site, and keeps the CI's test command.
 """
 
 from __future__ import annotations
 
 import html
 import importlib
+import inspect
 import os
 import re
 import runpy
 import subprocess
 import sys
+import types
+from collections import Counter
 from pathlib import Path
 
 import pytest
 from extras import requires
+
+import modelicagym
 
 ROOT = Path(__file__).resolve().parent.parent
 #: the guides a reader finds in the navigation, by their source in docs/
@@ -27,24 +34,40 @@ GUIDES = ("index", "getting-started", "own-fmu", "env", "systems", "pool", "trai
 #: the bundled environments, each with a page and a GIF of an episode (docs/make_env_gifs.py)
 ENVIRONMENTS = ("cartpole", "cartpole-continuous", "pendulum")
 GIF_BYTES = 300_000
-#: API page -> modules whose public names (``__all__``) it documents
-API_PAGES = {
-    "modelicagym": ("modelicagym",),
-    "env": ("modelicagym.env",),
-    "vector": ("modelicagym.vector",),
-    "system": ("modelicagym.system",),
-    "sb3": ("modelicagym.sb3",),
-    "distributed": ("modelicagym.distributed",),
-    "errors": ("modelicagym.errors", "modelicagym.fmu.errors"),
+#: the API pages, in the navigation's order: the front doors first
+API_PAGES = ("modelicagym", "env", "vector", "sb3", "system", "distributed", "errors")
+#: the modules whose public names (``__all__``) the API pages document between them
+PUBLIC_MODULES = ("modelicagym", "modelicagym.env", "modelicagym.vector", "modelicagym.system", "modelicagym.sb3",
+                  "modelicagym.distributed", "modelicagym.errors", "modelicagym.fmu.errors")
+#: API page -> the entries it opens with, in order
+FRONT_DOORS = {
+    "modelicagym": ("modelicagym.make", "modelicagym.make_vec"),
+    "env": ("modelicagym.FMUEnv", "modelicagym.FMUEnv.reset", "modelicagym.FMUEnv.step"),
+    "vector": ("modelicagym.vector.PoolVectorEnv", "modelicagym.vector.PoolVectorEnv.reset",
+               "modelicagym.vector.PoolVectorEnv.step"),
+    "sb3": ("modelicagym.sb3.SB3VecEnv",),
+    "errors": ("modelicagym.ModelicaGymError",),
 }
+#: FMUEnv's members that serve the pool and the step path, not a user: not in the reference
+FMUENV_INTERNALS = ("initializations", "fault_label", "reset_is_deterministic", "per_env_hooks", "native_step",
+                    "python_observation", "fmu_failure", "native_step_failure", "check_action", "fmu_time_ns")
+#: an entry of the API reference (an object's heading)
+ENTRY = re.compile(r'<h[1-6] id="([^"]+)" class="doc doc-heading"')
 #: a name of the project's internal work items, which user-facing text never shows
 WORK_ITEM = re.compile(r"\bissues? #?\d+", re.IGNORECASE)
 README_LINES = 300
 
 
-def public_names(module: str) -> list[str]:
-    names = importlib.import_module(module).__all__
-    return [name for name in names if not (module == "modelicagym" and name == "errors")]  # a module: its own page
+def public_objects() -> list[list[str]]:
+    """Each public object (modules aside) as the list of its public paths: ``modelicagym.FMUEnv``
+    and ``modelicagym.env.FMUEnv`` are one object."""
+    paths: dict[int, list[str]] = {}
+    for module in PUBLIC_MODULES:
+        for name in importlib.import_module(module).__all__:
+            value = getattr(importlib.import_module(module), name)
+            if not isinstance(value, types.ModuleType):
+                paths.setdefault(id(value), []).append(f"{module}.{name}")
+    return list(paths.values())
 
 
 @pytest.fixture(scope="module")
@@ -83,6 +106,18 @@ def test_the_site_has_a_page_per_guide_and_search(site: Path) -> None:
     assert (site / "images" / "heater-try.png").exists()
 
 
+def entries(site: Path, api_page: str) -> list[str]:
+    return ENTRY.findall(page(site, f"api/{api_page}"))
+
+
+def entry(site: Path, api_page: str, name: str) -> str:
+    """The HTML of entry ``name`` on ``api_page``, up to the next entry."""
+    source = page(site, f"api/{api_page}")
+    start = source.index(f'id="{name}" class="doc doc-heading"')
+    found = ENTRY.search(source, start + len(name))
+    return source[start:found.start() if found else len(source)]
+
+
 @requires("docs")
 @pytest.mark.processes
 def test_each_bundled_environment_has_a_page_with_its_gif(site: Path) -> None:
@@ -112,12 +147,50 @@ def test_the_gif_script_renders_an_episode_of_each_environment(tmp_path: Path) -
 
 @requires("docs")
 @pytest.mark.processes
-@pytest.mark.parametrize("api_page", list(API_PAGES))
-def test_the_api_reference_has_an_entry_per_public_name(site: Path, api_page: str) -> None:
-    source = page(site, f"api/{api_page}")
-    for module in API_PAGES[api_page]:
-        for name in public_names(module):
-            assert f'id="{module}.{name}"' in source, f"no API entry for {module}.{name} in api/{api_page}"
+def test_every_public_object_has_one_entry(site: Path) -> None:
+    documented = Counter(name for api_page in API_PAGES for name in entries(site, api_page))
+    assert [name for name, count in documented.items() if count > 1] == []
+    for paths in public_objects():
+        found = [path for path in paths if path in documented]
+        assert len(found) == 1, f"{' = '.join(paths)} has {len(found)} entries in the API reference: {found}"
+
+
+@requires("docs")
+@pytest.mark.processes
+def test_the_api_reference_leads_with_the_front_doors(site: Path) -> None:
+    navigation = re.findall(r'href="api/(\w+)/"', page(site, "index"))
+    assert list(dict.fromkeys(navigation)) == list(API_PAGES)
+    for api_page, first in FRONT_DOORS.items():
+        assert tuple(entries(site, api_page)[:len(first)]) == first, api_page
+    shown = set(entries(site, "env"))
+    assert [name for name in FMUENV_INTERNALS if f"modelicagym.FMUEnv.{name}" in shown] == []
+
+
+@requires("docs")
+@pytest.mark.processes
+@pytest.mark.parametrize("function", ["make", "make_vec"])
+def test_the_front_doors_have_a_table_of_their_parameters(site: Path, function: str) -> None:
+    html_source = entry(site, "modelicagym", f"modelicagym.{function}")
+    table = html_source[html_source.index("Parameters:"):]
+    table = table[:table.index("</table>")]
+    for parameter in inspect.signature(getattr(modelicagym, function)).parameters.values():
+        name = f"**{parameter.name}" if parameter.kind is parameter.VAR_KEYWORD else parameter.name
+        row = re.search(rf"<code>{re.escape(name)}</code>.*?</tr>", table, re.DOTALL)
+        assert row is not None, f"{function}: no row for {name}"
+        cells = [text(cell).strip() for cell in re.findall(r"<td[^>]*>(.*?)</td>", row.group(), re.DOTALL)]
+        assert len(cells) == 3 and cells[1], f"{function}: {name} has no meaning in its row: {cells}"
+
+
+@requires("docs")
+@pytest.mark.processes
+def test_signatures_are_formatted_and_references_are_links(site: Path) -> None:
+    make_vec = entry(site, "modelicagym", "modelicagym.make_vec")
+    signature = re.search(r'<div class="doc-signature highlight">(.*?)</div>', make_vec, re.DOTALL).group(1)
+    signature = html.unescape(re.sub(r"<[^>]+>", "", signature))
+    assert "\n    n: int,\n" in signature, signature  # one parameter a line
+    assert 'href="../vector/#modelicagym.vector.PoolVectorEnv"' in make_vec  # `~modelicagym.vector.PoolVectorEnv`
+    assert 'href="../env/#modelicagym.FMUEnv"' in make_vec  # `FMUEnv`, resolved where make_vec is defined
+    assert '<a href="https://farama.org/Vector-Autoreset-Mode"' in page(site, "api/vector")  # a bare URL
 
 
 @requires("docs")

@@ -86,6 +86,12 @@ class FMUEnv(gym.Env):
     tables (``fmus`` and ``connections``, or an SSP archive as ``fmu``: `modelicagym.system`), whose
     variables are then named ``component.variable``.
 
+    Args:
+        config: the config as a dict (e.g. loaded from a file): `FMUEnvConfig` lists every key.
+        render_mode: ``"rgb_array"``: `render` draws the episode's strip chart (the ``plots``
+            extra); ``None``: no rendering.
+        **options: config keys as keyword arguments; they override ``config``'s.
+
     Example::
 
         import numpy as np
@@ -103,9 +109,6 @@ class FMUEnv(gym.Env):
         )
         observation, info = env.reset(seed=0)
         observation, reward, terminated, truncated, info = env.step(np.array([5.0]))
-
-    ``config`` may be a dict (e.g. loaded from a file); keyword arguments override it. See
-    `FMUEnvConfig` for every key.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
@@ -232,6 +235,18 @@ class FMUEnv(gym.Env):
     # -- the Gymnasium API -----------------------------------------------------------------------
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+        """Start an episode at ``start_time``, with the config's parameters and fixed inputs.
+
+        Args:
+            seed: seeds the env's generator (``np_random``), which draws the parameters and fixed
+                inputs given as callables, and start states.
+            options: ``{"parameters": {name: value}}`` sets parameters for this episode only;
+                ``{"state": state}`` starts it from a state `get_state` gave (the two exclude each
+                other: a state carries its episode's parameters).
+
+        Returns:
+            The first observation (the outputs) and an empty info.
+        """
         super().reset(seed=seed)
         if (options or self._start_states is not None) and self._started_from_state(seed, options or {}):
             return self.observation(), {}
@@ -250,6 +265,18 @@ class FMUEnv(gym.Env):
         return self.observation(), {}
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """Apply ``action`` to the FMU's inputs (`action_to_inputs`) and advance it by ``time_step``.
+
+        Returns:
+            ``(observation, reward, terminated, truncated, info)``: ``terminated`` when
+                `is_terminal` says so or the FMU ended the simulation (``info["fmu_terminated"]``);
+                ``truncated`` after ``max_episode_steps``, or when the FMU failed, its message then in
+                ``info["fmu_error"]`` (the next reset starts the FMU afresh). The info is empty on an
+                ordinary step.
+
+        Raises:
+            ActionError: the action is outside the action space (a ``ValueError``).
+        """
         self._check_action(action)
         native = self._native
         if native is not None:
@@ -433,6 +460,7 @@ class FMUEnv(gym.Env):
         return None if self.strip_chart is None else self.strip_chart.draw()
 
     def close(self) -> None:
+        """Free the FMU instance (flushing the log of truncated episodes); the env cannot step after it."""
         failure_log = getattr(self, "_failure_log", None)
         if failure_log is not None:
             failure_log.flush()

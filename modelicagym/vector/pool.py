@@ -213,9 +213,12 @@ class PoolVectorEnv(VectorEnv):
             observation_mode: ``AsyncVectorEnv``'s: ``"same"`` (every env has the same observation
                 space), ``"different"`` (spaces may differ but share shape and dtype: the batched
                 space is ``batch_differing_spaces`` of them), or a ``(batched, single)`` pair.
-            context, shared_memory, daemon, worker: ``AsyncVectorEnv``'s, so that swapping the
-                class is a one-word change: ``context`` is ``start_method``; the pool always uses
-                shared memory and daemon workers, and no custom ``worker`` (else a `ConfigError`).
+            context: ``AsyncVectorEnv``'s name for ``start_method`` (taken, as the three below, so
+                that swapping the class is a one-word change); give one of the two, or the same.
+            shared_memory: ``AsyncVectorEnv``'s; taken, but the pool always uses shared memory.
+            daemon: ``AsyncVectorEnv``'s; ``True`` only (the workers are daemons, stopped with the
+                pool; else a `ConfigError`).
+            worker: ``AsyncVectorEnv``'s custom worker function; ``None`` only (else a `ConfigError`).
             batch_size: how many envs :meth:`recv` returns, for EnvPool-style partial batches
                 (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.parent.partial_batches`);
                 every env then lives in a worker. ``None``: ``num_envs``.
