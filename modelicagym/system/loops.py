@@ -23,6 +23,7 @@ exceeds `LOOP_BOUND`.
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -204,12 +205,11 @@ class LoopGuard:
         """The error for guarded connection ``k`` found diverged at ``time``."""
         loop, link, values = self.loops[k], self.links[k], self.values[k]
         value = next(v for v in values.ravel() if not abs(v) <= LOOP_BOUND)
-        what = "is not finite" if value != value or abs(value) == float("inf") else f"exceeds {LOOP_BOUND:g}"
-        other = "gauss-seidel (one connection per loop delayed)" if self.master == "jacobi" else \
-            "jacobi (every connection delayed)"
+        what = f"beyond {LOOP_BOUND:g}" if math.isfinite(value) else "not finite"
+        change = ("or use master='gauss-seidel', which delays one connection of the loop instead of all"
+                  if self.master == "jacobi" else "or break the loop at another connection (loop_breaks)")
         return LoopDivergedError(
-            f"{self.system}: the loop {loop.label} diverged: the value {link.label} carries from the previous step "
-            f"({value:g}) {what} at t = {time:g} under {self.master}. A loop read with a one-step delay grows "
-            "without bound when its gain exceeds one: lower the loop's gain, or make the time step smaller if "
-            "it runs through dynamics, or break it at another connection (loop_breaks), or try master="
-            f"{other}")
+            f"{self.system}: the loop {loop.label} diverged under {self.master}: {link.label} carried {value:g} "
+            f"from the previous step at t = {time:g}, {what}. Read with a one-step delay, a loop grows without "
+            "bound when its gain (the product of the gains around it) exceeds one: lower that gain, make the time "
+            f"step smaller where the loop runs through dynamics, {change}")
