@@ -8,6 +8,7 @@ one stops with a `LoopDivergedError` naming it, on both paths, never a NaN."""
 from __future__ import annotations
 
 import re
+import shlex
 import zipfile
 from pathlib import Path
 
@@ -243,6 +244,17 @@ def test_a_loop_with_gain_above_one_stops_with_an_error_naming_it(fmus, master, 
     assert "time step" in message and isinstance(caught.value, ArithmeticError)
 
 
+@pytest.mark.parametrize("step_path", PATHS)
+def test_a_loop_value_that_overflows_is_caught_as_not_finite(fmus, step_path):
+    # b's offset 1e300 times a's gain 1e10 overflows at the first step: inf, never passed on silently
+    config = diverging(fmus, step_path=step_path, parameters={"a.k": 1e10, "b.k": 0.5, "b.b": 1e300})
+    with FMUEnv(config) as env:
+        env.reset(seed=0)
+        with pytest.raises(LoopDivergedError, match=re.escape("b.y -> a.u carried inf from the previous step at "
+                                                              "t = 0.01, not finite.")):
+            env.step(np.array([0.0]))
+
+
 # -- what is declared, what is assumed, and what is refused ---------------------------------------
 
 def test_an_output_declaring_no_dependencies_is_said_to_close_the_loop(fmus, tmp_path):
@@ -358,3 +370,24 @@ def test_a_pool_stops_on_a_diverged_loop_naming_it(fmus, step_path):
             for _ in range(1000):
                 pool.step(np.ones((2, 1)))
     assert f"{label} carried {value:g} from the previous step at t = {time:g}" in str(caught.value)
+
+
+# -- docs/systems.md's loop example, as a user follows it --------------------------------------------
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_docs_loop_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    text = (ROOT / "docs" / "systems.md").read_text(encoding="utf-8")
+    section = text[text.index("## Loops, delays and the guard"):]
+    section = section[:section.index("\n## ")]
+    blocks = dict.fromkeys(("bash", "python", "text"), "")
+    for language, body in re.findall(r"```(\w+)\n(.*?)```", section, re.S):
+        blocks[language] += body
+    monkeypatch.chdir(tmp_path)  # the built FMUs land here, the sources are the clone's
+    for line in blocks["bash"].splitlines():
+        command = shlex.split(line.replace("tests/fmus/", f"{ROOT}/tests/fmus/"))
+        assert command[0] == "modelicagym" and cli.main(command[1:]) == 0
+    capsys.readouterr()
+    exec(compile(blocks["python"], "systems.md", "exec"), {})  # noqa: S102 - the page's example, as written
+    assert capsys.readouterr().out == blocks["text"]
