@@ -105,6 +105,14 @@ def test_a_controller_and_a_plant_close_a_loop_with_a_one_step_delay(fmus, maste
     assert_recurrence(actual, controller_plant_by_hand(master))
 
 
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_a_loop_of_model_exchange_components_runs_alike(fmus, master):
+    # each FMU in model exchange, its solver over the step (the native integrator, or Python's)
+    config = controller_plant(fmus, master=master)
+    config["fmus"] = {name: {"fmu": path, "mode": "me"} for name, path in config["fmus"].items()}
+    np.testing.assert_allclose(both_paths(config), np.array(controller_plant_by_hand(master)), rtol=1e-9, atol=1e-12)
+
+
 def test_gauss_seidel_breaks_the_loop_where_loop_breaks_says(fmus):
     config = controller_plant(fmus, loop_breaks=["ctrl.y -> plant.u"])
     with FMUEnv(config) as env:
