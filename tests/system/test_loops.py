@@ -67,10 +67,11 @@ def controller_plant(fmus: dict, **options) -> dict:
             "time_step": H, **options}
 
 
-def controller_plant_by_hand(master: str, plant_first: bool = False) -> list[list[float]]:
+def controller_plant_by_hand(master: str, plant_first: bool = False, substeps: int = 1) -> list[list[float]]:
     """Reset: each component in stepping order takes the other's output as it stands, r at its
-    start value 0. A step: Jacobi feeds both the values at t; Gauss-Seidel feeds the component
-    stepping second its partner's new value, the first one its partner's value at t."""
+    start value 0. A communication step: Jacobi feeds both the values at t; Gauss-Seidel feeds the
+    component stepping second its partner's new value, the first one its partner's value at t.
+    An env step is ``substeps`` communication steps of H / substeps."""
     if plant_first:  # the plant's input is read from the previous step: the controller's output at its start, 0
         u, y_plant = 0.0, X0
         y_ctrl = K * (0.0 - y_plant)
@@ -79,22 +80,24 @@ def controller_plant_by_hand(master: str, plant_first: bool = False) -> list[lis
         u, y_plant = y_ctrl, X0 + D * y_ctrl
     x = X0
     rows = [[y_ctrl, y_plant, x]]
+    h = H / substeps
     for r in ACTIONS:
-        if master == "jacobi":
-            u = y_ctrl
-            y_ctrl = K * (r - y_plant)
-            x = x + H * u
-            y_plant = x + D * u
-        elif plant_first:
-            u = y_ctrl
-            x = x + H * u
-            y_plant = x + D * u
-            y_ctrl = K * (r - y_plant)
-        else:
-            y_ctrl = K * (r - y_plant)
-            u = y_ctrl
-            x = x + H * u
-            y_plant = x + D * u
+        for _ in range(substeps):
+            if master == "jacobi":
+                u = y_ctrl
+                y_ctrl = K * (r - y_plant)
+                x = x + h * u
+                y_plant = x + D * u
+            elif plant_first:
+                u = y_ctrl
+                x = x + h * u
+                y_plant = x + D * u
+                y_ctrl = K * (r - y_plant)
+            else:
+                y_ctrl = K * (r - y_plant)
+                u = y_ctrl
+                x = x + h * u
+                y_plant = x + D * u
         rows.append([y_ctrl, y_plant, x])
     return rows
 
@@ -103,6 +106,12 @@ def controller_plant_by_hand(master: str, plant_first: bool = False) -> list[lis
 def test_a_controller_and_a_plant_close_a_loop_with_a_one_step_delay(fmus, master):
     actual = both_paths(controller_plant(fmus, master=master))
     assert_recurrence(actual, controller_plant_by_hand(master))
+
+
+@pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
+def test_substeps_delay_a_loop_by_one_communication_step(fmus, master):
+    actual = both_paths(controller_plant(fmus, master=master, substeps=2))
+    assert_recurrence(actual, controller_plant_by_hand(master, substeps=2))
 
 
 @pytest.mark.parametrize("master", ["jacobi", "gauss-seidel"])
@@ -319,12 +328,26 @@ SSD = """<?xml version="1.0" encoding="UTF-8"?>
 """
 
 
-def test_info_says_where_each_loop_is_broken(fmus, tmp_path, capsys):
-    ssp = tmp_path / "loop.ssp"
-    with zipfile.ZipFile(ssp, "w") as archive:
+@pytest.fixture
+def ssp(fmus, tmp_path):
+    path = tmp_path / "loop.ssp"
+    with zipfile.ZipFile(path, "w") as archive:
         archive.writestr("SystemStructure.ssd", SSD)
         archive.write(fmus["pcontrol"], "resources/ctrl.fmu")
         archive.write(fmus["feedplant"], "resources/plant.fmu")
+    return path
+
+
+def test_an_ssp_systems_loop_breaks_where_the_config_says(fmus, ssp):
+    config = {key: value for key, value in controller_plant(fmus).items() if key not in ("fmus", "connections")}
+    config.update(fmu=str(ssp), loop_breaks=["ctrl.y -> plant.u"])
+    with FMUEnv(config) as env:
+        assert env.metadata["loops"] == [("loop ctrl.y -> plant.u, plant.y -> ctrl.u: gauss-seidel reads "
+                                         "ctrl.y -> plant.u from the previous step (named in loop_breaks)")]
+    assert_recurrence(both_paths(config), controller_plant_by_hand("gauss-seidel", plant_first=True))
+
+
+def test_info_says_where_each_loop_is_broken(ssp, capsys):
     assert cli.main(["info", str(ssp)]) == 0
     lines = capsys.readouterr().out.splitlines()
     at = lines.index("stepping order (Gauss-Seidel): ctrl, plant")
@@ -390,7 +413,7 @@ def test_the_docs_loop_example_runs_as_written(tmp_path, monkeypatch, capsys):
     section = text[text.index("## Loops, delays and the guard"):]
     section = section[:section.index("\n## ")]
     blocks = dict.fromkeys(("bash", "python", "text"), "")
-    for language, body in re.findall(r"```(\w+)\n(.*?)```", section, re.S):
+    for language, body in re.findall(r"```(\w+)\n(.*?)```", section, re.DOTALL):
         blocks[language] += body
     monkeypatch.chdir(tmp_path)  # the built FMUs land here, the sources are the clone's
     for line in blocks["bash"].splitlines():
