@@ -22,6 +22,7 @@ when the type is wrong), a missing file a ``FileNotFoundError``, a failed build 
     ├── BuildError (RuntimeError)           C sources could not be compiled
     │   └── NativeBuildError                our native library (modelicagym.native)
     ├── ExtraNotInstalledError (ImportError) a feature's optional extra is missing (e.g. `plots`)
+    ├── LoopDivergedError (ArithmeticError) a system's loop read from the previous step grew without bound
     ├── FMUError                            the FMI runtime: modelicagym.fmu.errors
     │   (FMUNotFoundError, InvalidFMUError, VariableError, FMUCallError, FMUBuildError, LoadTrialError, ...)
     ├── PoolError (RuntimeError)            the pool: modelicagym.vector.errors
@@ -49,6 +50,7 @@ __all__ = [
     "DataError",
     "DiskFullError",
     "ExtraNotInstalledError",
+    "LoopDivergedError",
     "ModelicaGymError",
     "NativeBuildError",
     "NotFoundError",
@@ -118,6 +120,13 @@ class NativeBuildError(BuildError):
 class ExtraNotInstalledError(ModelicaGymError, ImportError):
     """A feature needs an optional extra that is not installed; the message names the feature and
     the ``pip install 'modelicagym[<extra>]'`` that installs it."""
+
+
+class LoopDivergedError(ModelicaGymError, ArithmeticError):
+    """A loop of a system (connections of direct feedthrough, run with a one-step delay) grew without
+    bound: a value it carries from the previous communication step is not finite or beyond
+    ``modelicagym.system.loops.LOOP_BOUND``. The message names the loop, the connection and the time,
+    and what to change (the loop's gain, the time step, where it is broken, the master)."""
 
 
 class ClusterError(ModelicaGymError, RuntimeError):

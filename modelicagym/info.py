@@ -473,8 +473,8 @@ def format_info(description: FMUDescription, validate: bool = True) -> str:
         "capabilities:",
         *capabilities,
         f"continuous states: {d.number_of_states}, event indicators: {d.number_of_event_indicators}",
-        f"default experiment: start {experiment.start_time:g} s, stop {experiment.stop_time} s, "
-        f"step {experiment.step_size} s, tolerance {experiment.tolerance}",
+        (f"default experiment: start {experiment.start_time:g} s, stop {experiment.stop_time} s, "
+        f"step {experiment.step_size} s, tolerance {experiment.tolerance}"),
         "",
         "inputs:",
         *_table(d.inputs),
@@ -521,9 +521,18 @@ def _component_line(component: Any) -> str:
     return f"  {component.name}: {d.name}, model {d.model_name!r}, FMI {d.raw.fmiVersion}, {_MODE_NAMES[mode]}; {saved}"
 
 
+def _loop_lines(system: SystemDescription) -> list[str]:
+    """The system's loops of direct feedthrough, one line each: where Gauss-Seidel reads it from the
+    previous step (and that Jacobi reads all of it so)."""
+    if not system.loops:
+        return ["loops of direct feedthrough: none"]
+    return [("loops of direct feedthrough (each read with a one-step delay; 'master': 'jacobi' reads every "
+            "connection of a loop from the previous step):"), *[f"  {line}" for line in system.loop_lines("gauss-seidel")]]
+
+
 def format_system_info(system: SystemDescription, validate: bool = True) -> str:
     """The report ``modelicagym info`` prints for a system: its components, connections (with
-    their unit conversions), stepping order, variables, and the config to start from."""
+    their unit conversions), stepping order, loops, variables, and the config to start from."""
     lines = [f"{system.name}: system {system.model_name!r} of {len(system.components)} components", "components:",
              *[_component_line(c) for c in system.components.values()], "connections:"]
     for link in system.links:
@@ -532,8 +541,9 @@ def format_system_info(system: SystemDescription, validate: bool = True) -> str:
         lines.append(f"  {link.label}{converted}")
     if not system.links:
         lines.append("    (none)")
-    lines += [f"stepping order (Gauss-Seidel): {', '.join(system.order)}", "",
-              "inputs (not connected):", *_table(system.inputs), "", "outputs:", *_table(system.outputs), "",
+    lines.append(f"stepping order (Gauss-Seidel): {', '.join(system.order)}")
+    lines += _loop_lines(system)
+    lines += ["", "inputs (not connected):", *_table(system.inputs), "", "outputs:", *_table(system.outputs), "",
               "parameters:", *_table(system.parameters), ""]
     suggestion = suggest(system, validate)
     if suggestion.config is None:

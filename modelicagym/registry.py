@@ -182,7 +182,7 @@ def make_vec(
     if isinstance(name, Mapping):
         entry_point, options = "modelicagym.env:FMUEnv", {**name, **options}
         model = open_model(options.get("fmu"), fmus=options.get("fmus"), connections=options.get("connections", ()),
-                           validate=options.get("validate", True))
+                           loop_breaks=options.get("loop_breaks", ()), validate=options.get("validate", True))
         once_per_process = model.once_per_process(options.get("mode"))
     else:
         entry_point = _entry_point(name)

@@ -52,16 +52,18 @@ class TryResult:
     fmu_error: str | None = None
     assumed: tuple[str, ...] = ()  # actions tried in TRY_BOUNDS, their range unknown
     left_out: tuple[str, ...] = ()  # variables the chart does not draw
+    loops: tuple[str, ...] = ()  # a system's loops of direct feedthrough, where each is read from the previous step
 
     def lines(self) -> list[str]:
         """One line per fact, as the command prints them."""
         lines = [
-            f"{self.model}: {self.steps} steps of random actions (seed {self.seed}), "
-            f"t = {self.start_time:g} s to {self.end_time:g} s",
+            (f"{self.model}: {self.steps} steps of random actions (seed {self.seed}), "
+            f"t = {self.start_time:g} s to {self.end_time:g} s"),
             f"the episode ended: {self.ending}",
         ]
         if self.fmu_error is not None:
             lines.append(f"FMU error at t = {self.end_time:g} s: {self.fmu_error}")
+        lines += self.loops
         lines.append(f"plot of {_count(self.n_actions, 'action')} and {_count(self.n_observations, 'observation')} "
                      f"over time: {self.plot}")
         if self.left_out:
@@ -166,6 +168,7 @@ def try_fmu(config: Mapping[str, Any], *, out: str | Path, steps: int | None = N
             end_time=env.time, ending=_ending(terminated, info, limit), plot=plot,
             n_actions=roles.count("action"), n_observations=roles.count("observation"),
             fmu_error=info.get("fmu_error"), assumed=tuple(assumed), left_out=tuple(chart.left_out),
+            loops=tuple(env.metadata.get("loops", ())),
         )
     finally:
         env.close()

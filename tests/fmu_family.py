@@ -145,6 +145,11 @@ VARIANTS: dict[str, Variant] = {
     # whose speed input is in rpm (FMI 2.0), and a shaft with friction reporting rad/s (FMI 3.0)
     "motor": Variant(FMUS_DIR / "motor", fmi_versions=(2,)),
     "inertia": Variant(FMUS_DIR / "inertia", fmi_versions=(3,)),
+    # the loops of direct feedthrough (tests/system/test_loops.py): a gain with an offset (FMI 2.0 and 3.0),
+    # a proportional controller (FMI 2.0), an integrator whose output feeds its input through (FMI 3.0)
+    "gain": Variant(FMUS_DIR / "gain"),
+    "pcontrol": Variant(FMUS_DIR / "pcontrol", fmi_versions=(2,)),
+    "feedplant": Variant(FMUS_DIR / "feedplant", fmi_versions=(3,)),
 }
 
 

@@ -32,6 +32,7 @@ from modelicagym.vector import errors as pool_errors
         (errors.BuildError, RuntimeError),
         (errors.NativeBuildError, RuntimeError),
         (errors.ExtraNotInstalledError, ImportError),
+        (errors.LoopDivergedError, ArithmeticError),
         (FMUBuildError, RuntimeError),
         (fmu_errors.FMUNotFoundError, FileNotFoundError),
         (fmu_errors.InvalidFMUError, ValueError),

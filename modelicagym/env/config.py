@@ -45,6 +45,9 @@ class FMUEnvConfig:
             system's variables are named ``component.variable`` everywhere in the config.
         master: a system's master algorithm, ``"gauss-seidel"`` (default) or ``"jacobi"``
             (`modelicagym.system.master`).
+        loop_breaks: for a system under Gauss-Seidel, the connections of its loops of direct
+            feedthrough to read from the previous step, ``["plant.y -> controller.u"]``; default:
+            where the stepping order breaks each loop (`modelicagym.system.loops`).
         substeps: a system's communication steps per env step (default 1).
         inputs: input variables driven by the action, in order.
         outputs: variables observed after every step, in order.
@@ -94,6 +97,7 @@ class FMUEnvConfig:
     fmus: Mapping[str, Any] | None = None
     connections: Sequence[Any] = ()
     master: str = "gauss-seidel"
+    loop_breaks: Sequence[Any] = ()
     substeps: int = 1
     inputs: Sequence[str] = ()
     outputs: Sequence[str] = ()

@@ -76,7 +76,7 @@ from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError
 from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
-from modelicagym.system import new_instance, open_model
+from modelicagym.system import SystemDescription, new_instance, open_model
 
 logger = logging.getLogger(__name__)
 
@@ -132,7 +132,7 @@ class FMUEnv(gym.Env):
             require_matplotlib()  # before the FMU is loaded: a missing extra is one line, nothing to free
         used = [*cfg.inputs, *cfg.outputs, *cfg.parameters, *cfg.fixed_inputs]  # bounds are on outputs
         self.description = description = open_model(cfg.fmu, fmus=cfg.fmus, connections=cfg.connections,
-                                                    validate=cfg.validate, used=used)
+                                                    loop_breaks=cfg.loop_breaks, validate=cfg.validate, used=used)
         if not cfg.outputs:
             raise ConfigError(f"{description.name}: 'outputs' is empty; outputs of this FMU: "
                              f"{', '.join(v.name for v in description.outputs) or 'none'}")
@@ -164,6 +164,9 @@ class FMUEnv(gym.Env):
             step_size=self.time_step,
             instances_per_process=cfg.instances_per_process,
         )
+        if isinstance(description, SystemDescription):
+            #: a system's loops of direct feedthrough, one line each: where the master reads it from the previous step
+            self.metadata = {**self.metadata, "loops": description.loop_lines(cfg.master)}
         self.action_space = cfg.action_space or self.make_action_space()
         self.observation_space = cfg.observation_space or self.make_observation_space()
         self._observer = Observer(space_for(self.fmu.output_variables), self.fmu.outputs)

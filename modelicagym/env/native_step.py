@@ -421,5 +421,5 @@ class NativeStep:
     def error(self) -> FMUError:
         """The error of a step that returned ``Flags.FMU_ERROR``, as the Python path raises it."""
         if self._system is not None:
-            return self._system.error()
+            return self._system.error(self.state.failed_call)
         return fmu_error(self.env.fmu, self.state)

@@ -6,7 +6,9 @@ clock, `modelicagym.env.native_fmu`; the inputs written by the connections, no a
 observation), each table an ``mg_table`` (its times, columns, offset and clock). The connections
 become ``mg_link``s between the components' own value buffers, with their unit conversion; the
 action's values reach the components from the system's input values, the outputs the system's
-output values, so the system env's action and observation moves work as one FMU's. Python resets
+output values, so the system env's action and observation moves work as one FMU's. The loop guard
+(`modelicagym.system.loops.LoopGuard`) becomes ``mg_system.guards``: the address of each value it
+checks, in its order; a diverged loop fails the C step and `error` raises the guard's error. Python resets
 the system (a reset is never native: ``mg_env.native_reset`` stays 0) and `bind` points the
 structs at the components' live instances afterwards.
 """
@@ -20,8 +22,9 @@ import numpy as np
 
 from modelicagym.env.native_fmu import FmuCalls, bind_instance, bind_snapshot, fmu_error, input_starts, instance_calls
 from modelicagym.fmu.errors import FMUError
-from modelicagym.native.abi import MgComponent, MgEnv, MgLink, MgSystem, MgTable, ValueType
+from modelicagym.native.abi import FailedCall, MgComponent, MgEnv, MgLink, MgSystem, MgTable, ValueType
 from modelicagym.system import SystemInstance
+from modelicagym.system.loops import LOOP_BOUND
 from modelicagym.system.table import TIME_OFFSET, TableInstance
 
 __all__ = ["NativeSystem"]
@@ -71,10 +74,14 @@ class NativeSystem:
             action_links, struct.n_action_links = self._keep_links(actions[name])
             struct.action_links = ctypes.addressof(action_links)
         outputs, n_outputs = self._keep_links([(target, source, 1.0, 0.0) for target, source in system.output_moves])
+        guards, n_guards = self._keep_links([(values, values, 1.0, 0.0) for values in system.guard.values])
         self._components = components
         self.struct = MgSystem(components=ctypes.addressof(components), n_components=len(order),
                                jacobi=system.master == "jacobi", substeps=system.substeps,
-                               output_links=ctypes.addressof(outputs), n_output_links=n_outputs)
+                               output_links=ctypes.addressof(outputs), n_output_links=n_outputs,
+                               guards=ctypes.addressof(guards), n_guards=n_guards, guard_bound=LOOP_BOUND)
+        #: which guarded connection each row of ``guards`` belongs to (a connection of an array has one per value)
+        self._guard_rows = [k for k, values in enumerate(system.guard.values) for _ in range(values.size)]
         self.address = ctypes.addressof(self.struct)
 
     def _keep_links(self, pairs: list[tuple[np.ndarray, np.ndarray, float, float]]) -> tuple[ctypes.Array, int]:
@@ -118,8 +125,12 @@ class NativeSystem:
                 native = table.offset == float(split[name].get(TIME_OFFSET, 0.0))
         return native
 
-    def error(self) -> FMUError:
-        """The error of the component whose step failed in C, as the Python path raises it."""
+    def error(self, failed_call: int) -> FMUError:
+        """The error of the component whose step failed in C (``failed_call``: the system env's
+        ``mg_env.failed_call``), as the Python path raises it; a diverged loop raises its
+        `LoopDivergedError` here, as the Python path's step does."""
+        if failed_call == FailedCall.LOOP_GUARD:
+            raise self.system.loop_error(self._guard_rows[self.struct.failed_guard])
         failed = self.system.description.order[self.struct.failed_component]
         _, state, fmu, _ = next(entry for entry in self._fmus if entry[0] == failed)
         return fmu_error(fmu, state)

@@ -97,6 +97,7 @@ class FailedCall:
     SET_STATE = 4
     INTEGRATE = 5
     LOG_ERRORS = 6
+    LOOP_GUARD = 7
 
 
 class ValueType:
@@ -403,6 +404,10 @@ class MgSystem(ctypes.Structure):
         ("output_links", ctypes.c_void_p),
         ("n_output_links", ctypes.c_int64),
         ("failed_component", ctypes.c_int64),
+        ("guards", ctypes.c_void_p),
+        ("n_guards", ctypes.c_int64),
+        ("guard_bound", ctypes.c_double),
+        ("failed_guard", ctypes.c_int64),
     ]
 
 

@@ -63,6 +63,15 @@ class Component:
                 return {v.name for v in unknown.dependencies} & inputs
         return inputs
 
+    def declares_dependencies(self, output: str) -> bool:
+        """Whether the FMU declares what ``output`` depends on (FMI 2.0 ``Outputs/Unknown``, FMI 3.0
+        ``Output`` with a ``dependencies`` attribute; FMI 1.0 declares none): where it does not,
+        `depends_on` takes every input, which may be what closes a loop. A table: True."""
+        if self.description is None:
+            return True
+        return any(unknown.variable.name == output and unknown.dependencies is not None
+                   for unknown in self.description.raw.outputs)
+
 
 def open_component(name: str, source: str | os.PathLike[str] | dict, *, validate: bool = True,
                    mode: str | None = None) -> Component:

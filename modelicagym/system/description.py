@@ -1,6 +1,7 @@
 """What a system declares, in the shape `FMUEnv` reads an FMU's (`FMUDescription`): its
 variables named ``component.variable``, its inputs (the components' inputs no connection feeds),
-outputs and parameters, the checked connections and the order Gauss-Seidel steps in.
+outputs and parameters, the checked connections, the order Gauss-Seidel steps in and the loops of
+direct feedthrough (`modelicagym.system.loops`).
 
 `open_system` opens one from an SSP archive or folder, or from a config's ``fmus`` and
 ``connections``; reading it loads no FMU binary.
@@ -21,6 +22,7 @@ from modelicagym.fmu.errors import VariableError
 from modelicagym.fmu.variables import Variable
 from modelicagym.system.components import Component, open_component
 from modelicagym.system.graph import ConnectionSpec, Link, check_connections, split_name, stepping_order
+from modelicagym.system.loops import Loop, check_breaks_hold, find_loops, named_breaks
 from modelicagym.system.ssp import SystemSpec, read_ssp
 from modelicagym.system.units import Unit, conversion, declared_unit
 
@@ -40,7 +42,11 @@ class SystemDescription:
         if not self.components:
             raise ConfigError(f"{self.name}: a system needs at least one component")
         self.links: list[Link] = check_connections(self.components, spec.connections, self.name)
-        self.order = stepping_order(list(self.components), self.links)
+        self.loop_breaks: list[Link] = named_breaks(spec.loop_breaks, self.links, self.name)
+        self.order = stepping_order(list(self.components), self.links, self.loop_breaks)
+        #: the loops of direct feedthrough, each read with a one-step delay (`modelicagym.system.loops`)
+        self.loops: list[Loop] = find_loops(self.components, self.links, self.order, self.loop_breaks)
+        check_breaks_hold(self.loop_breaks, self.order, self.name)
         self._fed = {(link.target, link.target_variable): link for link in self.links}
         self.start_time = spec.start_time
         #: the values the SSP's parameter sets give (in their variables' units), applied under the
@@ -103,6 +109,10 @@ class SystemDescription:
         return any(c.description.once_per_process(c.mode) for c in self.components.values()
                    if c.description is not None)
 
+    def loop_lines(self, master: str) -> list[str]:
+        """One line per loop: where ``master`` reads it from the previous step (`Loop.describe`)."""
+        return [loop.describe(master) for loop in self.loops]
+
     def fed_by(self, name: str) -> Link | None:
         """The connection feeding input ``component.variable``, or None."""
         head, _, local = name.partition(".")
@@ -152,20 +162,24 @@ class SystemDescription:
 
 
 def open_system(fmu: str | os.PathLike[str] | None = None, *, fmus: Mapping[str, Any] | None = None,
-                connections: Sequence[Any] = (), validate: bool = True) -> SystemDescription:
+                connections: Sequence[Any] = (), loop_breaks: Sequence[Any] = (),
+                validate: bool = True) -> SystemDescription:
     """Open a system: an SSP archive or folder (``fmu``), or components and connections from a
     config (``fmus={"plant": "plant.fmu", "load": "load.csv"}``,
-    ``connections=[("motor.tau", "plant.tau"), ...]``)."""
+    ``connections=[("motor.tau", "plant.tau"), ...]``); ``loop_breaks``: the connections
+    Gauss-Seidel reads from the previous step (``["plant.y -> controller.u"]``)."""
     if fmus is not None:
         if fmu is not None:
             raise ConfigError("give 'fmu' (one FMU, or an SSP system) or 'fmus' (components to connect), not both")
         if not isinstance(fmus, Mapping):
             raise ConfigError(f"fmus must be {{name: path}}, got {fmus!r} ({type(fmus).__name__})")
-        spec = SystemSpec("system", dict(fmus), [_connection(c) for c in connections])
+        spec = SystemSpec("system", dict(fmus), [_connection(c) for c in connections], loop_breaks=loop_breaks)
         return SystemDescription(spec, None, validate)
     if connections:
         raise ConfigError("'connections' needs 'fmus' (the components they connect)")
-    return SystemDescription(read_ssp(fmu), Path(fmu).expanduser(), validate)
+    spec = read_ssp(fmu)
+    spec.loop_breaks = loop_breaks
+    return SystemDescription(spec, Path(fmu).expanduser(), validate)
 
 
 def _connection(connection: Any) -> ConnectionSpec:

@@ -1,12 +1,8 @@
 """The connection graph of a system, checked once: every end exists and is an output feeding an
-input, types agree, units convert, each input has at most one source, no algebraic loop; and the
-order the Gauss-Seidel master steps the components in.
-
-An algebraic loop is a cycle of connections in which each output depends directly on the input
-before it (the FMUs' ModelStructure dependencies): its values at a communication point would need
-an iteration fixed-step co-simulation does not do, so it is refused, naming the connections. A
-cycle through an output without direct feedthrough (a state) is fine: each step uses the values
-the master has, new or one step old.
+input, types agree, units convert, each input has at most one source; and the order the
+Gauss-Seidel master steps the components in. A cycle of connections is fine: each step uses the
+values the master has, new or one step old (`modelicagym.system.loops` for cycles of direct
+feedthrough).
 """
 
 from __future__ import annotations
@@ -98,57 +94,34 @@ def check_connections(components: Mapping[str, Component], connections: Sequence
         if not convert.identity and out.kind != "float":
             raise ConfigError(f"{where}: a unit conversion on a {out.fmi_type} value; only floats convert")
         links.append(Link(source.name, source_name, target.name, target_name, convert))
-    loop = algebraic_loop(components, links)
-    if loop:
-        raise ConfigError(f"{system}: algebraic loop through {' and '.join(link.label for link in loop)}: each "
-                          "output there depends directly on the input before it, which fixed-step co-simulation "
-                          "cannot solve; remove one of these connections or feed it from an output without direct "
-                          "feedthrough")
     return links
 
 
-def algebraic_loop(components: Mapping[str, Component], links: Sequence[Link]) -> list[Link]:
-    """The links of a cycle of direct dependencies (see the module docstring), or an empty list."""
-    # from each link, the links its target's component starts from outputs that depend on that input
-    after: dict[Link, list[Link]] = {}
-    for link in links:
-        component = components[link.target]
-        after[link] = [nxt for nxt in links if nxt.source == link.target
-                       and link.target_variable in component.depends_on(nxt.source_variable)]
-    state: dict[Link, int] = {}  # 1: on the path, 2: done
-    path: list[Link] = []
-
-    def visit(link: Link) -> list[Link]:
-        state[link] = 1
-        path.append(link)
-        for nxt in after[link]:
-            if state.get(nxt) == 1:
-                return path[path.index(nxt):]
-            if nxt not in state:
-                found = visit(nxt)
-                if found:
-                    return found
-        path.pop()
-        state[link] = 2
-        return []
-
-    for link in links:
-        if link not in state:
-            found = visit(link)
-            if found:
-                return found
-    return []
-
-
-def stepping_order(components: Sequence[str], links: Sequence[Link]) -> list[str]:
+def stepping_order(components: Sequence[str], links: Sequence[Link], breaks: Sequence[Link] = ()) -> list[str]:
     """The order Gauss-Seidel steps the components in: each after the components that feed it
-    (sources first, a table before what it drives); within a cycle (through a state, so no
-    algebraic loop), the component declared first goes first."""
-    feeds = {name: {link.source for link in links if link.target == name and link.source != name}
-             for name in components}
+    (sources first, a table before what it drives), a connection of ``breaks`` aside. Where a cycle
+    leaves none ready, the component declared first among those that wait for nothing outside
+    their cycle goes first (its connections from the cycle are then read from the previous step)."""
+    feeds = {name: {link.source for link in links if link.target == name and link.source != name
+                    and link not in breaks} for name in components}
     order: list[str] = []
     while len(order) < len(components):
         left = [name for name in components if name not in order]
         ready = [name for name in left if feeds[name] <= set(order)]
-        order.append(ready[0] if ready else left[0])
+        order.append(ready[0] if ready else _first_of_cycle(left, feeds))
     return order
+
+
+def _first_of_cycle(left: list[str], feeds: dict[str, set[str]]) -> str:
+    """The first of ``left`` whose cycle waits for nothing else of ``left``: every component of
+    ``left`` upstream of it is also downstream of it."""
+    upstream = {}
+    for name in left:
+        seen, todo = set(), [name]
+        while todo:
+            for source in feeds[todo.pop()] & set(left):
+                if source not in seen:
+                    seen.add(source)
+                    todo.append(source)
+        upstream[name] = seen
+    return next(name for name in left if all(name in upstream[source] for source in upstream[name]))

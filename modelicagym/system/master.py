@@ -13,6 +13,10 @@ In each communication step from ``t`` to ``t + h``:
 * ``"jacobi"``: every connection copies its source's output at ``t`` first; then every component
   steps (in the same order; each sees only values at ``t``).
 
+A loop of direct feedthrough is read with a one-step delay where the master reads its connections
+from ``t`` (`modelicagym.system.loops`); after every communication step, `LoopGuard` checks each
+value a loop carries from the previous step and raises `LoopDivergedError` when one diverged.
+
 Each FMU steps as it would alone (`FMUInstance.step`: co-simulation's doStep, model exchange's
 solver over ``h``; FMI 1.0, 2.0 and 3.0 mixed); a table moves to ``t + h``. After a reset (each
 component initialized with its parameters) the connections are copied once in that order, each
@@ -23,7 +27,7 @@ episode when one of its FMUs does.
 
 The native step path runs the same algorithm in C (``advance_system`` in
 ``modelicagym/native/csrc/step.c``, over the moves listed here: ``action_moves``, ``link_moves``,
-``output_moves``; `modelicagym.env.native_system`), with the same results bit for bit.
+``output_moves``, ``guard``; `modelicagym.env.native_system`), with the same results bit for bit.
 """
 
 from __future__ import annotations
@@ -33,13 +37,14 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.errors import ConfigError
+from modelicagym.errors import ConfigError, LoopDivergedError
 from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.errors import StateMismatchError
 from modelicagym.fmu.instance import FMUInstance
 from modelicagym.system.buffers import Values
 from modelicagym.system.description import MASTERS, SystemDescription
 from modelicagym.system.graph import Link
+from modelicagym.system.loops import LoopGuard
 from modelicagym.system.saved_state import SystemState
 from modelicagym.system.table import TableInstance
 
@@ -76,6 +81,10 @@ class SystemInstance:
             raise ConfigError(f"master must be one of {MASTERS}, got {master!r}")
         if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
             raise ConfigError(f"substeps must be a positive integer, got {substeps!r}")
+        if master == "jacobi" and description.loop_breaks:
+            raise ConfigError(f"{description.name}: loop_breaks chooses where Gauss-Seidel reads a loop from the "
+                              "previous step; jacobi reads every connection from the previous step: drop loop_breaks "
+                              "or use master='gauss-seidel'")
         self.description = description
         self.clock = StepClock()
         self.master, self.substeps = master, substeps
@@ -117,6 +126,11 @@ class SystemInstance:
         self._order = [(self.components[name], self._moves(link for link in description.links if link.target == name))
                        for name in description.order]
         self.link_moves = self._moves(description.links)
+        #: the values each loop carries from the previous step, checked after every communication step
+        self.guard = LoopGuard(description.name, master, [
+            (loop, link, self.components[link.source].outputs.views[link.source_variable])
+            for loop in description.loops for link in loop.delayed(master)
+            if description.variables[f"{link.source}.{link.source_variable}"].kind == "float"])
         self.time = self.start_time
         self._origin, self._dt, self.steps = self.start_time, 0.0, 0
 
@@ -177,7 +191,7 @@ class SystemInstance:
     def step(self, dt: float) -> bool:
         """Advance the system by ``dt`` (see the module docstring); True if an FMU ended the episode.
         An FMU's failure (`FMUCallError`) propagates: the env truncates the episode, and the next
-        reset re-instantiates the failed FMU."""
+        reset re-instantiates the failed FMU. A diverged loop raises `LoopDivergedError`."""
         if dt != self._dt:
             self._origin, self._dt, self.steps = self.time, dt, 0
         for target, source in self.action_moves:
@@ -192,6 +206,9 @@ class SystemInstance:
                 if gauss_seidel:
                     self._copy(moves)
                 ended = component.step(h) or ended
+            failed = self.guard.first_failure()
+            if failed is not None:
+                raise self.loop_error(failed)
             if ended:
                 break
         self.steps += 1
@@ -199,6 +216,10 @@ class SystemInstance:
         for target, source in self.output_moves:
             target[...] = source
         return ended
+
+    def loop_error(self, k: int) -> LoopDivergedError:
+        """The `LoopDivergedError` of the guard's connection ``k``, at its source's time."""
+        return self.guard.error(k, self.components[self.guard.links[k].source].time)
 
     def reset(self, values: Mapping[str, Any] | None = None) -> None:
         """Start every component at ``start_time`` with the system's parameter values (its SSP's)

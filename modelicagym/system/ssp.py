@@ -56,6 +56,8 @@ class SystemSpec:
     start_time: float | None = None
     #: the unit a parameter set gives a value in, where it gives one (converted to the variable's)
     parameter_units: dict[str, Unit] = field(default_factory=dict)
+    #: the connections Gauss-Seidel reads from the previous step, as the config names them (`modelicagym.system.loops`)
+    loop_breaks: list[Any] = field(default_factory=list)
 
 
 def is_ssp(path: str | Path) -> bool:

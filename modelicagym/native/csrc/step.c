@@ -2,6 +2,7 @@
 #define _GNU_SOURCE
 #include "step.h"
 
+#include <math.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -338,6 +339,17 @@ static void read_table(mg_table *table) {
     clock->fmu_time_ns += mg_now_ns() - started;
 }
 
+/* LoopGuard.first_failure (system/loops.py): the first guarded value beyond the bound or not finite, or -1. */
+static int64_t loop_guard_failure(const mg_system *system) {
+    for (int64_t k = 0; k < system->n_guards; k++) {
+        const mg_link *g = &system->guards[k];
+        double v = as_double(load((const void *)(intptr_t)g->source, g->source_type));
+        if (!(fabs(v) <= system->guard_bound))
+            return k;
+    }
+    return -1;
+}
+
 /* SystemInstance.step (system/master.py), whose docstring states the master algorithm. */
 static int32_t advance_system(mg_env *env) {
     mg_system *system = env->system;
@@ -374,6 +386,13 @@ static int32_t advance_system(mg_env *env) {
                 return flags;
             }
             ended |= fmu->clock->terminated != 0;
+        }
+        int64_t diverged = loop_guard_failure(system);
+        if (diverged >= 0) {
+            system->failed_guard = diverged;
+            env->fmi_status = 0;
+            env->failed_call = MG_CALL_LOOP_GUARD;
+            return MG_FMU_ERROR;
         }
     }
     clock->steps += 1;

@@ -122,7 +122,9 @@ typedef struct {
  * the action's values to the components' inputs, then per communication step each component's own
  * step (an FMU: its mg_env, python_inputs, no action, bounds or observation; a table: mg_table),
  * the connections copied along the way (Gauss-Seidel: into each component just before it steps;
- * Jacobi: all of them first), then the components' outputs to the system's output values. */
+ * Jacobi: all of them first), then the components' outputs to the system's output values. After each
+ * communication step the loop guard (system/loops.py) checks the values the system's loops carry from
+ * the previous step: one beyond `guard_bound` or not finite fails the step (MG_CALL_LOOP_GUARD). */
 
 /* One connection: target = scale * source + shift (the identity copies as a move does). */
 typedef struct {
@@ -160,6 +162,10 @@ struct mg_system {
     const mg_link *output_links; /* the components' outputs -> the system's output values */
     int64_t n_output_links;
     int64_t failed_component; /* the component (stepping order) whose call failed, with MG_FMU_ERROR */
+    const mg_link *guards; /* the loop guard's values: `source`, `source_type` (LoopGuard's order) */
+    int64_t n_guards;
+    double guard_bound;
+    int64_t failed_guard; /* the guard's value beyond the bound, with MG_CALL_LOOP_GUARD */
 };
 
 /* Flags returned by mg_env_step / per env by mg_step_batch (slice.h). */
@@ -179,6 +185,7 @@ enum {
     MG_CALL_SET_STATE = 4,
     MG_CALL_INTEGRATE = 5,
     MG_CALL_LOG_ERRORS = 6, /* the calls returned OK, but the FMU logged more errors than clock->log_error_limit */
+    MG_CALL_LOOP_GUARD = 7, /* a system's loop diverged (mg_system.failed_guard) */
 };
 
 /* One step of one env. `action` points to an int64 (discrete) or an action row (action_moves).
