@@ -42,7 +42,7 @@ from modelicagym.vector.wire.sync import machine_crowded
 TESTS = Path(__file__).resolve().parent
 #: folders (of ``tests/``) whose every test starts processes: the pool's, Ray's, the examples' and
 #: the benchmarks' (scripts run in subprocesses)
-PROCESS_FOLDERS = ("vector", "distributed", "examples", "bench")
+PROCESS_FOLDERS = ("vector", "distributed", "examples", "bench", "docs")
 #: fixtures whose setup starts processes (the fork server, the resource tracker)
 PROCESS_FIXTURES = {"pool_services", "no_leaks"}
 GUARD = ProcessGuard()

@@ -1,0 +1,116 @@
+"""Every code block on the user pages runs as written, in the order a reader meets it.
+
+The README and each user page of the site (`USER_PAGES`) are read with Sybil: its Python code
+blocks run one after another in one namespace a page, as a reader's session would, and its
+``bash`` blocks run in a shell. A page runs in an empty folder of its own, like a newcomer's
+(``modelicagym sample heater`` on the page writes the FMU it goes on to use), where ``.venv`` is
+the environment running the tests and ``examples/`` the checkout's scripts, so the README's
+``.venv/bin/python examples/rollout.py`` runs as written. What must not run here says so on the
+page, in a comment the reader does not see: ``<!-- skip: next "why" -->`` before the block (an
+install line, which `tests/test_wheel.py` runs in a fresh venv; a server that never ends).
+
+Every Markdown page of the site is either a user page or a maintainers' page (`MAINTAINER_PAGES`),
+so a new page cannot escape the check by being forgotten.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import unittest
+from collections.abc import Iterator
+from pathlib import Path
+
+import gymnasium
+import pytest
+from extras import requires
+from sybil import Example, Sybil
+from sybil.evaluators.skip import Skipper
+from sybil.parsers.markdown import CodeBlockParser, PythonCodeBlockParser, SkipParser
+
+ROOT = Path(__file__).resolve().parents[2]
+#: the pages written for users, whose every code block runs
+USER_PAGES = (
+    "README.md",
+    "docs/index.md",
+    "docs/getting-started.md",
+    "docs/own-fmu.md",
+    "docs/env.md",
+    "docs/systems.md",
+    "docs/pool.md",
+    "docs/training.md",
+    "docs/train-own-fmu.md",
+    "docs/cli.md",
+    "docs/speed.md",
+    "docs/paper.md",
+    "docs/ray.md",
+)
+#: pages for the people changing modelicagym, or generated: their blocks are not run
+MAINTAINER_PAGES = (
+    "docs/design.md",
+    "docs/reproduction.md",
+    "docs/reproduction-notes.md",
+    "docs/cartpole-solver.md",
+    "docs/api/*.md",
+)
+#: the longest a page's shell block may run (a sweep of the paper's study, a short training)
+SHELL_TIMEOUT_S = 600
+
+
+def run_shell(example: Example) -> None:
+    """Run a ``bash`` block in the page's folder; a failing command fails the page, showing its output."""
+    folder = Path(example.namespace["__folder__"])
+    environment = {**os.environ, "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ["PATH"]])}
+    result = subprocess.run(["bash", "-euo", "pipefail", "-c", example.parsed], cwd=folder, env=environment,
+                            capture_output=True, text=True, timeout=SHELL_TIMEOUT_S, check=False)
+    if result.returncode != 0:
+        raise AssertionError(f"{example.path}, line {example.line}: exit status {result.returncode} from\n"
+                             f"{example.parsed}\n--- output ---\n{result.stdout[-3000:]}{result.stderr[-3000:]}")
+
+
+SYBIL = Sybil(parsers=[PythonCodeBlockParser(), CodeBlockParser(language="bash", evaluator=run_shell), SkipParser()])
+
+
+def _close_envs(namespace: dict[str, object]) -> None:
+    """Close what a page left open (a reader's session ends; the test's must not leak workers)."""
+    for value in namespace.values():
+        if isinstance(value, (gymnasium.Env, gymnasium.vector.VectorEnv)):
+            value.close()
+
+
+@pytest.fixture
+def page_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """An empty folder a page runs in, as a newcomer's, with the checkout's examples and this
+    environment as ``.venv``."""
+    (tmp_path / ".venv").symlink_to(sys.prefix, target_is_directory=True)
+    (tmp_path / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    yield tmp_path
+
+
+@requires("plots")
+@pytest.mark.parametrize("page", USER_PAGES)
+def test_page_examples_run(page: str, page_folder: Path) -> None:
+    document = SYBIL.parse(ROOT / page)
+    document.namespace["__folder__"] = str(page_folder)
+    try:
+        for example in document:
+            if isinstance(example.region.evaluator, Skipper):
+                action, reason = example.parsed
+                assert action == "end" or reason, f"{page}, line {example.line}: a skip says why (skip: next \"why\")"
+            try:
+                example.evaluate()
+            except unittest.SkipTest:
+                continue
+    finally:
+        _close_envs(document.namespace)
+
+
+def test_every_page_is_a_user_or_a_maintainers_page() -> None:
+    pages = {str(path.relative_to(ROOT)) for path in (ROOT / "docs").rglob("*.md")}
+    listed = {page for page in USER_PAGES if page.startswith("docs/")}
+    for pattern in MAINTAINER_PAGES:
+        listed |= {str(path.relative_to(ROOT)) for path in ROOT.glob(pattern)}
+    assert pages - listed == set(), "a page of the site is in neither USER_PAGES nor MAINTAINER_PAGES"
