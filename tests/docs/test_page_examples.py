@@ -43,12 +43,19 @@ USER_PAGES = (
     "docs/train-own-fmu.md",
     "docs/cli.md",
     "docs/speed.md",
+    "docs/faq.md",
+    "docs/glossary.md",
     "docs/paper.md",
     "docs/ray.md",
+    "docs/environments/index.md",
+    "docs/environments/cartpole.md",
+    "docs/environments/cartpole-continuous.md",
+    "docs/environments/pendulum.md",
 )
 #: pages for the people changing modelicagym, or generated: their blocks are not run
 MAINTAINER_PAGES = (
     "docs/design.md",
+    "docs/development/*.md",
     "docs/reproduction.md",
     "docs/reproduction-notes.md",
     "docs/cartpole-solver.md",
