@@ -38,6 +38,9 @@ SOURCES_DIR = Path(__file__).resolve().parent / "csrc"
 _NAME = "libmodelicagym_native.so"
 #: -ffp-contract=off: no fused multiply-add, so C does the arithmetic of the Python path and of fmpy's binaries
 _FLAGS = ("-O2", "-shared", "-fPIC", "-pthread", "-std=c11", "-Wall", "-ffp-contract=off")
+#: how an extension sees the production headers: for ``#include "step.h"`` only, so that ours never
+#: stand in for a system header of the same name (``signal.h``, which ``<sys/wait.h>`` includes)
+_HEADERS = "-iquote"
 
 
 def _compiler(what: str = "modelicagym's native step library") -> str:
@@ -116,8 +119,8 @@ def load_library() -> ctypes.CDLL:
 def load_extension(sources: Path, name: str, signatures: dict[str, tuple], what: str) -> ctypes.CDLL:
     """The library of ``sources`` (a folder of C), apart from the production one: built like it on
     first use into the cache, under a hash of its sources and of the production library it links
-    against. Its C includes the production headers (``csrc/``) and calls the production library's
-    functions: the very instance `load_library` loaded into this process, so both see one state.
+    against. Its C includes the production headers (``#include "step.h"``) and calls the production
+    library's functions: the very instance `load_library` loaded into this process, one state.
 
     For C that only benchmarks run (``name``: its file name; ``signatures`` as `SIGNATURES`; ``what``
     names it in messages). Raises `NativeBuildError`, which says so when there is no C compiler.
@@ -125,9 +128,9 @@ def load_extension(sources: Path, name: str, signatures: dict[str, tuple], what:
     compiler = _compiler(what)
     production = Path(load_library()._name)
     files = _sources(sources)
-    path = cache_dir() / "native" / "extensions" / _digest(compiler, files, str(production)) / name
-    build_args = ["-I", str(SOURCES_DIR), *_c_files(files), str(production), "-lm"]
-    return _load(ensure(path, lambda: _build(compiler, path, build_args, what), what), signatures)
+    path = cache_dir() / "native" / "extensions" / _digest(compiler, files, _HEADERS, str(production)) / name
+    inputs = [_HEADERS, str(SOURCES_DIR), *_c_files(files), str(production), "-lm"]
+    return _load(ensure(path, lambda: _build(compiler, path, inputs, what), what), signatures)
 
 
 def _c_files(sources: list[Path]) -> list[str]:
