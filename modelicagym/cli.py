@@ -8,7 +8,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from modelicagym.console import add_debug_flag, run_command
+from modelicagym.console import add_debug_flag, add_module_commands, run_command
 from modelicagym.errors import ArgumentError
 
 if TYPE_CHECKING:
@@ -76,15 +76,23 @@ def _build(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bench(args: argparse.Namespace) -> int:
-    from modelicagym.bench import main as bench_main
-
-    return bench_main(args)
+#: what ``modelicagym bench`` runs, before and while training, in the order its help lists them:
+#: (name, module, summary); a module is imported only when its benchmark runs
+BENCHMARKS = (
+    ("fmu", "modelicagym.bench.own_fmu", "your FMU: one env, Sync/AsyncVectorEnv and the pool, side by side"),
+    ("step-paths", "modelicagym.bench.step_paths",
+     "one env of your FMU on the native step path, the Python path and our C loop"),
+    ("throughput", "modelicagym.bench.throughput", "the cart-pole stepped every way a user can, by number of envs"),
+    ("shared", "modelicagym.bench.shared_machine",
+     "the same on a shared machine: a busy process, two trainings, a learner"),
+    ("training", "modelicagym.bench.training",
+     "PPO on every vector env, where the time goes; --seeds N: the presets over seeds"),
+    ("ray", "modelicagym.bench.ray", "scaling out: Ray actors next to the local pool, per-step calls and rollouts"),
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
     from modelicagym import __version__
-    from modelicagym.bench import add_arguments as bench_arguments
     from modelicagym.experiments.cli import add_parsers as experiment_parsers
     from modelicagym.fmu.build import FMI_VERSIONS
 
@@ -125,9 +133,12 @@ def build_parser() -> argparse.ArgumentParser:
                             "FMI 1.0 builds a co-simulation and a model-exchange FMU)")
     build.set_defaults(func=_build)
 
-    bench = commands.add_parser("bench", help="benchmarks: FMI call costs, pool throughput")
-    bench_arguments(bench)
-    bench.set_defaults(func=_bench)
+    bench = commands.add_parser(
+        "bench", help="benchmarks: what a step of your FMU costs, stepped every way; the pool's throughput",
+        description="Measure before you train: each benchmark runs its candidates side by side in interleaved "
+                    "rounds, prints a table with the machine's cores and load, and writes JSON to bench-results/.")
+    add_module_commands(bench, BENCHMARKS, dest="benchmark", required=True, metavar="BENCHMARK",
+                        title="benchmarks (modelicagym bench BENCHMARK --help)")
 
     experiment_parsers(commands)
     _debug_flag_on_subcommands(parser)

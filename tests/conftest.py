@@ -3,14 +3,16 @@
 
 Tests are laid out like the package (``fmu/``, ``native/``, ``env/``, ``models/``, ``vector/``,
 ``agents/``, ``experiments/``, ``distributed/``, ``bench/``, ``examples/``; the package's top-level
-modules at the top). The helpers they share sit here beside this file (pytest puts this folder on
-``sys.path``), in modules named for what they hold: ``fmu_family`` (the test FMUs), ``episodes``
-(driving an env through an episode), ``step_paths`` (envs on the native and the Python step path),
-``vector_envs`` and ``vector_rollouts`` (envs and comparisons for the pool), ``vector_leaks``
-(processes, /dev/shm entries and fds), ``toy_envs`` (tiny envs for the agent and the experiments),
-``reference_cartpole`` (independent cart-pole physics), ``ray_cluster`` and ``sweep_checks`` (a local
-Ray, and sweeps compared with a local run), ``extras`` (skipping what needs an optional extra that
-is not installed), ``process_guard`` (the ``processes`` marker kept true).
+modules at the top), and ``benchmarks/`` for a clone's ``benchmarks/``. The helpers they share sit
+here beside this file (pytest puts this folder on ``sys.path``), in modules named for what they
+hold: ``fmu_family`` (the test FMUs), ``episodes`` (driving an env through an episode),
+``step_paths`` (envs on the native and the Python step path), ``vector_envs`` and
+``vector_rollouts`` (envs and comparisons for the pool), ``vector_leaks`` (processes, /dev/shm
+entries and fds), ``toy_envs`` (tiny envs for the agent and the experiments), ``reference_cartpole``
+(independent cart-pole physics), ``ray_cluster`` and ``sweep_checks`` (a local Ray, and sweeps
+compared with a local run), ``extras`` (skipping what needs an optional extra that is not
+installed), ``process_guard`` (the ``processes`` marker kept true), ``bench_runs`` (a benchmark run
+in a fresh process), ``help_texts`` (a command's ``--help`` as its reader sees it).
 
 Tests that start processes are marked ``processes``: every test of the folders in
 `PROCESS_FOLDERS` or using a fixture of `PROCESS_FIXTURES`, and elsewhere by hand; the guard fails
@@ -40,9 +42,9 @@ from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.wire.sync import machine_crowded
 
 TESTS = Path(__file__).resolve().parent
-#: folders (of ``tests/``) whose every test starts processes: the pool's, Ray's, the examples' and
-#: the benchmarks' (scripts run in subprocesses)
-PROCESS_FOLDERS = ("vector", "distributed", "examples", "bench", "docs")
+#: folders (of ``tests/``) whose every test starts processes: the pool's, Ray's, the examples',
+#: the benchmarks' (scripts run in subprocesses) and the docs' code blocks
+PROCESS_FOLDERS = ("vector", "distributed", "examples", "bench", "benchmarks", "docs")
 #: fixtures whose setup starts processes (the fork server, the resource tracker)
 PROCESS_FIXTURES = {"pool_services", "no_leaks"}
 GUARD = ProcessGuard()

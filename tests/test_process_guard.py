@@ -40,6 +40,7 @@ def test_every_way_to_start_a_process_is_seen(guard: ProcessGuard) -> None:
 def test_a_build_into_the_developers_cache_passes_and_anything_else_is_seen(guard: ProcessGuard,
                                                                            tmp_path: Path) -> None:
     guard.cache = str(tmp_path)
-    library._build(library._compiler(), tmp_path, tmp_path / "lib.so")  # the native library, into "the cache"
+    sources = library._c_files(library._sources())
+    library._build(library._compiler(), tmp_path / "lib.so", sources, "the native library")  # into "the cache"
     subprocess.run(["ls", str(tmp_path)], check=True, stdout=subprocess.DEVNULL)  # the test's own, on the cache
     assert [s.partition(",")[0] for s in guard.end()] == [f"Popen._execute_child (ls {tmp_path})"]

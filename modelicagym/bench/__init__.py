@@ -2,6 +2,11 @@
 
 This machine is noisy, so every benchmark measures its candidates side by side in one run,
 interleaved over several repeats, and reports medians and ratios between them.
+
+The modules here are what a user runs (``modelicagym bench NAME``: `modelicagym.cli.BENCHMARKS`),
+and this package holds the helpers they share. The benchmarks of modelicagym's own parts, which only
+matter to whoever changes them, live in a clone's ``benchmarks/`` (``python -m benchmarks --help``)
+and use these helpers too.
 """
 
 from __future__ import annotations
@@ -95,66 +100,3 @@ def conditions(load_before: tuple[float, float, float], repeats: int, seconds: f
             f"medians of {repeats} interleaved rounds of {seconds} s\n{wake_line}")
     return line, {"cores": cores.cores, "cores_detail": str(cores), "cpu_count": os.cpu_count(),
                   "load_average": {"before": load_before, "after": load_after}, **wake}
-
-
-#: what a user runs before and while training, in the order ``bench --help`` lists them
-USER_BENCHMARKS = (
-    ("fmu", "own_fmu", "your FMU: one env, Sync/AsyncVectorEnv and the pool, side by side"),
-    ("step-paths", "step_paths", "one env of your FMU on the native step path, the Python path and our C loop"),
-    ("throughput", "throughput", "the cart-pole stepped every way a user can, by number of envs"),
-    ("shared", "shared_machine", "the same on a shared machine: a busy process, two trainings, a learner"),
-    ("training", "training", "PPO on every vector env, where the time goes; --seeds N: the presets over seeds"),
-    ("ray", "ray", "scaling out: Ray actors next to the local pool, per-step calls and rollouts"),
-)
-#: what measures modelicagym's own parts, under ``bench internals``
-INTERNAL_BENCHMARKS = (
-    ("fmi-calls", "fmi_calls", "one cart-pole step, layer by layer: doStep, the FMI calls, FMUEnv.step"),
-    ("model-exchange", "model_exchange", "each solver (CVode, Euler, RK4) on both step paths against co-simulation"),
-    ("autoreset", "autoreset", "the pool in each autoreset mode: same-step against next-step"),
-    ("python-reward", "python_reward", "a reward written in Python (per env, on arrays) against the native one"),
-    ("partial-batches", "partial_batches", "send/recv (EnvPool's partial batches) against the barrier step"),
-    ("balance", "balance", "the layout balanced by cost, for envs whose cost varies with their state"),
-    ("pool-gain", "pool_gain", "the default pool against one env, per FMU, with the bar each must meet"),
-    ("once-per-process", "once_per_process", "once per process: copies of its binary against one env a worker"),
-    ("init-once", "init_once", 'a pool\'s start, each env initializing against init="once"'),
-    ("saved-states", "saved_states", "bytes and microseconds per saved and loaded state"),
-    ("load-trial", "load_trial", "an FMU binary's first load (tried in a child) against a kept verdict"),
-    ("barrier", "barrier", "an empty step's synchronisation, by number of workers"),
-    ("runner", "runner", "the paper study's training loop against the bare pool, part by part"),
-    ("solver-accuracy", "solver_accuracy", "the cart-pole's internal step: error against cost"),
-)
-
-
-def _add_benchmark(which: Any, name: str, module_name: str, summary: str | None = None) -> None:
-    import argparse
-    import importlib
-
-    module = importlib.import_module(f"modelicagym.bench.{module_name}")
-    doc = (module.__doc__ or "").strip().splitlines()
-    sub = which.add_parser(name, help=summary or doc[0], description=doc[0] if doc else None,
-                           formatter_class=argparse.RawDescriptionHelpFormatter)
-    module.add_arguments(sub)
-    sub.set_defaults(benchmark_run=module.run)
-
-
-def add_arguments(parser: Any) -> None:
-    """``modelicagym bench``: the benchmarks a user runs (`USER_BENCHMARKS`), then ``bench internals``,
-    the benchmarks of modelicagym's own parts (`INTERNAL_BENCHMARKS`); their arguments."""
-    parser.description = ("Measure before you train: each benchmark runs its candidates side by side in "
-                          "interleaved rounds, prints a table with the machine's cores and load, and writes JSON "
-                          "to bench-results/.")
-    which = parser.add_subparsers(dest="benchmark", required=True, metavar="BENCHMARK",
-                                  title="benchmarks (modelicagym bench BENCHMARK --help)")
-    for name, module_name, summary in USER_BENCHMARKS:
-        _add_benchmark(which, name, module_name, summary)
-    internals = which.add_parser(
-        "internals", help="benchmarks of modelicagym's own parts: FMI calls, solvers, the pool's mechanisms",
-        description="Benchmarks of modelicagym's own parts, which its design and its figures rest on.")
-    inner = internals.add_subparsers(dest="internal_benchmark", required=True, metavar="BENCHMARK",
-                                     title="benchmarks (modelicagym bench internals BENCHMARK --help)")
-    for name, module_name, summary in INTERNAL_BENCHMARKS:
-        _add_benchmark(inner, name, module_name, summary)
-
-
-def main(args: Any) -> int:
-    return args.benchmark_run(args)

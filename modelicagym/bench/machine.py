@@ -39,12 +39,13 @@ def halt_poll_ns(path: Path = HALT_POLL_NS) -> int | None:
 
 def wake_round_trip_us() -> float | None:
     """Median microseconds of a round trip between two processes on two cores that sleep between
-    posts (our native library's ``mg_wake_round_trip_ns``); ``None`` without the library or with
-    one usable core."""
-    from modelicagym.native.library import NativeBuildError, load_library
+    posts (``mg_wake_round_trip_ns``, `modelicagym.bench.native`); ``None`` without the library or
+    with one usable core."""
+    from modelicagym.bench.native import bench_library
+    from modelicagym.errors import NativeBuildError
 
     try:
-        nanoseconds = load_library().mg_wake_round_trip_ns(ROUNDS)
+        nanoseconds = bench_library().mg_wake_round_trip_ns(ROUNDS)
     except NativeBuildError as error:
         logger.info("no wake-up measurement: %s", error)
         return None

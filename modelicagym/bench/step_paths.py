@@ -3,8 +3,8 @@
 For an FMU (its inputs and outputs of any type: by default every input and output it declares that
 holds numbers), measured side by side in one run, with random actions of the env's action space:
 
-* ``C loop``: our native library's loop (``mg_loop``) over the env's own ``mg_env``: the same C
-  step the native path takes, without Python (the limit of one core);
+* ``C loop``: the benchmarks' C loop (``mg_loop``, `modelicagym.bench.native`) over the env's own
+  ``mg_env``: the same C step the native path takes, without Python (the limit of one core);
 * ``FMUEnv.step (native)``: the whole env step on the native path (action check, the C step, the
   observation as the env's space holds it);
 * ``FMUEnv.step (python)``: the same env forced onto the Python path.
@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from modelicagym.bench import format_table, median, time_rounds, write_json
+from modelicagym.bench.native import bench_library
 from modelicagym.errors import ConfigError
 from modelicagym.fmu import open_fmu
 from modelicagym.fmu.errors import FMUError
@@ -61,7 +62,7 @@ def measure(fmu: str | Path, inputs: list[str] | None = None, outputs: list[str]
         env.reset(seed=0)
     loop_step = loop_env.native_step
     loop_step.step(actions[0])  # fills the action row (or index) mg_loop then repeats
-    run_loop, state = loop_step.library.mg_loop, ctypes.byref(loop_step.state)
+    run_loop, state = bench_library().mg_loop, ctypes.byref(loop_step.state)
 
     def c_loop() -> int:
         if run_loop(state, steps, loop_step.action_pointer) != steps:

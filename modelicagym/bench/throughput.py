@@ -36,6 +36,7 @@ from gymnasium.vector import AutoresetMode
 
 import modelicagym
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
+from modelicagym.bench.native import bench_library
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import FMUError
 from modelicagym.registry import EnvFactory
@@ -74,7 +75,7 @@ def single_loop(env: gym.Env, seed: int) -> Run:
 
 
 def c_loop(env: gym.Env) -> Run:
-    """``mg_loop`` of our native library over the env's own FMU instance (alternating pushes)."""
+    """``mg_loop`` (`modelicagym.bench.native`) over the env's own FMU instance (alternating pushes)."""
     native = env.unwrapped.native_step
     if native is None or env.unwrapped.python_edges:
         raise ConfigError(f"the C loop needs the whole step in C: {env.unwrapped.step_path_reason}")
@@ -84,7 +85,7 @@ def c_loop(env: gym.Env) -> Run:
     env.reset()  # the second reset checks the snapshot rung: from then on a reset is a restore
     if not native.state.native_reset:
         raise ConfigError("the C loop needs resets by snapshot restore (reset_rung 'snapshot')")
-    loop, state = native.library.mg_loop, ctypes.byref(native.state)
+    loop, state = bench_library().mg_loop, ctypes.byref(native.state)
 
     def run(steps: int) -> int:
         if loop(state, steps, None) != steps:

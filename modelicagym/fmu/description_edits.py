@@ -3,7 +3,7 @@
 FMUs in the wild declare what our test models do not: one instance per process, no state
 snapshots, a non-zero start time. The same C model built with an edited model description
 reproduces them (the test family's variants, ``tests/fmu_family.py``; the ``moody`` FMU allowed
-once per process in ``modelicagym bench internals pool-gain``). The edit lives apart from ``build.py``
+once per process in ``python -m benchmarks pool-gain``). The edit lives apart from ``build.py``
 because every cached FMU's key hashes that file: editing this one rebuilds nothing.
 """
 

@@ -44,7 +44,7 @@ static void set_start_values(ModelData *m) {
     m->theta_dot_0 = 0.0;
     m->x_0 = 0.0;
     m->x_dot_0 = 0.0;
-    m->cs_step_size = 5e-3; /* chosen by bench/solver_accuracy.py: docs/cartpole-solver.md */
+    m->cs_step_size = 5e-3; /* chosen by benchmarks/solver_accuracy.py: docs/cartpole-solver.md */
     m->x = m->x_0;
     m->x_dot = m->x_dot_0;
     m->theta = m->theta_0;

@@ -200,9 +200,4 @@ int32_t mg_env_step(mg_env *env, const void *action, double *reward);
 /* Restore the snapshot (a reset on the "snapshot" rung); 0 on success, else MG_FMU_ERROR. */
 int32_t mg_env_reset(mg_env *env);
 
-/* The physical limit (bench_loop.c, for the benchmarks only): `steps` steps of one env with a fixed action pattern (action k % n_actions,
- * or the Box action given), resetting natively at every episode end; returns the steps done or
- * -1 on an FMU error. */
-int64_t mg_loop(mg_env *env, int64_t steps, const void *box_action);
-
 #endif

@@ -28,8 +28,8 @@ import gymnasium as gym
 import numpy as np
 
 import modelicagym
+from benchmarks.balance import MOODY_SOURCES
 from modelicagym.bench import conditions, format_table, median, write_json
-from modelicagym.bench.balance import MOODY_SOURCES
 from modelicagym.bench.shared_machine import users_config
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.fmu import open_fmu
@@ -95,7 +95,7 @@ class Case:
 def _moody(once: bool) -> Path:
     """The moody test FMU (FMI 2.0) built from the checkout's sources, allowed once per process or not."""
     if not MOODY_SOURCES.is_dir():
-        raise ConfigError(f"bench internals pool-gain: the moody cases are built from {MOODY_SOURCES}, which is not here: "
+        raise ConfigError(f"pool-gain: the moody cases are built from {MOODY_SOURCES}, which is not here: "
                           "run from a checkout of modelicagym, or leave them out (--cases cartpole-user)")
     description = edited_description(MOODY_SOURCES / description_name(2), once_per_process=True) if once else None
     return build_source_fmu(MOODY_SOURCES, 2, model_description=description)
@@ -264,12 +264,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _check(args: argparse.Namespace) -> None:
     for option, value, low in (("--rounds", args.rounds, 1), *(("--n", n, 1) for n in args.n or [])):
         if value < low:
-            raise ArgumentError(f"bench internals pool-gain {option}: at least {low}, got {value}")
+            raise ArgumentError(f"pool-gain {option}: at least {low}, got {value}")
     if args.seconds <= 0 or args.warm < 0:
-        raise ArgumentError(f"bench internals pool-gain: --seconds must be more than 0 and --warm at least 0, "
+        raise ArgumentError(f"pool-gain: --seconds must be more than 0 and --warm at least 0, "
                             f"got {args.seconds} and {args.warm}")
     if not args.cases and not args.fmu:
-        raise ArgumentError("bench internals pool-gain: nothing to measure: name --cases or give --fmu PATH")
+        raise ArgumentError("pool-gain: nothing to measure: name --cases or give --fmu PATH")
 
 
 def run(args: argparse.Namespace) -> int:

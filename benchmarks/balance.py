@@ -38,7 +38,7 @@ from modelicagym.vector import PoolVectorEnv
 logger = logging.getLogger(__name__)
 
 #: the moody FMU's sources in a checkout of the repository
-MOODY_SOURCES = Path(__file__).resolve().parents[2] / "tests" / "fmus" / "moody"
+MOODY_SOURCES = Path(__file__).resolve().parents[1] / "tests" / "fmus" / "moody"
 SETTINGS = ("skewed", "even")
 CANDIDATES = ("sync", "fixed", "pool")
 EPISODE_STEPS = 200

@@ -21,7 +21,7 @@ from modelicagym.fmu.build import build_source_fmu
 from modelicagym.vector import PoolVectorEnv
 
 #: the test FMU built when no ``--fmu`` is given (a source checkout)
-SLOWINIT_SOURCES = Path(__file__).resolve().parents[2] / "tests" / "fmus" / "slowinit"
+SLOWINIT_SOURCES = Path(__file__).resolve().parents[1] / "tests" / "fmus" / "slowinit"
 
 
 def start_seconds(fmu: Path, n: int, init: str, init_seconds: float) -> float:

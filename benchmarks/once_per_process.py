@@ -1,6 +1,6 @@
 """A pool of an FMU allowed one instance per process: private copies of its binary against one env per worker.
 
-``modelicagym bench internals once-per-process MY.fmu`` makes envs from the config ``modelicagym info``
+``python -m benchmarks once-per-process MY.fmu`` makes envs from the config ``modelicagym info``
 prints for the FMU (``--config`` and ``--set`` change it, as for ``modelicagym bench fmu``) and,
 for each number of envs n (``--n``, default 2 8), times interleaved over several rounds, random
 actions sampled from the action space:
@@ -98,12 +98,12 @@ def report(results: list[dict[str, Any]], start: dict[str, Any] | None) -> str:
 
 def run(args: argparse.Namespace) -> int:
     if min(args.n) < 1 or args.repeats < 1 or args.seconds <= 0 or args.warm < 0:
-        raise ArgumentError("bench internals once-per-process: --n and --repeats at least 1, --seconds more than 0, "
+        raise ArgumentError("once-per-process: --n and --repeats at least 1, --seconds more than 0, "
                             "--warm at least 0")
     load_before = os.getloadavg()
     config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
     if not open_fmu(config["fmu"], validate=not args.no_validate).once_per_process(config.get("mode")):
-        raise ArgumentError(f"bench internals once-per-process: {args.fmu} does not declare "
+        raise ArgumentError(f"once-per-process: {args.fmu} does not declare "
                             "canBeInstantiatedOnlyOncePerProcess: both settings would lay its envs out alike")
     results = [measure_group(config, n, args.repeats, args.seconds, args.warm) for n in args.n]
     start = measure_start(config, args.start_n, args.repeats) if args.start_n else None

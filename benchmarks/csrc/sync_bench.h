@@ -1,7 +1,7 @@
 /* What a pool step's synchronisation costs, apart from any env: the calling process wakes `workers`
  * worker processes that do nothing and waits until all have answered, in C on both sides.
  *
- * Two protocols, so that a benchmark compares them in one run (modelicagym/bench/barrier.py):
+ * Two protocols, so that a benchmark compares them in one run (benchmarks/barrier.py):
  *   - the step's barrier (slice.h: mg_post_step + mg_collect; the workers mg_go_wait + mg_answer);
  *   - the per-worker signals it replaced: a post of each worker's `go` on its own futex word, then
  *     a wait for each worker's `done` in worker order (the former mg_collect, kept here as the

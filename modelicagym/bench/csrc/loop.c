@@ -1,5 +1,5 @@
-/* mg_loop (step.h): one env stepped in a C loop, the physical limit the benchmarks compare with. */
-#include "step.h"
+/* See loop.h. mg_env_step and mg_env_reset are the production library's (step.c). */
+#include "loop.h"
 
 int64_t mg_loop(mg_env *env, int64_t steps, const void *box_action) {
     double reward;

@@ -1,7 +1,7 @@
 """An empty batch's cost: waking the workers of a step and learning that all are done, by worker count.
 
 Each round forks ``workers`` processes that do nothing but answer (``mg_step_sync_ns``,
-``native/csrc/sync_bench.h``: C on both sides, no Python, no env) and times empty steps through:
+``benchmarks/csrc/sync_bench.h``: C on both sides, no Python, no env) and times empty steps through:
 
 * ``barrier``: the step's barrier the pool uses (``mg_post_step`` + ``mg_collect``): one wake-up
   system call for all sleeping workers, one for the calling process;
@@ -48,9 +48,9 @@ def spins(policy: str, workers: int, cores: int) -> tuple[int, int]:
 
 def measure(workers: list[int], policies: list[str], steps: int, repeats: int, cores: int) -> list[dict[str, Any]]:
     """Per worker count and policy: each protocol's median microseconds per empty step, over rounds."""
-    from modelicagym.native.library import load_library
+    from benchmarks.native import sync_library
 
-    library = load_library()
+    library = sync_library()
     samples: dict[tuple[int, str, str], list[float]] = {}
     for _ in range(repeats):
         for count in workers:
