@@ -7,7 +7,9 @@ blocks run one after another in one namespace a page, as a reader's session woul
 the environment running the tests and ``examples/`` the checkout's scripts, so the README's
 ``.venv/bin/python examples/rollout.py`` runs as written. What must not run here says so on the
 page, in a comment the reader does not see: ``<!-- skip: next "why" -->`` before the block (an
-install line, which `tests/test_wheel.py` runs in a fresh venv; a server that never ends).
+install line, which `tests/test_wheel.py` runs in a fresh venv; a server that never ends). A block
+that takes minutes as written runs smaller, saying how: ``<!-- smaller: "50_000", "2_048" -->``
+before it replaces that text of the next block (which must hold it) for the test's run.
 
 Every Markdown page of the site is either a user page or a maintainers' page (`MAINTAINER_PAGES`),
 so a new page cannot escape the check by being forgotten.
@@ -15,6 +17,8 @@ so a new page cannot escape the check by being forgotten.
 
 from __future__ import annotations
 
+import ast
+import importlib
 import os
 import subprocess
 import sys
@@ -25,9 +29,10 @@ from pathlib import Path
 import gymnasium
 import pytest
 from extras import requires
-from sybil import Example, Sybil
+from sybil import Document, Example, Lexeme, Region, Sybil
 from sybil.evaluators.skip import Skipper
 from sybil.parsers.markdown import CodeBlockParser, PythonCodeBlockParser, SkipParser
+from sybil.parsers.markdown.lexers import DirectiveInHTMLCommentLexer
 
 ROOT = Path(__file__).resolve().parents[2]
 #: the pages written for users, whose every code block runs
@@ -76,7 +81,31 @@ def run_shell(example: Example) -> None:
                              f"{example.parsed}\n--- output ---\n{result.stdout[-3000:]}{result.stderr[-3000:]}")
 
 
-SYBIL = Sybil(parsers=[PythonCodeBlockParser(), CodeBlockParser(language="bash", evaluator=run_shell), SkipParser()])
+class SmallerParser:
+    """``<!-- smaller: "OLD", "NEW" -->``: the next code block runs with OLD replaced by NEW."""
+
+    lexer = DirectiveInHTMLCommentLexer(directive="smaller")
+
+    def __call__(self, document: Document) -> Iterator[Region]:
+        for lexed in self.lexer(document):
+            old, new = ast.literal_eval(f"({lexed.lexemes['arguments']})")
+            yield Region(lexed.start, lexed.end, (old, new), self.evaluate)
+
+    @staticmethod
+    def evaluate(example: Example) -> None:
+        example.namespace.setdefault("__smaller__", []).append(example.parsed)
+
+
+def smaller(example: Example) -> None:
+    """Apply the ``smaller`` replacements waiting for this code block."""
+    for old, new in example.namespace.pop("__smaller__", []):
+        assert old in example.parsed, f"{example.path}, line {example.line}: 'smaller' finds no {old!r} in this block"
+        source = example.parsed
+        example.parsed = Lexeme(source.replace(old, new), offset=source.offset, line_offset=source.line_offset)
+
+
+SYBIL = Sybil(parsers=[PythonCodeBlockParser(), CodeBlockParser(language="bash", evaluator=run_shell), SkipParser(),
+                       SmallerParser()])
 
 
 def _close_envs(namespace: dict[str, object]) -> None:
@@ -84,6 +113,16 @@ def _close_envs(namespace: dict[str, object]) -> None:
     for value in namespace.values():
         if isinstance(value, (gymnasium.Env, gymnasium.vector.VectorEnv)):
             value.close()
+
+
+def importable(module: str) -> bool:
+    """Whether ``module`` imports here: for ``skip: next if(not importable("ray.rllib"), "why")``, where a page
+    shows a library that is none of modelicagym's extras."""
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        return False
+    return True
 
 
 @pytest.fixture
@@ -102,11 +141,15 @@ def page_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Pat
 def test_page_examples_run(page: str, page_folder: Path) -> None:
     document = SYBIL.parse(ROOT / page)
     document.namespace["__folder__"] = str(page_folder)
+    document.namespace["importable"] = importable
     try:
         for example in document:
-            if isinstance(example.region.evaluator, Skipper):
+            evaluator = example.region.evaluator
+            if isinstance(evaluator, Skipper):
                 action, reason = example.parsed
                 assert action == "end" or reason, f"{page}, line {example.line}: a skip says why (skip: next \"why\")"
+            elif evaluator is not SmallerParser.evaluate:
+                smaller(example)
             try:
                 example.evaluate()
             except unittest.SkipTest:
