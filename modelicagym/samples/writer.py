@@ -24,7 +24,7 @@ from pathlib import Path
 from modelicagym.disk import atomic_write
 from modelicagym.errors import ArgumentError, ModelicaGymError
 
-__all__ = ["SAMPLES", "Sample", "SampleExistsError", "write_sample", "sample_files"]
+__all__ = ["SAMPLES", "Sample", "SampleExistsError", "sample_files", "write_sample"]
 
 logger = logging.getLogger(__name__)
 
@@ -45,7 +45,7 @@ class Built:
     fmi_version: int
 
     def content(self) -> bytes:
-        from modelicagym.fmu.build import build_source_fmu
+        from modelicagym.fmu.build import build_source_fmu  # here: fmpy is imported only to build
 
         return build_source_fmu(SAMPLES_DIR / self.model, self.fmi_version).read_bytes()
 
