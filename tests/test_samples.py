@@ -15,6 +15,7 @@ import pytest
 from modelicagym import FMUEnv
 from modelicagym.cli import main
 from modelicagym.errors import ArgumentError
+from modelicagym.fmu.build import build_source_fmu
 from modelicagym.samples import SAMPLES, SampleExistsError, write_sample
 from modelicagym.samples.writer import SAMPLES_DIR
 from modelicagym.system.ssp import read_ssp
@@ -66,6 +67,20 @@ def test_the_drive_s_task_is_one_a_proportional_controller_does(tmp_path):
             settled = np.array(speeds[30:])
             assert np.abs(settled - (200.0 + load / 0.05)).max() < 1.0, (seed, load, settled)
             assert abs(observation[1] - observation[0]) < 0.1
+
+
+def test_the_drive_steps_alike_in_fmi_2_and_3_co_simulation_and_model_exchange():
+    config = {**load_task(SAMPLES_DIR / "drive" / "drive_task.py"), "fixed_inputs": {"M_B": -0.5}}
+    torques = np.random.default_rng(0).uniform(-2.0, 2.0, (30, 1))
+    runs = {}
+    for version in (2, 3):
+        for mode in ("cs", "me"):
+            with FMUEnv({**config, "fmu": str(build_source_fmu(SAMPLES_DIR / "drive", version)), "mode": mode}) as env:
+                runs[version, mode] = np.array([env.reset(seed=0)[0]] + [env.step(u)[0] for u in torques])
+    np.testing.assert_array_equal(runs[2, "cs"], runs[3, "cs"])
+    np.testing.assert_array_equal(runs[2, "me"], runs[3, "me"])
+    np.testing.assert_allclose(runs[2, "cs"], runs[2, "me"], rtol=1e-4, atol=1e-3)
+    assert np.abs(runs[2, "cs"]).max() > 10.0  # it turned
 
 
 def test_the_system_s_ssp_is_the_system_its_task_file_connects(tmp_path):
