@@ -113,7 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     sample = commands.add_parser("sample", help="write a sample FMU and its task file, to try the commands on")
     sample.add_argument("name", nargs="?", help="the sample: heater, drive or system (none: list them)")
-    sample.add_argument("--out", default=".", metavar="DIR", help="the folder to write it into (default: the current folder)")
+    sample.add_argument("--out", default=".", metavar="DIR",
+                        help="the folder to write it into (default: the current folder)")
     sample.add_argument("--list", action="store_true", help="list the samples, one line each")
     sample.add_argument("--force", action="store_true", help="replace files of the same names that are already there")
     sample.set_defaults(func=_sample)
