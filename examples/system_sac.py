@@ -1,11 +1,11 @@
 """Train SAC on a system of two FMUs: a motor (the actuator) turning a shaft (the plant) against a
 load torque read from a table, the three connected as one environment and stepped by the pool.
 
-The FMUs are the system tests' (``tests/fmus/motor``, FMI 2.0; ``tests/fmus/inertia``, FMI 3.0),
-built from this repository's C framework on first use (cached). The motor's torque drives the
-shaft; the shaft's speed, in rad/s, comes back to the motor in rpm (its back-EMF): the connection
-converts it by the units both FMUs declare. A CSV table (written here: a slow load with a step in
-it) drives the shaft's load torque; each episode starts at a random time of it (the table's
+The FMUs and the table are those ``modelicagym sample system`` writes (``motor.fmu``, FMI 2.0;
+``inertia.fmu``, FMI 3.0, built from the package's C sources on first use and cached; ``load.csv``).
+The motor's torque drives the shaft; the shaft's speed, in rad/s, comes back to the motor in rpm (its
+back-EMF): the connection converts it by the units both FMUs declare. The CSV table (a slow load with
+a step in it) drives the shaft's load torque; each episode starts at a random time of it (the table's
 ``time_offset`` parameter, drawn at every reset). The task: hold the shaft at 20 rad/s with the
 motor's command, whatever the load. The master is Gauss-Seidel: the table, then the motor, then
 the shaft, each taking the latest values (``"master": "jacobi"`` for Jacobi).
@@ -26,12 +26,11 @@ from stable_baselines3.common.vec_env import VecMonitor
 
 import modelicagym
 from modelicagym import FMUEnv
-from modelicagym.fmu.build import build_source_fmu
+from modelicagym.samples import write_sample
 from modelicagym.sb3 import SB3VecEnv, folderless_logger
 
-FMUS = Path(__file__).resolve().parent.parent / "tests" / "fmus"
 SETPOINT = 20.0  # rad/s
-TABLE_SECONDS = 20.0  # of load schedule: episodes (2 s at most by default) start anywhere in the first 18
+TABLE_SECONDS = 20.0  # of load schedule in load.csv: episodes (2 s at most by default) start anywhere in the first 18
 
 
 def reward(envs, observations, actions, terminated):
@@ -52,13 +51,11 @@ parser.add_argument("--max-episode-steps", type=int, default=200)
 parser.add_argument("--seed", type=int, default=0)
 args = parser.parse_args()
 
-# 1. the components: two FMUs built from C sources, and a load schedule as a CSV table
+# 1. the components: the sample's two FMUs built from C sources, and its load schedule as a CSV table
 folder = Path(tempfile.mkdtemp(prefix="system-sac-"))
-times = np.arange(0.0, TABLE_SECONDS + 0.5, 0.5)
-load = -0.02 - 0.02 * np.sin(times / 3.0) - 0.03 * (times % 8.0 > 4.0)
-(folder / "load.csv").write_text("time,torque\n" + "".join(f"{t},{y}\n" for t, y in zip(times, load)))
+write_sample("system", folder)
 config = {
-    "fmus": {"motor": str(build_source_fmu(FMUS / "motor", 2)), "plant": str(build_source_fmu(FMUS / "inertia", 3)),
+    "fmus": {"motor": str(folder / "motor.fmu"), "plant": str(folder / "inertia.fmu"),
              "load": str(folder / "load.csv")},
     "connections": [("motor.tau", "plant.tau"), ("plant.w", "motor.w"), ("load.torque", "plant.tau_load")],
     "inputs": ["motor.u"],

@@ -2,9 +2,9 @@
 video of it out.
 
 The task file is Python: the config ``modelicagym info MY.fmu`` prints, pasted, plus a reward and
-a termination written in it (``examples/heater_task.py`` is one; docs/train-own-fmu.md goes through
-it step by step). Its ``fmu`` path, when relative, is relative to the task file's
-folder (`modelicagym.task`). This script:
+a termination written in it (``modelicagym sample heater`` writes one, ``heater_task.py``, beside
+its FMU; docs/train-own-fmu.md goes through it step by step). Its ``fmu`` path, when relative, is
+relative to the task file's folder (`modelicagym.task`). This script:
 
 1. makes a pool of the FMU's envs (``modelicagym.make_vec``) and trains Stable-Baselines3's SAC
    (or PPO, ``--algo ppo``) on it, recording every episode's return;
@@ -23,10 +23,9 @@ folder (`modelicagym.task`). This script:
 
 Every file goes into ``--out`` under a temporary name and is renamed into place when whole.
 
-Run (in a folder of your own beside the repository's, with the test FMU; see docs/train-own-fmu.md)::
+Run (in a folder of your own inside the repository's, on the sample heater; see docs/train-own-fmu.md)::
 
-    modelicagym build ../tests/fmus/own_heater --out heater.fmu
-    cp ../examples/heater_task.py .
+    modelicagym sample heater
     python ../examples/train_own_fmu.py heater_task.py --out runs
 
 (needs ``pip install torch==2.13.0`` for a CPU-only torch, then ``pip install "modelicagym[rl,plots]"``).
@@ -227,7 +226,8 @@ def train(args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("task", help="the task file: a Python file defining config = {...} (see examples/heater_task.py)")
+    parser.add_argument("task", help="the task file: a Python file defining config = {...} (`modelicagym sample heater` "
+                                     "writes one)")
     parser.add_argument("--out", required=True, help="the folder for the policy, curve, GIF and run.json")
     parser.add_argument("--algo", default="sac", choices=list(ALGORITHMS))
     parser.add_argument("--steps", type=int, default=5000, help="env steps to train (default: 5000)")

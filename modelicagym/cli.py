@@ -1,4 +1,4 @@
-"""The ``modelicagym`` command: ``info``, ``try``, ``build``, ``bench``, ``reproduce``, ``report``."""
+"""The ``modelicagym`` command: ``sample``, ``info``, ``try``, ``build``, ``bench``, ``reproduce``, ``report``."""
 
 from __future__ import annotations
 
@@ -15,6 +15,25 @@ if TYPE_CHECKING:
     from modelicagym.try_fmu import TryConfig
 
 logger = logging.getLogger("modelicagym")
+
+
+def _sample(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from modelicagym.samples import SAMPLES, write_sample
+
+    if args.name is None or args.list:
+        for sample in SAMPLES.values():
+            print(f"{sample.name:<7} {sample.summary}: {', '.join(sample.files)}")
+        return 0
+    written = write_sample(args.name, args.out, force=args.force)
+    print(f"wrote {', '.join(map(str, written))}")
+    print("try next:")
+    if Path(args.out).resolve() != Path.cwd():
+        print(f"  cd {args.out}")
+    for command in SAMPLES[args.name].next_steps:
+        print(f"  {command}")
+    return 0
 
 
 def _info(args: argparse.Namespace) -> int:
@@ -102,6 +121,14 @@ def build_parser() -> argparse.ArgumentParser:
     add_debug_flag(parser)
     commands = parser.add_subparsers(dest="command", required=True)
 
+    sample = commands.add_parser("sample", help="write a sample FMU and its task file, to try the commands on")
+    sample.add_argument("name", nargs="?", help="the sample: heater, drive or system (none: list them)")
+    sample.add_argument("--out", default=".", metavar="DIR",
+                        help="the folder to write it into (default: the current folder)")
+    sample.add_argument("--list", action="store_true", help="list the samples, one line each")
+    sample.add_argument("--force", action="store_true", help="replace files of the same names that are already there")
+    sample.set_defaults(func=_sample)
+
     info = commands.add_parser("info", help="describe an FMU and print an FMUEnv config for it")
     info.add_argument("fmu", help="path of the .fmu file")
     info.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
@@ -126,7 +153,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     build = commands.add_parser("build", help="build the bundled model FMUs, or a model folder, from their C sources")
     build.add_argument("folder", nargs="?", help="a model folder written with our C framework (e.g. "
-                       "tests/fmus/own_heater; modelicagym/models/csrc/model.h); default: the bundled models")
+                       "modelicagym/samples/heater; modelicagym/models/csrc/model.h); default: the bundled models")
     build.add_argument("--out", help="with a folder: copy the built FMU here (default: print its cache path)")
     build.add_argument("--fmi-version", type=int, nargs="+", choices=FMI_VERSIONS, metavar="N",
                        help=f"FMI versions to build ({', '.join(map(str, FMI_VERSIONS))}; default: all; "

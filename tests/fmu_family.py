@@ -40,6 +40,7 @@ from typing import Callable
 from modelicagym.fmu import FMUDescription, open_fmu
 from modelicagym.fmu.build import build_source_fmu
 from modelicagym.fmu.description_edits import edited_description
+from modelicagym.samples.writer import SAMPLES_DIR
 
 FMUS_DIR = Path(__file__).resolve().parent / "fmus"
 PROBE_DIR = FMUS_DIR / "probe"
@@ -129,8 +130,8 @@ VARIANTS: dict[str, Variant] = {
     # a lag whose co-simulation step costs 100x more while x > threshold (tests/fmus/moody): a pool's
     # load balance under step costs that vary with the state
     "moody": Variant(FMUS_DIR / "moody"),
-    # a room heater, docs/train-own-fmu.md (tests/fmus/own_heater, examples/heater_task.py)
-    "own_heater": Variant(FMUS_DIR / "own_heater"),
+    # a room heater, `modelicagym sample heater` and docs/train-own-fmu.md (modelicagym/samples/heater)
+    "own_heater": Variant(SAMPLES_DIR / "heater"),
     # a cooling consumer in the shape of a third-party export (tests/fmus/consumer): six inputs without
     # declared ranges, in Pa, K and W or without a unit, one starting at 0 K; docs/train-own-fmu.md's multi-input guide
     "consumer": Variant(FMUS_DIR / "consumer"),
@@ -141,10 +142,11 @@ VARIANTS: dict[str, Variant] = {
     # too) that change the dynamics and the events, a stop input that ends the simulation in the inputs'
     # event, and a jam_gear parameter that makes an event update fail (tests/fmus/me_discrete)
     "me_discrete": Variant(FMUS_DIR / "me_discrete"),
-    # the actuator and plant of the system tests (tests/system): a torque motor with a lag and back-EMF
-    # whose speed input is in rpm (FMI 2.0), and a shaft with friction reporting rad/s (FMI 3.0)
-    "motor": Variant(FMUS_DIR / "motor", fmi_versions=(2,)),
-    "inertia": Variant(FMUS_DIR / "inertia", fmi_versions=(3,)),
+    # the actuator and plant of the system tests (tests/system) and of `modelicagym sample system`
+    # (modelicagym/samples): a torque motor with a lag and back-EMF whose speed input is in rpm (FMI 2.0),
+    # and a shaft with friction reporting rad/s (FMI 3.0)
+    "motor": Variant(SAMPLES_DIR / "motor", fmi_versions=(2,)),
+    "inertia": Variant(SAMPLES_DIR / "inertia", fmi_versions=(3,)),
     # the loops of direct feedthrough (tests/system/test_loops.py): a gain with an offset (FMI 2.0 and 3.0),
     # a proportional controller (FMI 2.0), an integrator whose output feeds its input through (FMI 3.0)
     "gain": Variant(FMUS_DIR / "gain"),

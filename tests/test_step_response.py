@@ -1,12 +1,11 @@
 """``modelicagym try TARGET --step INPUT``: each input stepped from its start value, the outputs'
 responses and settling times, and a time step and an episode length suggested from them; on the
 cooling consumer (``tests/fmus/consumer``: a valve lagging its command by 10 s, a room of time
-constants from minutes to hours) and the heater (``tests/fmus/own_heater``: one lag of 600 s)."""
+constants from minutes to hours) and the heater (``modelicagym/samples/heater``: one lag of 600 s)."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import pytest
 from extras import requires
@@ -14,6 +13,7 @@ from extras import requires
 from modelicagym.cli import main
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import VariableError
+from modelicagym.samples.writer import SAMPLES_DIR
 from modelicagym.step_response import step_response, suggest_timing
 
 pytestmark = pytest.mark.timeout(300)
@@ -53,7 +53,7 @@ def test_a_step_finds_each_output_s_settling_time(family_fmu, fmi_version):
 def test_a_task_file_s_heater_suggests_its_timing(family_fmu, tmp_path, capsys):
     (tmp_path / "heater.fmu").write_bytes(family_fmu("own_heater", 2).read_bytes())
     task = tmp_path / "heater_task.py"
-    task.write_text((Path(__file__).parents[1] / "examples" / "heater_task.py").read_text())
+    task.write_text((SAMPLES_DIR / "heater" / "heater_task.py").read_text())
     status = main(["try", str(task), "--step", "u", "--out", str(tmp_path / "step.png")])
     lines = capsys.readouterr().out.splitlines()
     assert status == 0

@@ -1,6 +1,6 @@
-"""docs/train-own-fmu.md, as a user follows it: build the test FMU to a path, read
-the config ``modelicagym info`` prints, train with ``examples/train_own_fmu.py`` on the task file
-``examples/heater_task.py``, and use what it saves. And the task file's reward and termination
+"""docs/train-own-fmu.md, as a user follows it: write the sample heater (``modelicagym sample heater``: the
+FMU and its task file), read the config ``modelicagym info`` prints, train with ``examples/train_own_fmu.py``
+on the task file, and use what it saves. And the task file's reward and termination
 do what it says, on a single env and on the pool."""
 
 from __future__ import annotations
@@ -24,10 +24,11 @@ import pytest
 
 import modelicagym
 from modelicagym import FMUEnv
+from modelicagym.samples.writer import SAMPLES_DIR
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
-TASK = EXAMPLES / "heater_task.py"
+TASK = SAMPLES_DIR / "heater" / "heater_task.py"
 
 needs_sb3 = pytest.mark.skipif(
     importlib.util.find_spec("stable_baselines3") is None,
@@ -63,11 +64,10 @@ def printed_config_of(info_output: str) -> dict:
 
 @needs_sb3
 def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
-    # 1. build the test FMU to a path in a folder of one's own, 2. its config as `info` prints it: the
-    # task file's, pasted (the task file kept beside the FMU: its fmu path is relative to its folder)
-    run("-m", "modelicagym.cli", "build", str(ROOT / "tests" / "fmus" / "own_heater"), "--out", "heater.fmu",
-        cwd=tmp_path)
-    (tmp_path / "heater_task.py").write_text(TASK.read_text())
+    # 1. the sample FMU and its task file, written into a folder of one's own, 2. its config as `info` prints
+    # it: the task file's, pasted (the task file kept beside the FMU: its fmu path is relative to its folder)
+    run("-m", "modelicagym.cli", "sample", "heater", cwd=tmp_path)
+    assert (tmp_path / "heater_task.py").read_text() == TASK.read_text()
     printed = printed_config_of(run("-m", "modelicagym.cli", "info", "heater.fmu", cwd=tmp_path).stdout)
     pasted = runpy.run_path(str(TASK))["config"]
     edited = {"max_episode_steps", "parameters", "batch_reward", "termination"}
@@ -236,7 +236,7 @@ def test_bad_input_is_one_line_and_leaves_no_files(tmp_path, family_fmu, task, m
 def test_build_of_a_model_folder_refuses_bad_input_in_one_line(tmp_path):
     for args, message in [(("nowhere", "--out", "x.fmu"), "model folder not found: nowhere"),
                           (("--out", "x.fmu"), "--out needs a model folder"),
-                          ((str(ROOT / "tests" / "fmus" / "own_heater"), "--fmi-version", "2", "3"),
+                          ((str(SAMPLES_DIR / "heater"), "--fmi-version", "2", "3"),
                            "one FMI version at a time")]:
         result = run("-m", "modelicagym.cli", "build", *args, cwd=tmp_path, ok=False)
         assert result.returncode == 1 and result.stderr.startswith("error: ") and message in result.stderr, result.stderr

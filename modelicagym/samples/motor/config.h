@@ -1,6 +1,7 @@
 /*
- * config.h -- "Motor", the actuator of the system tests (tests/system): a torque
- * motor with a first-order lag and back-EMF, driven by a command.
+ * config.h -- "Motor", the actuator of `modelicagym sample system` (and of the
+ * system tests): a torque motor with a first-order lag and back-EMF, driven by
+ * a command.
  *
  *   tau_set = k (u - w / w_max),   T_m der(tau) = tau_set - tau,   tau(0) = 0
  *

@@ -1,6 +1,7 @@
 /*
- * config.h -- "Inertia", the plant of the system tests (tests/system): a shaft
- * with friction, turned by a motor's torque against a load torque.
+ * config.h -- "Inertia", the plant of `modelicagym sample system` (and of the
+ * system tests): a shaft with friction, turned by a motor's torque against a
+ * load torque.
  *
  *   der(phi) = w,   J der(w) = tau + tau_load - d w,   phi(0) = 0, w(0) = w_0
  *

@@ -1,5 +1,5 @@
 /*
- * model.c -- the Inertia test FMU (see config.h for its equations).
+ * model.c -- the Inertia sample FMU (see config.h for its equations).
  */
 #include "model.h"
 

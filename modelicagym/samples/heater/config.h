@@ -1,7 +1,7 @@
 /*
- * config.h -- "RoomHeater", the test FMU of the README's walkthrough "Train on
- * your own FMU" (examples/train_own_fmu.py): a room's air heated by an electric
- * heater and cooled through its walls, a first-order lag.
+ * config.h -- "RoomHeater", the sample FMU of `modelicagym sample heater` and of
+ * the walkthrough "Train on your own FMU" (examples/train_own_fmu.py): a room's
+ * air heated by an electric heater and cooled through its walls, a first-order lag.
  *
  *   C der(T) = P - G (T - T_amb),   P = P_max clamp(u, 0, 1),   T(0) = T_0
  *

@@ -1,5 +1,5 @@
 /*
- * model.c -- the RoomHeater test FMU (see config.h for its equations).
+ * model.c -- the RoomHeater sample FMU (see config.h for its equations).
  */
 #include "model.h"
 

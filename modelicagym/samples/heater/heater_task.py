@@ -1,10 +1,10 @@
-"""A task for examples/train_own_fmu.py: hold a room at 21 degC with an electric heater.
+"""A task for the room heater: hold a room at 21 degC with an electric heater.
 
-The FMU is the test FMU ``tests/fmus/own_heater`` (``modelicagym build tests/fmus/own_heater --out
-heater.fmu``), kept beside this file: a relative ``fmu`` path is relative to the task file's folder.
-Make a file like this one for your FMU: paste what ``modelicagym info MY.fmu`` prints under "a
-config to start from", then write the task below it. The training script (and ``modelicagym try``)
-reads one name from this file: ``config``, an `FMUEnv` config (a dict).
+Written with the FMU beside it by ``modelicagym sample heater`` (a relative ``fmu`` path is relative
+to this file's folder). Try it with ``modelicagym try heater_task.py``; train on it with
+``examples/train_own_fmu.py``. Make a file like this one for your FMU: paste what ``modelicagym info
+MY.fmu`` prints under "a config to start from", then write the task below it. The training script
+(and ``modelicagym try``) reads one name from this file: ``config``, an `FMUEnv` config (a dict).
 """
 
 import numpy as np

@@ -1,5 +1,5 @@
 /*
- * model.c -- the Motor test FMU (see config.h for its equations).
+ * model.c -- the Motor sample FMU (see config.h for its equations).
  */
 #include "model.h"
 

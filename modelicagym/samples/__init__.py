@@ -1,0 +1,16 @@
+"""Sample FMUs for newcomers: ``modelicagym sample NAME`` (or `write_sample`) writes a ready FMU and a
+task file for it into a folder, to try every command on before your own FMU is at hand.
+
+``heater``: a room heater (``heater.fmu``, ``heater_task.py``: hold 21 degC); ``drive``: a two-mass
+drive (``drive.fmu``, ``drive_task.py``: hold the motor at 200 rad/s under a load drawn per episode);
+``system``: a motor and a shaft that connect as a system (``motor.fmu``, ``inertia.fmu``, a load
+table ``load.csv``, the system as an SSP ``drive.ssp``, and ``system_task.py``).
+
+Each model folder here (``heater/``, ``drive/``, ``motor/``, ``inertia/``) holds C sources written
+with the framework in ``modelicagym/models/csrc`` and model descriptions; the FMUs are built from
+them on first use and cached, as the bundled cart-pole is (a C compiler is needed once).
+"""
+
+from modelicagym.samples.writer import SAMPLES, SampleExistsError, sample_files, write_sample
+
+__all__ = ["SAMPLES", "SampleExistsError", "sample_files", "write_sample"]
