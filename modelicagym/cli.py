@@ -32,8 +32,12 @@ def _try(args: argparse.Namespace) -> int:
     prepared = prepare(args.target, config_file=args.config, settings=args.set, validate=not args.no_validate)
     if args.step:
         return _step_responses(args, prepared)
+    if args.policy == "baseline" and prepared.baseline is None:
+        raise ArgumentError(f"--policy baseline: {args.target} defines no baseline (a task file's "
+                            "def baseline(observation) -> action, or a class with act(observation) and reset())")
     out = args.out or f"{Path(args.target).stem}-try.png"
-    result = try_fmu(prepared.config, out=out, steps=args.steps, seed=args.seed, assumed=prepared.assumed)
+    result = try_fmu(prepared.config, out=out, steps=args.steps, seed=args.seed, assumed=prepared.assumed,
+                     baseline=prepared.baseline if args.policy == "baseline" else None)
     print("\n".join(result.lines()))
     return 1 if result.fmu_error is not None else 0
 
@@ -121,6 +125,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="instead of random actions: step INPUT from its start value (to VALUE, else to the end of "
                            "its range) and show how the outputs respond and when they settle, to choose the time "
                            "step and the episode length (repeat for several inputs)")
+    try_.add_argument("--policy", choices=("random", "baseline"), default="random",
+                      help="what chooses the actions: random samples (default), or the task file's baseline controller")
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
 

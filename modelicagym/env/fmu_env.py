@@ -71,7 +71,7 @@ from modelicagym.env.native_step import (
 )
 from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
 from modelicagym.env.spaces import Observer, space_for, write_values
-from modelicagym.env.strip_chart import StripChart, require_matplotlib
+from modelicagym.env.strip_chart import Series, StripChart, require_matplotlib
 from modelicagym.env.tracking import Tracking
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError
@@ -220,10 +220,31 @@ class FMUEnv(gym.Env):
         if not self._draws_strip_chart:
             return None
         horizon = None if self.max_episode_steps is None else self.max_episode_steps * self.time_step
-        chart = StripChart(self.fmu, self.description.model_name, horizon)
+        extra, read_extra = self._chart_extras()
+        chart = StripChart(self.fmu, self.description.model_name, horizon, extra, read_extra)
         self.metadata = {"render_fps": 1.0 / self.time_step, **self.metadata}
         self.step, self.reset = self._step_and_record, self._reset_and_record
         return chart
+
+    def _chart_extras(self) -> tuple[list[Series], Callable[[], list[float]] | None]:
+        """What the chart draws beside the FMU's variables: each setpoint (dashed, over its output)
+        and each scalar held input (a panel of its own), with the function that reads their values."""
+        units = {v.name: v.unit or "" for v in self.fmu.output_variables}
+        setpoints = list(self.config.setpoints)
+        held = [name for name, value in self.config.fixed_inputs.items() if np.ndim(value) == 0 or callable(value)]
+        held = [name for name in held if not self.description.variable(name).shape]
+        if not setpoints and not held:
+            return [], None
+        extra = [Series(f"setpoint of {name}", units[name], "setpoint", "float", follows=name) for name in setpoints]
+        extra += [Series(name, self.description.variable(name).unit or "", "held input", "float", stepwise=True)
+                  for name in held]
+
+        def read() -> list[float]:
+            values = self.setpoints
+            return ([values.get(name, np.nan) for name in setpoints]
+                    + [float(np.asarray(self.episode_parameters.get(name, np.nan))) for name in held])
+
+        return extra, read
 
     @property
     def _draws_strip_chart(self) -> bool:

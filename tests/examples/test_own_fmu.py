@@ -83,7 +83,7 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
         out = run(str(EXAMPLES / "train_own_fmu.py"), "heater_task.py", "--out", "run", "--steps", "700", "--envs",
                   "2", "--eval-episodes", "2", cwd=tmp_path, temp=temp).stdout
         assert not list(temp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
-    assert "trained 700 steps" in out and "evaluation, 2 episodes" in out and "no training episode ended" not in out
+    assert "trained 700 steps" in out and "evaluation on 2 episodes" in out and "no training episode ended" not in out
     folder = tmp_path / "run"
     summary = json.loads((folder / "run.json").read_text())
     assert sorted(p.name for p in folder.iterdir()) == sorted([*summary["files"], "run.json"]), "temporary files left"
