@@ -47,7 +47,13 @@ def _step_responses(args: argparse.Namespace, prepared: TryConfig) -> int:
     suggested from them, and the plot."""
     from pathlib import Path
 
-    from modelicagym.step_response import parse_step, plot_step_responses, step_response, suggest_timing
+    from modelicagym.step_response import (
+        parse_step,
+        plot_step_responses,
+        step_plot_paths,
+        step_response,
+        suggest_timing,
+    )
     from modelicagym.try_fmu import TRY_BOUNDS
 
     steps = [parse_step(text) for text in args.step]
@@ -56,8 +62,10 @@ def _step_responses(args: argparse.Namespace, prepared: TryConfig) -> int:
         print("\n".join(response.lines()))
     timing = suggest_timing(responses)
     print(timing or "no output settled: nothing to suggest a time step from")
-    plot, left_out = plot_step_responses(responses, args.out or f"{Path(args.target).stem}-step.png")
-    print(f"plot of the responses over time: {plot}")
+    for response, path in zip(responses, step_plot_paths([r.input for r in responses], args.out,
+                                                         Path(args.target).stem)):
+        plot, left_out = plot_step_responses([response], path)
+        print(f"plot of the response to {response.input} over time: {plot}")
     if left_out:
         print(f"not drawn (the plot holds the first outputs only): {', '.join(left_out)}")
     assumed = [name for name, value in steps if value is None and name in prepared.assumed]

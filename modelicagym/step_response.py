@@ -9,15 +9,19 @@ at rest. Each output's response is one of (`BEHAVIOURS`):
 
 * **settles**: it enters, for good, a band of 2% of its largest excursion around its final value,
   in the first half of the run; its settling time is when;
-* **integrates**: it ramps: its rate of change settles (as above) to a rate that is not zero, e.g.
-  an angle integrating a speed that settles; its ramp rate is that rate;
+* **integrates**: it ramps: its rate of change settles (as above) to a rate that is not zero, after
+  a transient of its own (e.g. an angle integrating a speed that settles) or from the start to the
+  last digits (a pure integrator; a slow lag's rate, steady only to a few digits on a short run, is
+  no ramp); its ramp rate is that rate;
 * **oscillates**: in the second half of the run it swings around its mean at least
   `OSCILLATION_CROSSINGS` times without dying out;
 * **does not move** (beyond the rounding of the held run's values);
 * else it has **not settled** within the run.
 
 The horizon starts at the config's episode and grows tenfold while an output has not settled (at
-most `MAX_GROWTHS` times): an output that integrates or oscillates does not stretch it. An output
+most `MAX_GROWTHS` times): an output that integrates or oscillates does not stretch it, but for one
+more tenfold run that checks its ramp rate holds (a lag far slower than the run also looks like a
+ramp on it: its rate then falls, and the horizon grows on until it settles). An output
 that settles within a few points of that run (or within its first step, as long as those points are
 coarser than a tenth of the config's time step) is timed again on a shorter one. `suggest_timing`
 turns the settling times of the outputs that settle into a time step (a tenth of the fastest) and an
@@ -41,8 +45,8 @@ from modelicagym.errors import ConfigError
 from modelicagym.fmu import open_fmu
 from modelicagym.info import infer_bounds
 
-__all__ = ["MAX_GROWTHS", "OutputResponse", "StepResponse", "parse_step", "plot_step_responses", "step_response",
-           "suggest_timing"]
+__all__ = ["BEHAVIOURS", "MAX_GROWTHS", "OutputResponse", "StepResponse", "parse_step", "plot_step_responses",
+           "step_plot_paths", "step_response", "suggest_timing"]
 
 #: the horizon grows tenfold at most this many times while an output has not settled
 MAX_GROWTHS = 6
@@ -56,6 +60,8 @@ LONG_EPISODE = 1000
 FINE = 20
 #: what an output's response does
 BEHAVIOURS = ("settles", "integrates", "oscillates", "does not move", "not settled")
+#: a ramp's rate steady from the start to this relative precision is a pure integrator's
+RAMP_DIGITS = 1e-6
 #: an output swinging around its mean this many times in the second half of a run, not dying out, oscillates
 OSCILLATION_CROSSINGS = 4
 #: config keys a step response leaves out: they shape the action, the reward or the episode's end
@@ -216,7 +222,10 @@ def _behaviour(times: np.ndarray, response: np.ndarray, held: np.ndarray) -> tup
         return "settles", (0.0 if settled == times[1] else settled), None  # 0: within the first step (no lag)
     rates = np.diff(response) / np.diff(times)
     final = float(rates[-1])
-    if abs(final) > BAND * float(np.max(np.abs(rates))) and _settled_at(times[1:], rates) is not None:
+    rate_settled = _settled_at(times[1:], rates)
+    steady = float(np.max(np.abs(rates - final))) <= RAMP_DIGITS * abs(final)
+    if abs(final) > BAND * float(np.max(np.abs(rates))) and rate_settled is not None and (
+            rate_settled > times[1] or steady):
         return "integrates", None, final
     if _oscillates(response):
         return "oscillates", None, None
@@ -247,10 +256,16 @@ def step_response(config: Mapping[str, Any], name: str, value: float | None = No
     description = open_fmu(config["fmu"], validate=config.get("validate", True))
     time_step = float(config.get("time_step") or description.default_experiment.step_size or 0.1)
     horizon = time_step * float(config.get("max_episode_steps") or 100)
+    ramps: dict[int, float] | None = None  # the ramp rates of the run before, to check they hold
     for growth in range(MAX_GROWTHS + 1):
         times, difference, names, found = _respond(config, name, start, target, horizon, seed)
-        if growth == MAX_GROWTHS or all(behaviour != "not settled" for behaviour, _, _ in found):
+        rates = {k: rate for k, (behaviour, _, rate) in enumerate(found) if behaviour == "integrates"}
+        held = ramps is not None and all(k in ramps and abs(rate - ramps[k]) <= BAND * abs(rate)
+                                         for k, rate in rates.items())
+        if growth == MAX_GROWTHS or (all(behaviour != "not settled" for behaviour, _, _ in found)
+                                     and (not rates or held)):
             break
+        ramps = rates
         horizon *= 10.0
     best = [(t, horizon / POINTS) for _, t, _ in found]
     for _ in range(MAX_GROWTHS):
@@ -291,9 +306,21 @@ def suggest_timing(responses: Sequence[StepResponse]) -> str | None:
     return line
 
 
+def step_plot_paths(inputs: Sequence[str], out: str | Path | None, stem: str) -> list[Path]:
+    """Where each input's plot goes: ``out`` for one input, else ``out`` with ``-INPUT`` before its
+    suffix; without ``out``, ``STEM-step-INPUT.png`` (so runs stepping other inputs keep their files)."""
+    if out is None:
+        return [Path(f"{stem}-step-{name}.png") for name in inputs]
+    out = Path(out)
+    if len(inputs) == 1:
+        return [out]
+    return [out.with_name(f"{out.stem}-{name}{out.suffix or '.png'}") for name in inputs]
+
+
 def plot_step_responses(responses: Sequence[StepResponse], path: str | Path) -> tuple[Path, list[str]]:
     """One panel per output (up to `MAX_PANELS`), each step's response over time with its settling
-    time dashed, as a PNG at ``path``; the path and the outputs left out."""
+    time dashed, as a PNG at ``path``; the path and the outputs left out. The command draws each
+    input's step in a file of its own (`step_plot_paths`)."""
     figure_class, canvas_class = require_matplotlib()
     outputs = [(o.name, o.unit) for o in responses[0].outputs]
     drawn, left_out = outputs[:MAX_PANELS], [name for name, _ in outputs[MAX_PANELS:]]
@@ -307,7 +334,9 @@ def plot_step_responses(responses: Sequence[StepResponse], path: str | Path) -> 
             settling = response.outputs[k].settling_time
             if settling:
                 ax.axvline(settling, color=colour, linestyle="--", linewidth=0.8)
-        ax.set_title(f"{name} [{unit}]" if unit else name, loc="right", fontsize=8)
+        behaviour = responses[0].outputs[k].behaviour if len(responses) == 1 else ""
+        title = f"{name} [{unit}]" if unit else name
+        ax.set_title(f"{title}: {behaviour}" if behaviour else title, loc="right", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(True, linewidth=0.4, alpha=0.5)
     settled = [o.settling_time for r in responses for o in r.outputs if o.settling_time]
