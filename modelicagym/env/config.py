@@ -23,7 +23,7 @@ from modelicagym.env.config_checks import (
     check_termination,
 )
 from modelicagym.env.saved_state import EnvState, StartStates
-from modelicagym.env.tracking import check_observe, check_setpoints
+from modelicagym.env.tracking import check_observe, check_setpoints, json_draws
 from modelicagym.errors import ConfigError, ConfigTypeError
 from modelicagym.fmu.library_copies import check_instances_per_process
 
@@ -54,7 +54,8 @@ class FMUEnvConfig:
         substeps: a system's communication steps per env step (default 1).
         inputs: input variables driven by the action, in order.
         outputs: variables observed after every step, in order.
-        parameters: values (or callables ``f(np_random) -> value``) applied at every reset.
+        parameters: values (or callables ``f(np_random) -> value``) applied at every reset; in a JSON
+            config, ``{"uniform": [low, high]}`` is such a draw (`modelicagym.env.tracking.uniform`).
         fixed_inputs: ``{input: value}`` for the inputs the agent does not drive: each is held at its
             value for the episode (a callable ``f(np_random) -> value`` is drawn at every reset, as a
             parameter's: a boundary condition that varies from one episode to the next). An input is
@@ -163,9 +164,9 @@ class FMUEnvConfig:
         config = cls(**mapping)
         config.inputs = list([config.inputs] if isinstance(config.inputs, str) else config.inputs)
         config.outputs = list([config.outputs] if isinstance(config.outputs, str) else config.outputs)
-        config.parameters = dict(config.parameters)
+        config.parameters = json_draws(dict(config.parameters))
         check_fixed_inputs(config)
-        config.fixed_inputs = dict(config.fixed_inputs)
+        config.fixed_inputs = json_draws(config.fixed_inputs)
         check_numbers(config)
         check_termination(config.termination)
         check_batch_hooks(config)

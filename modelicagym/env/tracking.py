@@ -38,7 +38,8 @@ from gymnasium import spaces
 
 from modelicagym.errors import ConfigError, ConfigTypeError, DataError
 
-__all__ = ["OBSERVE_KINDS", "Schedule", "Tracking", "Uniform", "check_observe", "check_setpoints", "uniform"]
+__all__ = ["OBSERVE_KINDS", "Schedule", "Tracking", "Uniform", "check_observe", "check_setpoints", "json_draws",
+           "uniform"]
 
 #: the entries of ``observe`` that are not a held input's name
 OBSERVE_KINDS = ("setpoint", "error", "error_integral", "previous_action")
@@ -59,6 +60,13 @@ class Uniform:
     @property
     def bounds(self) -> tuple[float, float]:
         return self.low, self.high
+
+
+def json_draws(values: Mapping[str, Any]) -> dict[str, Any]:
+    """``values`` (``parameters`` or ``fixed_inputs``) with each ``{"uniform": [low, high]}`` (a JSON
+    config's way to write a draw) made a `Uniform`."""
+    return {name: uniform(*value["uniform"]) if isinstance(value, Mapping) and set(value) == {"uniform"} else value
+            for name, value in values.items()}
 
 
 def uniform(low: float, high: float) -> Uniform:
@@ -244,15 +252,14 @@ class Tracking:
         repeated = sorted({label for label in labels if labels.count(label) > 1})
         if repeated:
             raise ConfigError(f"{self.model}: observe names {', '.join(map(repr, repeated))} more than once")
-        self._errors = [name for name in setpoints]  # the error's running sum: one per setpoint
         #: the previous action or the error integral is observed: each step's action and error are kept
         self.keeps_state = any(entry.kind in ("previous_action", "error_integral") for entry in self.entries)
         #: a reset draws something (a setpoint), or zeros what the episode kept: only Python resets it
         self.needs_python_reset = self.keeps_state or any(callable(s) for s in self.setpoints.values())
         self.episode_setpoints: dict[str, Signal] = {}
-        self._previous = np.zeros(0) if self._action_bounds is None else np.clip(0.0, *self._action_bounds)
-        self._sums = np.zeros(len(setpoints))
+        self._sums = self._previous = np.zeros(0)
         self._started = False
+        self.restart()
         self.time_of: Callable[[], float] = lambda: env.time
 
     def _entries(self, env: Any, request: str, outputs: Mapping[str, Any]) -> list[_Entry]:
@@ -330,7 +337,7 @@ class Tracking:
             elif kind == "error":
                 values.append(errors[entry.name])
             elif kind == "error_integral":
-                k = self._errors.index(entry.name)
+                k = list(self.setpoints).index(entry.name)
                 values.append(self._sums[k] + (errors[entry.name] * self.time_step if self._started else 0.0))
             elif kind == "previous_action":
                 values.append(self._previous[entry.name])

@@ -201,3 +201,28 @@ def test_a_pool_steps_the_task_as_single_envs_do(inertia, no_leaks):
     finally:
         pool.close()
     assert [[step[k].tolist() for step in got] for k in range(2)] == [runs[:2] for runs in expected]
+
+
+def test_a_task_file_s_table_is_beside_it_and_a_json_config_draws_uniformly(inertia, tmp_path):
+    import json
+
+    from modelicagym.task import load_config_file, load_task
+
+    folder = tmp_path / "task"
+    folder.mkdir()
+    (folder / "ref.csv").write_text("0,100\n2,300\n")
+    (folder / "task.py").write_text(f"config = {{'fmu': {inertia!r}, 'inputs': ['tau'], 'outputs': ['w'], "
+                                    "'time_step': 0.5, 'setpoints': {'w': 'ref.csv'}, 'observe': ['setpoint']}\n")
+    env = FMUEnv(load_task(folder / "task.py"))
+    env.reset(seed=0)
+    assert [env.step(np.array([0.0]))[0][1] for _ in range(5)] == [150.0, 200.0, 250.0, 300.0, 300.0]
+    env.close()
+    (folder / "task.json").write_text(json.dumps({
+        "fmu": inertia, "inputs": ["tau"], "outputs": ["w"], "time_step": 0.5, "observe": ["setpoint", "tau_load"],
+        "setpoints": {"w": {"uniform": [100, 300]}}, "fixed_inputs": {"tau_load": {"uniform": [-0.2, 0.0]}}}))
+    env = FMUEnv(load_config_file(folder / "task.json"))
+    assert env.observation_space.low[1:].tolist() == [100.0, -0.2] and env.observation_space.high[1:].tolist() == [
+        300.0, 0.0]
+    observation, _ = env.reset(seed=1)
+    assert observation[1:].tolist() == [env.episode_setpoints["w"], env.episode_parameters["tau_load"]]
+    env.close()
