@@ -9,7 +9,7 @@ d = 0.001 N.m.s/rad (its speed ``w`` follows the torque with a lag of J/d = 10 s
 
 import numpy as np
 
-from modelicagym.env.tracking import uniform
+from modelicagym.env import uniform
 
 config = {
     'fmu': 'shaft.fmu',
