@@ -34,7 +34,7 @@ __all__ = ["TRY_BOUNDS", "TryConfig", "TryResult", "parse_setting", "prepare", "
 #: the range a ``try`` run gives an action whose range nothing in the FMU says
 TRY_BOUNDS = (-1.0, 1.0)
 #: config keys that map names to values: ``--set KEY.NAME=VALUE`` sets one entry
-_MAPPING_KEYS = ("parameters", "fixed_inputs", "action_bounds")
+_MAPPING_KEYS = ("parameters", "fixed_inputs", "action_bounds", "setpoints")
 
 
 @dataclass(frozen=True)
