@@ -18,7 +18,8 @@ from gymnasium import spaces
 
 from modelicagym.errors import ActionError
 
-__all__ = ["CHECKED_SPACES", "action_checker", "action_clipper", "action_problem", "check_action", "describe_action", "element_bounds"]
+__all__ = ["CHECKED_SPACES", "action_checker", "action_clipper", "action_problem", "check_action", "describe_action",
+           "element_bounds"]
 
 #: the spaces `check_action` understands (actions of others are left to the env)
 CHECKED_SPACES = (spaces.Discrete, spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary, spaces.Dict)

@@ -190,6 +190,10 @@ def _episode(config: dict[str, Any], value: float, seed: int) -> tuple[np.ndarra
         env.close()
 
 
+#: an output's behaviour, settling time and ramp rate (`_behaviour`)
+Found = tuple[str, float | None, float | None]
+
+
 def _settled_at(times: np.ndarray, values: np.ndarray) -> float | None:
     """When ``values`` (from ``times[0]``) enter, for good, a band of `BAND` of their largest
     excursion around their final value: ``times[0]`` if they start inside it, None if not in the
@@ -211,7 +215,7 @@ def _oscillates(response: np.ndarray) -> bool:
     return crossings >= OSCILLATION_CROSSINGS and np.ptp(last) >= 0.9 * np.ptp(third) > 0.0
 
 
-def _behaviour(times: np.ndarray, response: np.ndarray, held: np.ndarray) -> tuple[str, float | None, float | None]:
+def _behaviour(times: np.ndarray, response: np.ndarray, held: np.ndarray) -> Found:
     """What ``response`` does (one of `BEHAVIOURS`), when it settled, and its ramp rate if it
     integrates. ``held``: the held run's values, whose rounding a response must exceed to move."""
     peak = float(np.max(np.abs(response)))
@@ -233,7 +237,7 @@ def _behaviour(times: np.ndarray, response: np.ndarray, held: np.ndarray) -> tup
 
 
 def _respond(config: Mapping[str, Any], name: str, start: float, target: float, horizon: float,
-             seed: int) -> tuple[np.ndarray, np.ndarray, list[tuple[str, str]], list[tuple[str, float | None, float | None]]]:
+             seed: int) -> tuple[np.ndarray, np.ndarray, list[tuple[str, str]], list[Found]]:
     """One step over ``horizon``: the times, the responses (stepped run minus held run), the
     outputs' names and units, and each output's behaviour, settling time and ramp rate (`_behaviour`)."""
     run = _run_config(config, name, horizon)

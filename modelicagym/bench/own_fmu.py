@@ -330,7 +330,8 @@ def run(args: argparse.Namespace) -> int:
         fmi_version, mode = description.fmi_version, config.get("mode") or description.default_mode()
     head = {"fmu": str(config.get("fmu") or description.name), "model": description.model_name,
             "fmi_version": fmi_version, "mode": mode, "once_per_process": once,
-            "config": json.loads(json.dumps(config, default=str)), "action_bounds": bounds_line(config, prepared.assumed)}
+            "config": json.loads(json.dumps(config, default=str)),
+            "action_bounds": bounds_line(config, prepared.assumed)}
     candidates = [1 + sum(skipped(c, n, one_per_process) is None for c in VECTORS) for n in args.n]  # single + vectors
     total = sum(1 + k * (1 + args.repeats) + 1 for k in candidates)
     results = []
