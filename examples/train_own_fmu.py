@@ -11,7 +11,8 @@ relative to the task file's folder (`modelicagym.task`). This script:
 2. saves the policy (``policy.zip``) and the observation normalization it learned with
    (``normalize.pkl``), then loads both back, as you would later;
 3. evaluates the loaded policy on ``--eval-episodes`` episodes of a single env that records its
-   strip chart (``render_mode="rgb_array"``), against random actions on the same starts, and saves
+   strip chart (``render_mode="rgb_array"``), against random actions and the task file's
+   ``baseline`` controller (if it defines one) on the same starts, prints one table of the three, and saves
    the first episode as an animated GIF of at most ``--gif-frames`` frames (a frame every few
    steps, the last one always: drawing is what costs, not stepping; ``--gif-frames 0``: no GIF).
    Pillow makes it, which matplotlib already brings: Gymnasium's ``RecordVideo`` would need
@@ -55,7 +56,7 @@ from modelicagym.disk import atomic_write
 from modelicagym.errors import ConfigError
 from modelicagym.experiments.plots import plot_learning_curve
 from modelicagym.sb3 import SB3VecEnv, folderless_logger
-from modelicagym.task import load_task
+from modelicagym.task import read_task_file
 
 #: each algorithm's class and settings: SAC learns a small control task in a few thousand steps
 #: (one gradient step per env step); PPO needs more steps but each costs less
@@ -69,12 +70,12 @@ ALGORITHMS = {
 
 
 def read_task(path):
-    """The ``config`` dict of the task file ``path`` (Python, run as a script; ``fmu`` relative to
-    its folder), checked to end its episodes."""
-    config = load_task(path)
-    if not config.get("max_episode_steps"):
+    """The ``config`` dict and ``baseline`` controller (or None) of the task file ``path`` (Python,
+    run as a script; ``fmu`` relative to its folder), checked to end its episodes."""
+    task = read_task_file(path)
+    if not task.config.get("max_episode_steps"):
         raise ConfigError(f"{path}: the config sets no max_episode_steps: an episode would never end")
-    return config
+    return task.config, task.baseline
 
 
 def make_model(algorithm, envs, seed, settings):
@@ -108,10 +109,13 @@ class EpisodeLog(BaseCallback):
         return True
 
 
-def run_episode(env, act, seed, frames=None, every=1):
-    """One episode of ``env`` with ``act(observation) -> action``; its return. With ``frames``
-    (a list), the strip chart is drawn into it every ``every`` steps and at the episode's end."""
+def run_episode(env, act, seed, frames=None, every=1, start=None):
+    """One episode of ``env`` with ``act(observation) -> action`` (``start()`` called after the
+    reset, if given); its return. With ``frames`` (a list), the strip chart is drawn into it every
+    ``every`` steps and at the episode's end."""
     observation, _ = env.reset(seed=seed)
+    if start is not None:
+        start()
     total, done, steps = 0.0, False, 0
     while not done:
         observation, reward, terminated, truncated, _ = env.step(act(observation))
@@ -146,6 +150,15 @@ def no_curve_reason(config, args):
             "shorten the episodes (max_episode_steps)")
 
 
+def evaluation_table(results, seeds):
+    """The lines of the evaluation's table: each controller's mean, lowest and highest return."""
+    lines = [f"evaluation on {len(seeds)} episodes (the same seeds, {seeds[0]}..{seeds[-1]}, for each):",
+             f"  {'controller':<24}{'mean return':>12}{'lowest':>12}{'highest':>12}"]
+    lines += [f"  {name:<24}{np.mean(returns):>12.2f}{np.min(returns):>12.2f}{np.max(returns):>12.2f}"
+              for name, returns in results.items()]
+    return lines
+
+
 def save_curve(rows, path):
     with atomic_write(path, "w") as f:
         writer = csv.writer(f)
@@ -155,7 +168,7 @@ def save_curve(rows, path):
 
 def train(args):
     torch.set_num_threads(args.threads)  # the FMUs use the other cores
-    config = read_task(args.task)
+    config, baseline = read_task(args.task)
     out = Path(args.out)
     algorithm, settings = ALGORITHMS[args.algo]
 
@@ -189,15 +202,19 @@ def train(args):
     every = gif_every(config["max_episode_steps"], args.gif_frames)
     try:
         frames = []
-        returns = [run_episode(env, act, seed=10_000 + i, frames=frames if i == 0 and every else None, every=every)
-                   for i in range(args.eval_episodes)]
+        seeds = [10_000 + i for i in range(args.eval_episodes)]
+        returns = [run_episode(env, act, seed=seed, frames=frames if i == 0 and every else None, every=every)
+                   for i, seed in enumerate(seeds)]
         env.action_space.seed(args.seed)
-        random_returns = [run_episode(env, lambda _: env.action_space.sample(), seed=10_000 + i)
-                          for i in range(args.eval_episodes)]
+        random_returns = [run_episode(env, lambda _: env.action_space.sample(), seed=seed) for seed in seeds]
+        baseline_returns = None if baseline is None else [
+            run_episode(env, baseline.act, seed=seed, start=baseline.reset) for seed in seeds]
     finally:
         env.close()
-    print(f"evaluation, {args.eval_episodes} episodes: the policy's mean return {np.mean(returns):.2f}, "
-          f"random actions' {np.mean(random_returns):.2f}")
+    results = {f"trained policy ({args.algo.upper()})": returns, "random actions": random_returns}
+    if baseline_returns is not None:
+        results["the task's baseline"] = baseline_returns
+    print("\n".join(evaluation_table(results, seeds)))
     if frames:
         save_gif(frames, out / "evaluation.gif", args.fps)
 
@@ -215,7 +232,8 @@ def train(args):
     summary = {
         "task": str(args.task), "fmu": str(config["fmu"]), "algorithm": args.algo, "envs": args.envs, "seed": args.seed,
         "env_steps": model.num_timesteps, "seconds": round(seconds, 1), "training_episodes": len(log.rows),
-        "evaluation_returns": returns, "random_returns": random_returns, "gif_frames": len(frames),
+        "evaluation_returns": returns, "random_returns": random_returns, "baseline_returns": baseline_returns,
+        "gif_frames": len(frames),
         "gif_every": every, "files": files,
     }
     with atomic_write(out / "run.json", "w") as f:

@@ -18,7 +18,8 @@ from gymnasium import spaces
 
 from modelicagym.errors import ActionError
 
-__all__ = ["CHECKED_SPACES", "action_checker", "action_problem", "check_action", "describe_action", "element_bounds"]
+__all__ = ["CHECKED_SPACES", "action_checker", "action_clipper", "action_problem", "check_action", "describe_action",
+           "element_bounds"]
 
 #: the spaces `check_action` understands (actions of others are left to the env)
 CHECKED_SPACES = (spaces.Discrete, spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary, spaces.Dict)
@@ -138,3 +139,22 @@ def action_problem(space: spaces.Space, action: Any) -> str | None:
         if np.any(array < space.low) or np.any(array > space.high):
             return f"outside the bounds [{space.low}, {space.high}]"
     return None
+
+
+def action_clipper(space: spaces.Space) -> Callable[[Any], Any]:
+    """For ``action_out_of_bounds="clip"``: a function returning the action, clipped into the
+    bounds of a ``Box`` when it is outside them (a valid action is returned as it is), and raising
+    what `check_action` raises for anything else (NaN, a wrong shape, another space's value)."""
+    check = action_checker(space)
+    fast = _fast_check(space)
+    if type(space) is not spaces.Box:
+        return lambda action: check(action) or action
+
+    def clip(action: Any) -> Any:
+        if fast is not None and fast(action):
+            return action
+        clipped = np.clip(np.asarray(action), space.low, space.high) if np.shape(action) == space.shape else action
+        check(clipped)
+        return clipped
+
+    return clip

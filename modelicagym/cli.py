@@ -51,8 +51,12 @@ def _try(args: argparse.Namespace) -> int:
     prepared = prepare(args.target, config_file=args.config, settings=args.set, validate=not args.no_validate)
     if args.step:
         return _step_responses(args, prepared)
+    if args.policy == "baseline" and prepared.baseline is None:
+        raise ArgumentError(f"--policy baseline: {args.target} defines no baseline (a task file's "
+                            "def baseline(observation) -> action, or a class with act(observation) and reset())")
     out = args.out or f"{Path(args.target).stem}-try.png"
-    result = try_fmu(prepared.config, out=out, steps=args.steps, seed=args.seed, assumed=prepared.assumed)
+    result = try_fmu(prepared.config, out=out, steps=args.steps, seed=args.seed, assumed=prepared.assumed,
+                     baseline=prepared.baseline if args.policy == "baseline" else None)
     print("\n".join(result.lines()))
     return 1 if result.fmu_error is not None else 0
 
@@ -62,7 +66,13 @@ def _step_responses(args: argparse.Namespace, prepared: TryConfig) -> int:
     suggested from them, and the plot."""
     from pathlib import Path
 
-    from modelicagym.step_response import parse_step, plot_step_responses, step_response, suggest_timing
+    from modelicagym.step_response import (
+        parse_step,
+        plot_step_responses,
+        step_plot_paths,
+        step_response,
+        suggest_timing,
+    )
     from modelicagym.try_fmu import TRY_BOUNDS
 
     steps = [parse_step(text) for text in args.step]
@@ -71,8 +81,10 @@ def _step_responses(args: argparse.Namespace, prepared: TryConfig) -> int:
         print("\n".join(response.lines()))
     timing = suggest_timing(responses)
     print(timing or "no output settled: nothing to suggest a time step from")
-    plot, left_out = plot_step_responses(responses, args.out or f"{Path(args.target).stem}-step.png")
-    print(f"plot of the responses over time: {plot}")
+    for response, path in zip(responses, step_plot_paths([r.input for r in responses], args.out,
+                                                         Path(args.target).stem)):
+        plot, left_out = plot_step_responses([response], path)
+        print(f"plot of the response to {response.input} over time: {plot}")
     if left_out:
         print(f"not drawn (the plot holds the first outputs only): {', '.join(left_out)}")
     assumed = [name for name, value in steps if value is None and name in prepared.assumed]
@@ -148,6 +160,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="instead of random actions: step INPUT from its start value (to VALUE, else to the end of "
                            "its range) and show how the outputs respond and when they settle, to choose the time "
                            "step and the episode length (repeat for several inputs)")
+    try_.add_argument("--policy", choices=("random", "baseline"), default="random",
+                      help="what chooses the actions: random samples (default), or the task file's baseline controller")
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
 

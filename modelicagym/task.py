@@ -2,22 +2,29 @@
 ``modelicagym try`` and ``examples/train_own_fmu.py``.
 
 A task file is Python that defines ``config``, an `FMUEnv` config (the one ``modelicagym info``
-prints, pasted, plus a reward, a termination, lambdas); a config file is the same as a JSON object.
+prints, pasted, plus a reward, a termination, lambdas), and may define ``baseline``, a controller to
+compare a trained policy with: a function ``baseline(observation) -> action``, or a class (made with
+no arguments) or object with ``act(observation) -> action`` and, to start each episode afresh,
+``reset()``. A config file is the same config as a JSON object.
+In your own code: ``FMUEnv(load_task("my_task.py"))``, or `read_task_file` for the baseline too.
 A relative ``fmu`` path in either (and a system's relative ``fmus`` paths) is relative to the file's folder, not to the folder the command
 runs in: a task kept beside its FMU works from anywhere.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import runpy
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from modelicagym.errors import ConfigError, DataError, NotFoundError
 
-__all__ = ["load_config_file", "load_task", "relative_to"]
+__all__ = ["Controller", "TaskFile", "load_config_file", "load_task", "read_task_file", "relative_to"]
 
 
 def relative_to(config: dict[str, Any], path: Path) -> dict[str, Any]:
@@ -26,6 +33,10 @@ def relative_to(config: dict[str, Any], path: Path) -> dict[str, Any]:
     config = dict(config)
     if "fmu" in config:
         config["fmu"] = _resolved(config["fmu"], path, "fmu")
+    setpoints = config.get("setpoints")
+    if isinstance(setpoints, dict):  # a CSV table's path
+        config["setpoints"] = {name: _resolved(value, path, f"setpoints[{name!r}]") if isinstance(value, str) else value
+                               for name, value in setpoints.items()}
     fmus = config.get("fmus")
     if isinstance(fmus, dict):
         config["fmus"] = {name: {**source, "fmu": _resolved(source.get("fmu"), path, f"fmus[{name!r}]")}
@@ -53,15 +64,58 @@ def _existing(path: str | os.PathLike[str]) -> Path:
     return path
 
 
-def load_task(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """The ``config`` dict the task file ``path`` defines (the file is run as a script), its
-    ``fmu`` relative to the file's folder."""
+class Controller:
+    """A task file's ``baseline``, as one thing to call: :meth:`reset` at every episode's start,
+    :meth:`act` at every step."""
+
+    def __init__(self, baseline: Any, where: str) -> None:
+        if inspect.isclass(baseline):
+            baseline = baseline()
+        act = getattr(baseline, "act", None)
+        if act is None and callable(baseline):
+            act = baseline
+        if not callable(act):
+            raise ConfigError(f"{where}: baseline must be a function baseline(observation) -> action, or a class or "
+                              f"object with act(observation) (and reset()), got {baseline!r}")
+        self._act: Callable[[Any], Any] = act
+        self._reset: Callable[[], Any] | None = getattr(baseline, "reset", None)
+
+    def reset(self) -> None:
+        """Start an episode (the baseline's own ``reset()``, if it has one)."""
+        if self._reset is not None:
+            self._reset()
+
+    def act(self, observation: Any) -> Any:
+        """The action for ``observation``."""
+        return self._act(observation)
+
+
+@dataclass(frozen=True)
+class TaskFile:
+    """What a task file defines: its ``config`` and its ``baseline`` controller (``None``: none)."""
+
+    config: dict[str, Any]
+    baseline: Controller | None
+
+
+def read_task_file(path: str | os.PathLike[str]) -> TaskFile:
+    """The ``config`` (its ``fmu`` relative to the file's folder) and ``baseline`` the task file
+    ``path`` defines (the file is run as a script, once)."""
     path = _existing(path)
-    config = runpy.run_path(str(path)).get("config")
+    names = runpy.run_path(str(path))
+    config = names.get("config")
     if not isinstance(config, dict):
         raise ConfigError(f"{path}: a task file defines config = {{...}}, the FMUEnv config "
                           "`modelicagym info MY.fmu` prints (plus the task's reward and termination)")
-    return relative_to(config, path)
+    baseline = names.get("baseline")
+    return TaskFile(relative_to(config, path), None if baseline is None else Controller(baseline, str(path)))
+
+
+def load_task(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The ``config`` dict the task file ``path`` defines (the file is run as a script), its
+    ``fmu`` relative to the file's folder: ``FMUEnv(load_task(path))`` or
+    ``modelicagym.make_vec(load_task(path), n=8)``."""
+    return read_task_file(path).config
 
 
 def load_config_file(path: str | os.PathLike[str]) -> dict[str, Any]:

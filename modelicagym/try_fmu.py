@@ -4,8 +4,9 @@
 info`` prints for an FMU (`modelicagym.info.suggest`), a JSON config file, or a task file (Python,
 with its lambdas and reward: `modelicagym.task`); a JSON file and ``key=value`` settings may change
 it. With its strip chart on (`modelicagym.env.strip_chart`), it runs one episode of actions sampled
-from the action space (the reset and the samples seeded, so a run repeats), and saves the chart of
-actions and observations over time as a PNG. `TryResult` says what happened, one fact a line,
+from the action space (the reset and the samples seeded, so a run repeats), or chosen by the task
+file's ``baseline`` controller, and saves the chart of actions and observations over time (with
+the task's setpoints and held inputs) as a PNG. `TryResult` says what happened, one fact a line,
 naming every variable the chart leaves out and every action range it had to assume.
 
 An action whose range nothing in the FMU says (a placeholder, None, in ``action_bounds``) is tried
@@ -26,14 +27,14 @@ from modelicagym.errors import ConfigError
 from modelicagym.fmu import UnsupportedFeatureError
 from modelicagym.info import suggest
 from modelicagym.system import open_model
-from modelicagym.task import load_config_file, load_task
+from modelicagym.task import Controller, load_config_file, read_task_file
 
 __all__ = ["TRY_BOUNDS", "TryConfig", "TryResult", "parse_setting", "prepare", "try_config", "try_fmu"]
 
 #: the range a ``try`` run gives an action whose range nothing in the FMU says
 TRY_BOUNDS = (-1.0, 1.0)
 #: config keys that map names to values: ``--set KEY.NAME=VALUE`` sets one entry
-_MAPPING_KEYS = ("parameters", "fixed_inputs", "action_bounds")
+_MAPPING_KEYS = ("parameters", "fixed_inputs", "action_bounds", "setpoints")
 
 
 @dataclass(frozen=True)
@@ -53,11 +54,12 @@ class TryResult:
     assumed: tuple[str, ...] = ()  # actions tried in TRY_BOUNDS, their range unknown
     left_out: tuple[str, ...] = ()  # variables the chart does not draw
     loops: tuple[str, ...] = ()  # a system's loops of direct feedthrough, where each is read from the previous step
+    policy: str = "random actions"  # or "the task's baseline"
 
     def lines(self) -> list[str]:
         """One line per fact, as the command prints them."""
         lines = [
-            (f"{self.model}: {self.steps} steps of random actions (seed {self.seed}), "
+            (f"{self.model}: {self.steps} steps of {self.policy} (seed {self.seed}), "
             f"t = {self.start_time:g} s to {self.end_time:g} s"),
             f"the episode ended: {self.ending}",
         ]
@@ -87,6 +89,7 @@ class TryConfig:
 
     config: dict[str, Any]
     assumed: tuple[str, ...] = ()
+    baseline: Controller | None = None  # the task file's controller, if it defines one
 
 
 def parse_setting(text: str) -> tuple[str, Any]:
@@ -102,17 +105,18 @@ def parse_setting(text: str) -> tuple[str, Any]:
         return key.strip(), value
 
 
-def _base_config(target: Path, validate: bool) -> dict[str, Any]:
-    """The config ``target`` stands for: a task file's (``.py``), a config file's (``.json``), else
-    the one ``info`` suggests for the FMU."""
+def _base_config(target: Path, validate: bool) -> tuple[dict[str, Any], Controller | None]:
+    """The config ``target`` stands for: a task file's (``.py``, with its baseline), a config
+    file's (``.json``), else the one ``info`` suggests for the FMU."""
     if target.suffix == ".py":
-        return load_task(target)
+        task = read_task_file(target)
+        return task.config, task.baseline
     if target.suffix == ".json":
-        return load_config_file(target)
+        return load_config_file(target), None
     suggestion = suggest(open_model(target, validate=validate), validate=validate)
     if suggestion.config is None:
         raise UnsupportedFeatureError(suggestion.refusal)
-    return suggestion.config
+    return suggestion.config, None
 
 
 def prepare(target: str | Path, *, config_file: str | Path | None = None, settings: Sequence[str] = (),
@@ -120,7 +124,8 @@ def prepare(target: str | Path, *, config_file: str | Path | None = None, settin
     """The config a ``try`` run uses: ``target``'s (an FMU, a JSON config or a Python task file),
     updated by the JSON object in ``config_file`` (its keys replace the config's) and then by
     ``settings`` (``key=value``); placeholder action bounds become `TRY_BOUNDS`, named in the result."""
-    config = dict(_base_config(Path(target), validate))
+    base, baseline = _base_config(Path(target), validate)
+    config = dict(base)
     if not validate:
         config["validate"] = False
     if config_file is not None:
@@ -135,7 +140,7 @@ def prepare(target: str | Path, *, config_file: str | Path | None = None, settin
     assumed = tuple(name for name, pair in (bounds or {}).items() if pair is None) if isinstance(bounds, Mapping) else ()
     if assumed:
         config["action_bounds"] = {**bounds, **dict.fromkeys(assumed, TRY_BOUNDS)}
-    return TryConfig(config, assumed)
+    return TryConfig(config, assumed, baseline)
 
 
 def try_config(fmu: str | Path, *, config_file: str | Path | None = None, settings: Sequence[str] = (),
@@ -145,26 +150,31 @@ def try_config(fmu: str | Path, *, config_file: str | Path | None = None, settin
 
 
 def try_fmu(config: Mapping[str, Any], *, out: str | Path, steps: int | None = None, seed: int = 0,
-            assumed: Sequence[str] = ()) -> TryResult:
-    """Run one episode of ``config`` (an `FMUEnv` config) with random actions and save its strip
-    chart at ``out`` (PNG). ``steps`` caps the episode (else the config's ``max_episode_steps``);
-    ``assumed`` (`TryConfig.assumed`) is passed on to the result."""
+            assumed: Sequence[str] = (), baseline: Controller | None = None) -> TryResult:
+    """Run one episode of ``config`` (an `FMUEnv` config) with random actions, or the actions of
+    ``baseline`` (a task file's controller), and save its strip chart at ``out`` (PNG). ``steps``
+    caps the episode (else the config's ``max_episode_steps``); ``assumed`` (`TryConfig.assumed`)
+    is passed on to the result."""
     limit = steps if steps is not None else config.get("max_episode_steps")
     if limit is None:
         raise ConfigError("the config sets no max_episode_steps: give the number of steps to run (--steps N)")
     env = FMUEnv({**config, "max_episode_steps": limit}, render_mode="rgb_array")
     try:
-        env.reset(seed=seed)
+        observation, _ = env.reset(seed=seed)
         env.action_space.seed(seed)
+        if baseline is not None:
+            baseline.reset()
         terminated = truncated = False
         info: dict[str, Any] = {}
         while not (terminated or truncated):
-            _, _, terminated, truncated, info = env.step(env.action_space.sample())
+            action = env.action_space.sample() if baseline is None else baseline.act(observation)
+            observation, _, terminated, truncated, info = env.step(action)
         chart = env.strip_chart
         plot = chart.save(out)
         roles = [s.role for s in chart.series]
         return TryResult(
-            model=env.description.model_name, seed=seed, steps=env.elapsed_steps, start_time=float(chart.times[0]),
+            model=env.description.model_name, seed=seed, steps=env.elapsed_steps,
+            policy="random actions" if baseline is None else "the task's baseline", start_time=float(chart.times[0]),
             end_time=env.time, ending=_ending(terminated, info, limit), plot=plot,
             n_actions=roles.count("action"), n_observations=roles.count("observation"),
             fmu_error=info.get("fmu_error"), assumed=tuple(assumed), left_out=tuple(chart.left_out),

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from extras import requires
 
@@ -88,3 +89,52 @@ def test_a_bad_step_is_one_line(family_fmu, tmp_path, capsys, step, error, messa
     with pytest.raises(error, match=message):
         main(["try", str(family_fmu("consumer", 2)), "--step", step, "--debug"])
     assert not (tmp_path / "s.png").exists()
+
+
+def inertia(path, **options) -> dict:
+    """The shaft (``tests/fmus/inertia``): its speed w lags the torque by J/d = 10 s, its angle phi
+    integrates w, its acceleration a dies out as w settles."""
+    return {"fmu": path, "inputs": ["tau"], "outputs": ["w", "phi", "a"], "action_bounds": {"tau": (-1.0, 1.0)},
+            "time_step": 0.5, "max_episode_steps": 20, **options}
+
+
+@pytest.mark.parametrize("time_step", [0.5, 50.0])  # an episode of 10 s, then one of 10,000 s
+def test_an_integrating_output_is_said_so_and_stretches_nothing(family_fmu, time_step):
+    response = step_response(inertia(str(family_fmu("inertia", 3)), time_step=time_step), "tau")
+    outputs = {o.name: o for o in response.outputs}
+    assert outputs["w"].behaviour == "settles" and outputs["w"].change == pytest.approx(1000.0, rel=1e-3)
+    assert outputs["w"].settling_time == pytest.approx(LAG_SETTLES * 10.0, rel=0.05)  # not "at once" on a coarse grid
+    assert outputs["phi"].behaviour == "integrates" and outputs["phi"].settling_time is None
+    assert outputs["phi"].rate == pytest.approx(1000.0, rel=0.01)  # rad/s: phi ramps at w's final speed
+    # grown until w settled (100 s), then one tenfold run more that checks phi's ramp rate holds: no further
+    assert response.horizon == 10 * max(100.0, 20 * time_step)
+    line = suggest_timing([response])
+    assert line.startswith("suggested: time_step 2 s (a tenth of the fastest settling, ")
+    assert "phi" not in line
+
+
+def test_an_oscillating_output_is_said_so(family_fmu):
+    """A load torque swinging as a sine (a schedule would do; here the held run keeps the shaft at
+    rest and the torque steps): the speed settles, so this checks the classifier on a sine directly."""
+    from modelicagym.step_response import _behaviour
+
+    times = np.linspace(0.0, 100.0, 401)
+    assert _behaviour(times, np.sin(times), np.zeros_like(times))[0] == "oscillates"
+    assert _behaviour(times, np.exp(-times / 5.0) * np.sin(times), np.zeros_like(times))[0] == "settles"
+    assert _behaviour(times, 3.0 * times, np.zeros_like(times)) == ("integrates", None, pytest.approx(3.0))
+    assert _behaviour(times, np.zeros_like(times), np.ones_like(times))[0] == "does not move"
+
+
+@requires("plots")
+def test_each_input_gets_its_own_plot(family_fmu, tmp_path, capsys, monkeypatch):
+    path = family_fmu("inertia", 3)
+    task = tmp_path / "shaft_task.py"
+    task.write_text(f"config = {inertia(str(path))!r}\nconfig['fixed_inputs'] = {{'tau_load': 0.0}}\n")
+    monkeypatch.chdir(tmp_path)
+    assert main(["try", "shaft_task.py", "--step", "tau", "--step", "tau_load=-0.5"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "  phi [rad]: integrates, ramps at +1000 rad/s (no settling time)" in lines
+    assert "  phi [rad]: integrates, ramps at -500 rad/s (no settling time)" in lines
+    assert lines[-2:] == ["plot of the response to tau over time: shaft_task-step-tau.png",
+                          "plot of the response to tau_load over time: shaft_task-step-tau_load.png"]
+    assert (tmp_path / "shaft_task-step-tau.png").stat().st_size > 0

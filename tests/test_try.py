@@ -212,3 +212,44 @@ def test_the_result_names_every_variable_left_out_of_the_plot(tmp_path):
                        left_out=tuple(series[i].name for i in left_out))
     assert result.lines()[-1] == ("not drawn (the chart holds 10 panels): y10, y11, y12; choose what to see with "
                                   "--set outputs='[...]' or --set inputs='[...]'")
+
+
+SHAFT_TASK = Path(__file__).parents[1] / "examples" / "shaft_task.py"
+
+
+@requires("plots")
+def test_try_runs_the_task_files_baseline_and_draws_the_setpoint_and_the_load(family_fmu, tmp_path, capsys,
+                                                                              monkeypatch):
+    (tmp_path / "shaft.fmu").write_bytes(family_fmu("inertia", 3).read_bytes())
+    (tmp_path / "shaft_task.py").write_text(SHAFT_TASK.read_text())
+    monkeypatch.chdir(tmp_path)
+    status, lines, _ = run_try(capsys, "shaft_task.py", "--policy", "baseline", "--out", "pi.png")
+    assert status == 0 and lines[0] == "Inertia: 60 steps of the task's baseline (seed 0), t = 0 s to 30 s"
+    from modelicagym import FMUEnv
+    from modelicagym.task import read_task_file
+
+    task = read_task_file("shaft_task.py")
+    env = FMUEnv(task.config, render_mode="rgb_array")
+    observation, _ = env.reset(seed=0)
+    task.baseline.reset()
+    for _ in range(60):
+        observation, *_ = env.step(task.baseline.act(observation))
+    chart = env.strip_chart
+    names = [s.name for s in chart.series]
+    assert names == ["tau", "w", "setpoint of w", "tau_load"]
+    assert chart.values[-1, 2] == env.episode_setpoints["w"] == observation[1]
+    assert abs(observation[0] - observation[1]) < 2.0  # the PI reached its setpoint
+    assert chart.values[0, 3] == env.episode_parameters["tau_load"]
+    env.close()
+    assert lines[2] == "plot of 1 action and 1 observation over time: pi.png"
+    status, lines, _ = run_try(capsys, "shaft_task.py")  # random actions: another picture
+    assert lines[0].startswith("Inertia: 60 steps of random actions")
+    assert not np.array_equal(read_png(tmp_path / "pi.png"), read_png(tmp_path / "shaft_task-try.png"))
+
+
+def test_try_policy_baseline_needs_a_baseline(family_fmu, tmp_path, capsys, monkeypatch):
+    (tmp_path / "shaft.fmu").write_bytes(family_fmu("inertia", 3).read_bytes())
+    (tmp_path / "task.py").write_text(SHAFT_TASK.read_text().split("class baseline")[0])
+    monkeypatch.chdir(tmp_path)
+    status, lines, err = run_try(capsys, "task.py", "--policy", "baseline")
+    assert status == 1 and "task.py defines no baseline" in err and err.count("\n") == 1

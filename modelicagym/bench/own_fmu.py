@@ -16,8 +16,10 @@ actions sampled from the action space (seeded):
 and reports medians of env steps per second and the pool's ratios to the others; the step path of
 the env and of the pool's envs, and why; where the time of a step goes (inside the FMU against the
 Python around it: the env's ``fmu_time_ns``, the pool's ``timing()``); and the pool's layout, and
-why. Each round lasts about ``--seconds`` whatever the FMU costs: a heavy FMU gets fewer steps,
-not a longer run. Progress goes to a tqdm bar (the ``progress`` extra), else to log lines.
+why, in plain words; and the action bounds the random actions were sampled in (those ``try``
+assumed named). Each round lasts about ``--seconds`` whatever the FMU costs: a heavy FMU gets fewer
+steps, not a longer run. Progress goes to a tqdm bar (the ``progress`` extra) on a terminal, else
+(piped into a log, or without tqdm) to one log line a step.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import argparse
 import json
 import logging
 import os
+import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping
@@ -43,7 +46,8 @@ from modelicagym.env import FMUEnv
 from modelicagym.errors import ArgumentError
 from modelicagym.registry import EnvFactory
 from modelicagym.system import SystemDescription, open_model
-from modelicagym.try_fmu import try_config
+from modelicagym.try_fmu import prepare
+from modelicagym.vector.parent.placement import LayoutState
 
 logger = logging.getLogger(__name__)
 
@@ -166,6 +170,7 @@ def measure_group(config: Mapping[str, Any], n: int, repeats: int, seconds: floa
         progress(f"n={n}: timed")
         pool_part = {
             "num_workers": pool.num_workers, "caller_steps": pool.caller_steps, "layout": str(timing.layout),
+            "plain_layout": plain_layout(n, pool.layout),
             "layout_reason": pool.layout.reason, "step_paths": describe_paths(list(pool.step_paths)),
             "timing": asdict(timing),
         }
@@ -211,10 +216,11 @@ def report(head: dict[str, Any], results: list[dict[str, Any]]) -> str:
     for r in results:
         for p in r["pool"]["step_paths"]:
             paths.append(f"pool n={r['n']}: {p['envs']} env(s) {p['path']} ({p['reason']})")
-    layouts = [f"pool n={r['n']}: {r['pool']['num_workers']} worker(s); {r['pool']['layout']}" for r in results]
+    layouts = [r["pool"]["plain_layout"] for r in results]
     skips = sorted({f"{name}: {why}" for r in results for name, why in r["skipped"].items()})
     lines = [
         f"{head['model']} (FMI {head['fmi_version']}, mode {head['mode']!r}): {head['fmu']}",
+        f"random actions sampled in: {head['action_bounds']}",
         "", "step path:", *(f"  {line}" for line in paths),
         "", f"env steps per second:\n{rates}",
         "", f"a single env's step: inside the FMU against around it (the env's Python, the loop):\n{single}",
@@ -227,12 +233,49 @@ def report(head: dict[str, Any], results: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-@contextmanager
-def progress_reporter(total: int) -> Iterator[Callable[[str], None]]:
-    """A tqdm bar's step (the ``progress`` extra), else one log line a step."""
+def plain_layout(n: int, state: LayoutState) -> str:
+    """The pool's layout for ``n`` envs in a sentence: which processes step them, and whether the
+    pool moves them (the full state, with the measurement behind its last move, is in the JSON)."""
+    mine = state.envs_in_stand_in if state.stand_in else state.envs_in_caller
+    where = ("a worker standing in for your process (an FMU's code runs in your process only where it says it is "
+             "safe)") if state.stand_in else "your process"
+    workers = f"{state.num_workers} worker process{'' if state.num_workers == 1 else 'es'}"
+    how = ("the pool moves envs between them at episode boundaries, to where it measures they step faster"
+           if state.adaptive else "the pool keeps them there")
+    return (f"pool n={n}: {mine} of the {n} envs step{'s' if mine == 1 else ''} in {where}, the other {n - mine} in "
+            f"{workers}; {how}")
+
+
+def bounds_line(config: Mapping[str, Any], assumed: tuple[str, ...]) -> str:
+    """The bounds the random actions are sampled in: the config's ``action_bounds`` (those ``try``
+    assumed, as nothing in the FMU says their range, named so), else each input's declared range."""
+    bounds = config.get("action_bounds") or {}
+    parts = [f"{name} in [{low:g}, {high:g}]" + (" (assumed: nothing in the FMU says its range; give action_bounds "
+                                                 "with --set)" if name in assumed else "")
+             for name, (low, high) in bounds.items()]
+    declared = [name for name in config.get("inputs") or () if name not in bounds]
+    if declared:
+        parts.append(f"{', '.join(declared)} in the range the FMU declares")
+    if config.get("action_table") is not None:
+        parts = [f"the rows of action_table ({len(config['action_table'])})"]
+    return "; ".join(parts) or "no inputs"
+
+
+def _tqdm() -> Any:
+    """tqdm's bar class, or None without the ``progress`` extra."""
     try:
         from tqdm import tqdm
     except ImportError:
+        return None
+    return tqdm
+
+
+@contextmanager
+def progress_reporter(total: int) -> Iterator[Callable[[str], None]]:
+    """A tqdm bar's step (the ``progress`` extra) when stderr is a terminal; else (a log, a pipe,
+    no tqdm) one log line a step."""
+    tqdm = _tqdm() if sys.stderr.isatty() else None
+    if tqdm is None:
         done = [0]
 
         def log(what: str) -> None:
@@ -273,7 +316,8 @@ def run(args: argparse.Namespace) -> int:
     if args.seconds <= 0:
         raise ArgumentError(f"bench fmu --seconds: more than 0, got {args.seconds}")
     load_before = os.getloadavg()
-    config = try_config(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
+    prepared = prepare(args.fmu, config_file=args.config, settings=args.set, validate=not args.no_validate)
+    config = prepared.config
     description = open_model(config.get("fmu"), fmus=config.get("fmus"), connections=config.get("connections", ()),
                              validate=config.get("validate", True))
     once = description.once_per_process(config.get("mode"))
@@ -286,7 +330,8 @@ def run(args: argparse.Namespace) -> int:
         fmi_version, mode = description.fmi_version, config.get("mode") or description.default_mode()
     head = {"fmu": str(config.get("fmu") or description.name), "model": description.model_name,
             "fmi_version": fmi_version, "mode": mode, "once_per_process": once,
-            "config": json.loads(json.dumps(config, default=str))}
+            "config": json.loads(json.dumps(config, default=str)),
+            "action_bounds": bounds_line(config, prepared.assumed)}
     candidates = [1 + sum(skipped(c, n, one_per_process) is None for c in VECTORS) for n in args.n]  # single + vectors
     total = sum(1 + k * (1 + args.repeats) + 1 for k in candidates)
     results = []

@@ -23,6 +23,7 @@ from modelicagym.env.config_checks import (
     check_termination,
 )
 from modelicagym.env.saved_state import EnvState, StartStates
+from modelicagym.env.tracking import check_observe, check_setpoints, json_draws
 from modelicagym.errors import ConfigError, ConfigTypeError
 from modelicagym.fmu.library_copies import check_instances_per_process
 
@@ -30,6 +31,8 @@ Bounds = Mapping[str, Sequence[float]]
 
 #: values of the ``step_path`` config key
 STEP_PATHS = ("auto", "python")
+#: values of the ``action_out_of_bounds`` config key
+ACTION_OUT_OF_BOUNDS = ("error", "clip")
 
 
 @dataclass
@@ -51,7 +54,8 @@ class FMUEnvConfig:
         substeps: a system's communication steps per env step (default 1).
         inputs: input variables driven by the action, in order.
         outputs: variables observed after every step, in order.
-        parameters: values (or callables ``f(np_random) -> value``) applied at every reset.
+        parameters: values (or callables ``f(np_random) -> value``) applied at every reset; in a JSON
+            config, ``{"uniform": [low, high]}`` is such a draw (`modelicagym.env.tracking.uniform`).
         fixed_inputs: ``{input: value}`` for the inputs the agent does not drive: each is held at its
             value for the episode (a callable ``f(np_random) -> value`` is drawn at every reset, as a
             parameter's: a boundary condition that varies from one episode to the next). An input is
@@ -88,6 +92,15 @@ class FMUEnvConfig:
             so a pool lays such envs out like any other) or ``"one"`` (one env per process: a pool
             keeps one env per worker; for an FMU whose restriction is not about globals, e.g. one
             writing fixed file names). Passed to `FMUInstance`.
+        setpoints: ``{output: signal}``: what each output should follow, a number, a callable
+            ``f(np_random)`` drawn at every reset, a schedule ``[(time, value), ...]`` or a CSV table's
+            path (`modelicagym.env.tracking`); ``env.setpoints`` holds their values now, for a reward.
+        observe: what the observation holds after the outputs, in order: ``"setpoint"``,
+            ``"error"``, ``"error_integral"``, ``"previous_action"`` or a held input's name
+            (`modelicagym.env.tracking`); ``env.observation_names`` names every value.
+        action_out_of_bounds: ``"error"`` (default: an action outside the action space is refused
+            with a ``ValueError``) or ``"clip"`` (a Box action is clipped into its bounds first; NaN
+            is still refused), in the env and in the pool alike.
         start_states: states (``env.unwrapped.get_state()``, `modelicagym.env.saved_state`) or a
             `StartStates`: every reset that brings no state of its own starts from one, drawn with
             the env's generator (e.g. a plant's recorded operating points).
@@ -126,6 +139,9 @@ class FMUEnvConfig:
     logging_on: bool = False
     instances_per_process: str = "copies"
     start_states: Sequence[EnvState] | StartStates | None = None
+    setpoints: Mapping[str, Any] = field(default_factory=dict)
+    observe: Sequence[str] = ()
+    action_out_of_bounds: str = "error"
 
     @property
     def reset_values(self) -> dict[str, Any]:
@@ -148,9 +164,9 @@ class FMUEnvConfig:
         config = cls(**mapping)
         config.inputs = list([config.inputs] if isinstance(config.inputs, str) else config.inputs)
         config.outputs = list([config.outputs] if isinstance(config.outputs, str) else config.outputs)
-        config.parameters = dict(config.parameters)
+        config.parameters = json_draws(dict(config.parameters))
         check_fixed_inputs(config)
-        config.fixed_inputs = dict(config.fixed_inputs)
+        config.fixed_inputs = json_draws(config.fixed_inputs)
         check_numbers(config)
         check_termination(config.termination)
         check_batch_hooks(config)
@@ -161,6 +177,11 @@ class FMUEnvConfig:
         if config.start_states is not None and not isinstance(config.start_states, StartStates):
             config.start_states = StartStates(config.start_states)
         check_instances_per_process(config.instances_per_process)
+        config.setpoints = check_setpoints(config.setpoints)
+        config.observe = check_observe(config.observe)
+        if config.action_out_of_bounds not in ACTION_OUT_OF_BOUNDS:
+            raise ConfigError(f"action_out_of_bounds must be one of {ACTION_OUT_OF_BOUNDS}, "
+                              f"got {config.action_out_of_bounds!r}")
         if config.step_path not in STEP_PATHS:
             raise ConfigError(f"step_path must be one of {STEP_PATHS}, got {config.step_path!r}")
         if config.action_table is not None:

@@ -48,7 +48,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from modelicagym.action_checks import action_checker
+from modelicagym.action_checks import action_checker, action_clipper
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.config_checks import check_action_bound_names, check_fixed_input_names, check_parameter
 from modelicagym.env.endings import (
@@ -71,7 +71,8 @@ from modelicagym.env.native_step import (
 )
 from modelicagym.env.saved_state import EnvState, generator_state, restored_generator
 from modelicagym.env.spaces import Observer, space_for, write_values
-from modelicagym.env.strip_chart import StripChart, require_matplotlib
+from modelicagym.env.strip_chart import Series, StripChart, require_matplotlib
+from modelicagym.env.tracking import Tracking
 from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError
 from modelicagym.fmu.logs import RateLimitedLog
@@ -168,9 +169,13 @@ class FMUEnv(gym.Env):
             #: a system's loops of direct feedthrough, one line each: where the master reads it from the previous step
             self.metadata = {**self.metadata, "loops": description.loop_lines(cfg.master)}
         self.action_space = cfg.action_space or self.make_action_space()
-        self.observation_space = cfg.observation_space or self.make_observation_space()
         self._observer = Observer(space_for(self.fmu.output_variables), self.fmu.outputs)
+        #: the config's setpoints and observation entries beyond the outputs (`modelicagym.env.tracking`), or None
+        self.tracking = Tracking(self, cfg.setpoints, cfg.observe) if cfg.setpoints or cfg.observe else None
+        self.observation_space = cfg.observation_space or self.make_observation_space()
         self._check_action = action_checker(self.action_space)
+        #: with ``action_out_of_bounds="clip"``: the action clipped into a Box's bounds, then checked
+        self._clip = action_clipper(self.action_space) if cfg.action_out_of_bounds == "clip" else None
         self._bounds_source, self._bounds = self._termination_bounds(cfg.termination)
         self.max_episode_steps = cfg.max_episode_steps
         self.positive_reward = float(cfg.positive_reward)
@@ -215,10 +220,31 @@ class FMUEnv(gym.Env):
         if not self._draws_strip_chart:
             return None
         horizon = None if self.max_episode_steps is None else self.max_episode_steps * self.time_step
-        chart = StripChart(self.fmu, self.description.model_name, horizon)
+        extra, read_extra = self._chart_extras()
+        chart = StripChart(self.fmu, self.description.model_name, horizon, extra, read_extra)
         self.metadata = {"render_fps": 1.0 / self.time_step, **self.metadata}
         self.step, self.reset = self._step_and_record, self._reset_and_record
         return chart
+
+    def _chart_extras(self) -> tuple[list[Series], Callable[[], list[float]] | None]:
+        """What the chart draws beside the FMU's variables: each setpoint (dashed, over its output)
+        and each scalar held input (a panel of its own), with the function that reads their values."""
+        units = {v.name: v.unit or "" for v in self.fmu.output_variables}
+        setpoints = list(self.config.setpoints)
+        held = [name for name, value in self.config.fixed_inputs.items() if np.ndim(value) == 0 or callable(value)]
+        held = [name for name in held if not self.description.variable(name).shape]
+        if not setpoints and not held:
+            return [], None
+        extra = [Series(f"setpoint of {name}", units[name], "setpoint", "float", follows=name) for name in setpoints]
+        extra += [Series(name, self.description.variable(name).unit or "", "held input", "float", stepwise=True)
+                  for name in held]
+
+        def read() -> list[float]:
+            values = self.setpoints
+            return ([values.get(name, np.nan) for name in setpoints]
+                    + [float(np.asarray(self.episode_parameters.get(name, np.nan))) for name in held])
+
+        return extra, read
 
     @property
     def _draws_strip_chart(self) -> bool:
@@ -256,6 +282,7 @@ class FMUEnv(gym.Env):
         overrides = options.get("parameters") if options else None
         if not overrides and self._native is not None and self._native.reset():
             self.episode_parameters = self.config.reset_values  # a native reset: no random ones
+            self._start_tracking()
             return self.observation(), {}
         parameters = {**self.config.reset_values, **(overrides or {})}
         self.episode_parameters = {
@@ -263,9 +290,16 @@ class FMUEnv(gym.Env):
         }
         self.fmu.reset(self.episode_parameters)
         self.elapsed_steps = 0
+        self._start_tracking()
         if self._native is not None:
             self._native.bind()
         return self.observation(), {}
+
+    def _start_tracking(self) -> None:
+        """Draw the episode's setpoints (after its parameters, with the same generator) and zero
+        what the task keeps per episode."""
+        if self.tracking is not None:
+            self.tracking.reset(self.np_random)
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Apply ``action`` to the FMU's inputs (`action_to_inputs`) and advance it by ``time_step``.
@@ -278,9 +312,14 @@ class FMUEnv(gym.Env):
                 ordinary step.
 
         Raises:
-            ActionError: the action is outside the action space (a ``ValueError``).
+            ActionError: the action is outside the action space (a ``ValueError``); with
+                ``action_out_of_bounds="clip"`` a Box action outside its bounds is clipped into them
+                instead (NaN and a wrong shape are still refused).
         """
-        self._check_action(action)
+        if self._clip is None:
+            self._check_action(action)
+        else:
+            action = self._clip(action)
         native = self._native
         if native is not None:
             flags = native.step(action)
@@ -297,6 +336,8 @@ class FMUEnv(gym.Env):
                 if flags & Flags.MODEL_ENDED:
                     terminated = True
             return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
+        if self.tracking is not None:
+            self.tracking.before_step(action)
         write_values(self.fmu.inputs, self.action_to_inputs(action))
         info: dict[str, Any] = {}
         try:
@@ -330,6 +371,8 @@ class FMUEnv(gym.Env):
         # a seed given, or the generator that drew the state, goes on; not the state's generator
         self.set_state(state, restore_generator=seed is None and not drawn)
         self.elapsed_steps = 0
+        if self.tracking is not None:  # a new episode: the state's setpoints, nothing kept of its steps
+            self.tracking.restart()
         return True
 
     def _starts_from_initial(self, initial: EnvState, options: dict[str, Any]) -> bool:
@@ -347,6 +390,7 @@ class FMUEnv(gym.Env):
         self.fmu.start_from(initial.fmu, parameters)
         self.episode_parameters = parameters
         self.elapsed_steps = 0
+        self._start_tracking()
         if self._native is not None:
             self._native.bind()
         return True
@@ -357,7 +401,7 @@ class FMUEnv(gym.Env):
         as this one would. Raises `UnsupportedFeatureError` (one line) when the FMU cannot
         serialize its state (``canSerializeFMUstate`` false, FMI 1.0)."""
         return EnvState(self.fmu.save_state(), self.elapsed_steps, dict(self.episode_parameters),
-                        generator_state(self._np_random))
+                        generator_state(self._np_random), None if self.tracking is None else self.tracking.state())
 
     def set_state(self, state: EnvState, restore_generator: bool = True) -> None:
         """Put back a state `get_state` gave (this env's or another's over the same FMU): the
@@ -368,6 +412,11 @@ class FMUEnv(gym.Env):
         self.episode_parameters = dict(state.episode_parameters)
         if restore_generator and state.rng is not None:
             self._np_random = restored_generator(state.rng)
+        if self.tracking is not None:
+            if state.task is not None:
+                self.tracking.restore(state.task)
+            else:  # saved by an env without setpoints: this env's are drawn as at a reset
+                self.tracking.reset(self.np_random)
         if self._native is not None:
             self._native.bind()
         self.elapsed_steps = state.elapsed_steps
@@ -409,7 +458,8 @@ class FMUEnv(gym.Env):
         the same config: no parameter drawn at random, no overridden ``reset``. The pool may then
         move the env between processes at an episode boundary (``modelicagym.vector.parent.placement``)."""
         return (type(self).reset is FMUEnv.reset and self.config.start_states is None
-                and not any(callable(v) for v in self.config.reset_values.values()))
+                and not any(callable(v) for v in self.config.reset_values.values())
+                and not any(callable(v) for v in self.config.setpoints.values()))
 
     @property
     def per_env_hooks(self) -> list[str]:
@@ -436,6 +486,12 @@ class FMUEnv(gym.Env):
         """Whether, on the native path, the observation is ``observation()`` computed in Python
         after the C step (an overridden ``observation``, or a space laid out otherwise than the outputs)."""
         return self._python_observation
+
+    @property
+    def clips_actions(self) -> bool:
+        """Whether an action outside the Box's bounds is clipped into them (``action_out_of_bounds="clip"``)
+        rather than refused; a pool of such envs clips the batch so."""
+        return self._clip is not None and isinstance(self.action_space, gym.spaces.Box)
 
     def check_action(self, action: Any) -> None:
         """Raise the ``ValueError`` `step` raises for an action outside the action space."""
@@ -489,12 +545,41 @@ class FMUEnv(gym.Env):
         ])
 
     def make_observation_space(self) -> gym.Space:
-        """The observation space; default: derived from the output variables."""
-        return space_for(self.fmu.output_variables)
+        """The observation space; default: derived from the output variables, followed by the
+        config's ``observe`` entries (a float Box then: `modelicagym.env.tracking`)."""
+        space = space_for(self.fmu.output_variables)
+        if self.tracking is None or not self.tracking.entries:
+            return space
+        if not isinstance(space, gym.spaces.Box) or space.dtype.kind != "f" or len(space.shape) != 1:
+            raise ConfigError(f"{self.description.name}: 'observe' appends values to a flat array of float outputs; "
+                              f"the outputs' observation is {space}")
+        low, high = self.tracking.bounds
+        return gym.spaces.Box(np.concatenate([space.low, low]), np.concatenate([space.high, high]), dtype=np.float64)
 
     def observation(self) -> Any:
-        """The observation from the FMU's current outputs (override with a custom observation space)."""
-        return self._observer.observe()
+        """The observation from the FMU's current outputs (override with a custom observation space),
+        followed by the config's ``observe`` entries."""
+        if self.tracking is None or not self.tracking.entries:
+            return self._observer.observe()
+        return np.concatenate([self._observer.observe(), self.tracking.values(self.episode_parameters)])
+
+    @property
+    def observation_names(self) -> list[str]:
+        """What each value of the (default, flat) observation is: the outputs' names, then the
+        ``observe`` entries' (``"setpoint:T"``, ``"error_integral:T"``, ``"previous_action"``, a
+        held input's name)."""
+        names = [v.name if v.size == 1 else f"{v.name}[{k}]" for v in self.fmu.output_variables for k in range(v.size)]
+        return names + ([] if self.tracking is None else self.tracking.labels)
+
+    @property
+    def setpoints(self) -> dict[str, float]:
+        """Each setpoint's value now (``{}`` without ``setpoints``): what a reward compares the outputs with."""
+        return {} if self.tracking is None else self.tracking.setpoint_values()
+
+    @property
+    def episode_setpoints(self) -> dict[str, Any]:
+        """The setpoints of this episode as drawn at its reset: a number, or a `Schedule`."""
+        return {} if self.tracking is None else dict(self.tracking.episode_setpoints)
 
     def action_to_inputs(self, action: Any) -> Any:
         """Input values for a (checked) action: an array-like in input order, or ``{name: value}``;

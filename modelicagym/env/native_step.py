@@ -149,6 +149,9 @@ def python_inputs_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     config, fmu, cls = env.config, env.fmu, type(env)
     if overridden(cls, base, "action_to_inputs"):
         return f"action_to_inputs is overridden by {cls.__name__}"
+    tracking = getattr(env, "tracking", None)
+    if tracking is not None and tracking.keeps_state:
+        return "the task keeps each step's action and error for its observation"
     n_values = sum(v.size for v in fmu.input_variables)
     if config.action_table is not None:
         if env.action_space != spaces.Discrete(len(config.action_table)):
@@ -166,6 +169,9 @@ def python_observation_reason(env: gym.Env, base: type[gym.Env]) -> str | None:
     cls = type(env)
     if overridden(cls, base, "observation"):
         return f"observation is overridden by {cls.__name__}"
+    tracking = getattr(env, "tracking", None)
+    if tracking is not None and tracking.entries:
+        return f"the task's observation entries {', '.join(tracking.labels)} follow the outputs"
     if not _same_layout(env.observation_space, env._observer.space):
         return (f"the observation space {env.observation_space} is not laid out as the outputs' own "
                 f"{env._observer.space}")
@@ -313,8 +319,10 @@ class NativeStep:
         state.clock = ctypes.pointer(fmu.clock)
         self._reward = ctypes.c_double(0.0)
         # resets only Python can do: parameters drawn per episode, or a start state drawn from a list
+        tracking = getattr(env, "tracking", None)
         self._random_parameters = (any(callable(value) for value in config.reset_values.values())
-                                   or config.start_states is not None)
+                                   or config.start_states is not None
+                                   or (tracking is not None and tracking.needs_python_reset))
         self._step = self.library.mg_env_step
         self._reset = self.library.mg_env_reset
         self._state_ref = ctypes.byref(state)
@@ -404,6 +412,9 @@ class NativeStep:
     def write_inputs(self, action: Any) -> None:
         """Write ``action_to_inputs(action)`` (a checked action) into the instance's input buffers,
         as the Python path does, for C to step from (``python_inputs``)."""
+        tracking = self.env.tracking
+        if tracking is not None:
+            tracking.before_step(action)
         write_values(self.env.fmu.inputs, self.env.action_to_inputs(action))
         if self._note_inputs is not None:
             self._note_inputs()

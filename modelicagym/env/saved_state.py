@@ -3,7 +3,7 @@
 ``env.unwrapped.get_state()`` gives an `EnvState`: the FMU's state (`modelicagym.fmu.saved_state`:
 its serialized bytes, the clock, the model-exchange solver's restart information) and what the env
 keeps beside it (the steps of the episode so far, the episode's parameters, the state of its random
-generator). It pickles, so it can be saved beside a model, sent to another process or kept in a
+generator, and a tracking task's setpoints, previous action and error integral). It pickles, so it can be saved beside a model, sent to another process or kept in a
 library of start states; ``set_state(state)`` puts it back, and ``reset(options={"state": state})``
 starts an episode there (its step count from zero). ``start_states=[...]`` in the config makes every
 reset without a state of its own start from one of them, drawn with the env's generator.
@@ -34,6 +34,9 @@ class EnvState:
     elapsed_steps: int
     episode_parameters: dict[str, Any]
     rng: dict[str, Any] | None
+    #: the task's part (`modelicagym.env.tracking`: the episode's setpoints, the previous action,
+    #: the error's integral), ``None`` for an env without setpoints or observation entries
+    task: dict[str, Any] | None = None
 
     @property
     def time(self) -> float:

@@ -5,7 +5,8 @@ picture, as the cart-pole does), so Gymnasium's ``RecordVideo`` works for any FM
 try`` saves the same chart as a PNG. A `StripChart` keeps, from the reset and after every step, the
 time and the values in the FMU's input buffer (the actions as the FMU received them: a Discrete
 action's row of ``action_table``, not its index) and output buffer (what observations are made
-of), and draws them: one panel per variable, named with its unit, time on the x axis; with more
+of), and, given them, a task's setpoints (each a dashed line over its output) and held inputs (a panel
+each), and draws them: one panel per variable, named with its unit, time on the x axis; with more
 than `MAX_PANELS` variables, one panel per role and unit holding up to `LINES_PER_PANEL` of them.
 
 The drawing is matplotlib's (the ``plots`` extra, imported only when a chart is asked for): the
@@ -17,7 +18,7 @@ renderer, which numpy alone does not have. Without matplotlib, asking for a char
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,7 +43,7 @@ _WIDTH, _PANEL_HEIGHT, _GAP, _DPI = 640, 100, 24, 80
 _LEFT, _RIGHT, _TOP, _BOTTOM = 72, 14, 48, 44
 #: the title names the variables left out when their names fit in this many characters
 _NOTE_CHARS = 40
-_COLOURS = {"action": "tab:orange", "observation": "tab:blue"}
+_COLOURS = {"action": "tab:orange", "observation": "tab:blue", "held input": "tab:gray"}
 _PLOTTED_KINDS = ("float", "integer", "boolean", "enumeration")
 
 
@@ -65,9 +66,10 @@ class Series:
 
     name: str
     unit: str
-    role: str  # "action" or "observation"
+    role: str  # "action", "observation", "held input" or "setpoint"
     kind: str  # the variable's: "float", "integer", "boolean" or "enumeration"
     stepwise: bool = False  # held between recorded instants (an action, a discrete output): drawn as steps
+    follows: str | None = None  # a setpoint's output: drawn dashed in that output's panel, not in one of its own
 
     @property
     def label(self) -> str:
@@ -87,11 +89,14 @@ def panels_of(series: Sequence[Series]) -> tuple[list[list[int]], list[int]]:
     One panel per series when at most `MAX_PANELS`; else the series grouped by role, unit and kind
     (a count apart from a temperature in kelvin), `LINES_PER_PANEL` to a panel, and the panels past
     `MAX_PANELS` left out. Decided from the variables alone, so every frame has the same panels.
+    A setpoint has no panel of its own (it is drawn in its output's).
     """
-    if len(series) <= MAX_PANELS:
-        return [[i] for i in range(len(series))], []
+    own = [i for i, s in enumerate(series) if s.follows is None]
+    if len(own) <= MAX_PANELS:
+        return [[i] for i in own], []
     groups: dict[tuple[str, str], list[int]] = {}
-    for i, s in enumerate(series):
+    for i in own:
+        s = series[i]
         groups.setdefault((s.role, s.unit, s.kind), []).append(i)
     panels = [members[k : k + LINES_PER_PANEL] for members in groups.values()
               for k in range(0, len(members), LINES_PER_PANEL)]
@@ -107,7 +112,8 @@ class StripChart:
     of a video share their axis; without it the axis ends at the last recorded time.
     """
 
-    def __init__(self, fmu: FMUInstance, title: str, horizon: float | None = None) -> None:
+    def __init__(self, fmu: FMUInstance, title: str, horizon: float | None = None, extra: Sequence[Series] = (),
+                 read_extra: Callable[[], Sequence[float]] | None = None) -> None:
         self._figure_class, self._canvas_class = require_matplotlib()
         self._fmu = fmu
         self.title = title
@@ -115,8 +121,10 @@ class StripChart:
         sources = [(fmu.inputs, v, "action") for v in fmu.input_variables] + [
             (fmu.outputs, v, "observation") for v in fmu.output_variables]
         plotted = [(buffer, v, role) for buffer, v, role in sources if v.kind in _PLOTTED_KINDS]
-        self.series: list[Series] = [s for _, v, role in plotted for s in _series(v, role)]
+        self.series: list[Series] = [s for _, v, role in plotted for s in _series(v, role)] + list(extra)
         self._columns = self._column_slices(plotted)
+        #: the values of ``extra`` (setpoints, held inputs) now, and where they go in a row
+        self._read_extra, self._extra = read_extra, slice(1 + len(self.series) - len(extra), 1 + len(self.series))
         self._rows = np.zeros((64, 1 + len(self.series)))
         #: the names of the series the chart leaves out (more than `MAX_PANELS` panels would hold)
         self.left_out: list[str] = [self.series[i].name for i in panels_of(self.series)[1]]
@@ -146,6 +154,8 @@ class StripChart:
         row[0] = self._fmu.time
         for view, columns in self._columns:
             row[columns] = view.reshape(-1)
+        if self._read_extra is not None:
+            row[self._extra] = self._read_extra()
         self.length += 1
 
     @property
@@ -221,6 +231,11 @@ class StripChart:
                 ax.legend(loc="upper left", fontsize=7, ncols=min(len(members), 3), frameon=False)
             else:
                 ax.set_title(f"{first.role}: {first.label}", loc="right", fontsize=8)
+            for column, reference in enumerate(self.series):
+                if reference.follows is not None and any(self.series[m].name == reference.follows for m in members):
+                    (line,) = ax.plot([], [], color="black", linestyle="--", linewidth=1.0, label=reference.name)
+                    lines.append((line, column))
+                    ax.legend(loc="upper left", fontsize=7, frameon=False)
             ax.tick_params(labelsize=7)
             ax.grid(True, linewidth=0.4, alpha=0.5)
         axes[-1].set_xlabel("time [s]", fontsize=8)

@@ -324,6 +324,7 @@ class PoolVectorEnv(VectorEnv):
         self._actions = ActionWriter(
             self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library(),
             self._buffers.needs_reset if self.autoreset_mode is AutoresetMode.NEXT_STEP else None,
+            clip=first.clips_actions,
         )
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort

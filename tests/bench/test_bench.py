@@ -124,7 +124,9 @@ def test_the_fmu_benchmark_measures_a_users_fmu_and_names_its_step_path(name: st
     for p in pool_paths:
         assert f"pool n=2: {p['envs']} env(s) {p['path']} ({p['reason']})" in out
     assert {"wall_s", "fmu_s", "env_python_s", "pool_overhead_s"} <= set(group["pool"]["timing"])
-    assert group["pool"]["layout"] in out and group["pool"]["layout_reason"] in group["pool"]["layout"]
+    assert group["pool"]["plain_layout"] in out and group["pool"]["layout_reason"] in group["pool"]["layout"]
+    assert group["pool"]["plain_layout"].startswith("pool n=2: ") and "stand-in" not in group["pool"]["plain_layout"]
+    assert f"random actions sampled in: {result['action_bounds']}" in out
     single = group["single_time"]
     assert 0 < single["fmu_us"] < single["wall_us"]
 
@@ -138,6 +140,30 @@ def test_the_fmu_benchmark_logs_its_progress_without_tqdm(monkeypatch: pytest.Mo
         progress("n=2: envs made")
         progress("n=2, single: calibrated")
     assert [r.getMessage() for r in caplog.records] == ["[1/2] n=2: envs made", "[2/2] n=2, single: calibrated"]
+
+
+def test_the_fmu_benchmark_draws_no_bar_into_a_log(monkeypatch: pytest.MonkeyPatch,
+                                                  caplog: pytest.LogCaptureFixture) -> None:
+    """With tqdm installed, but stderr a pipe or a file (not a terminal): log lines, no bar."""
+    import io
+
+    from modelicagym.bench.own_fmu import _tqdm, progress_reporter
+
+    if _tqdm() is None:
+        pytest.skip("tqdm (the progress extra) is not installed")
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    with caplog.at_level("INFO", logger="modelicagym.bench.own_fmu"), progress_reporter(1) as progress:
+        progress("n=2: envs made")
+    assert [r.getMessage() for r in caplog.records] == ["[1/1] n=2: envs made"] and sys.stderr.getvalue() == ""
+
+
+def test_the_fmu_benchmark_names_the_bounds_it_samples_in() -> None:
+    from modelicagym.bench.own_fmu import bounds_line
+
+    config = {"inputs": ["u", "T_amb", "valve"], "action_bounds": {"u": (0.0, 1.0), "valve": (-1.0, 1.0)}}
+    assert bounds_line(config, ("valve",)) == (
+        "u in [0, 1]; valve in [-1, 1] (assumed: nothing in the FMU says its range; give action_bounds with --set); "
+        "T_amb in the range the FMU declares")
 
 
 def test_the_fmu_benchmark_refuses_no_envs_in_one_line(tmp_path: Path) -> None:

@@ -83,7 +83,7 @@ def test_the_walkthrough_runs_as_written_and_leaves_what_it_says(tmp_path):
         out = run(str(EXAMPLES / "train_own_fmu.py"), "heater_task.py", "--out", "run", "--steps", "700", "--envs",
                   "2", "--eval-episodes", "2", cwd=tmp_path, temp=temp).stdout
         assert not list(temp.glob("SB3-*")), "SB3's logger made a folder in the temporary folder"
-    assert "trained 700 steps" in out and "evaluation, 2 episodes" in out and "no training episode ended" not in out
+    assert "trained 700 steps" in out and "evaluation on 2 episodes" in out and "no training episode ended" not in out
     folder = tmp_path / "run"
     summary = json.loads((folder / "run.json").read_text())
     assert sorted(p.name for p in folder.iterdir()) == sorted([*summary["files"], "run.json"]), "temporary files left"
@@ -285,3 +285,34 @@ def test_the_consumer_task_is_info_s_config_edited_where_it_says(family_fmu, cap
     finally:
         env.close()
     assert observation[2] == 0.0 and reward == pytest.approx(-abs(float(observation[0]) - 295.15), abs=1e-4)
+
+
+@needs_sb3
+def test_a_setpoint_task_is_evaluated_against_its_baseline_on_the_same_starts(tmp_path, family_fmu):
+    """examples/shaft_task.py: a setpoint and a load drawn per episode, seen by the policy; its PI
+    baseline is evaluated beside the policy and random actions, one table, the same seeds."""
+    (tmp_path / "shaft.fmu").write_bytes(family_fmu("inertia", 3).read_bytes())
+    (tmp_path / "shaft_task.py").write_text((EXAMPLES / "shaft_task.py").read_text())
+    out = run(str(EXAMPLES / "train_own_fmu.py"), "shaft_task.py", "--out", "run", "--steps", "200", "--envs", "2",
+              "--eval-episodes", "2", "--gif-frames", "2", cwd=tmp_path).stdout
+    lines = out.splitlines()
+    table = lines.index("evaluation on 2 episodes (the same seeds, 10000..10001, for each):")
+    assert lines[table + 1].split() == ["controller", "mean", "return", "lowest", "highest"]
+    assert [line.split()[0] for line in lines[table + 2 : table + 5]] == ["trained", "random", "the"]
+    summary = json.loads((tmp_path / "run" / "run.json").read_text())
+    from modelicagym.task import read_task_file
+
+    task = read_task_file(tmp_path / "shaft_task.py")
+    env = FMUEnv(task.config)
+    expected = []
+    for seed in (10_000, 10_001):
+        observation, _ = env.reset(seed=seed)
+        task.baseline.reset()
+        total, done = 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, _ = env.step(task.baseline.act(observation))
+            total, done = total + reward, terminated or truncated
+        expected.append(total)
+    env.close()
+    assert summary["baseline_returns"] == expected
+    assert max(expected) > -200.0 > max(summary["random_returns"])  # the PI tracks; random actions do not

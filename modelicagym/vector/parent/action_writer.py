@@ -50,6 +50,8 @@ class ActionWriter:
         library: our native library, or ``None`` (numpy then does the range checks).
         needs_reset: in ``NEXT_STEP`` autoreset mode, the pool's shared ``needs_reset`` array: an
             env marked ``RESET_THEN_REPORT`` ignores its next action, which is then not checked.
+        clip: the envs clip a Box action outside its bounds (``action_out_of_bounds="clip"``):
+            so does the batch, before it is checked.
     """
 
     def __init__(
@@ -59,8 +61,11 @@ class ActionWriter:
         given_dtype: np.ndarray,
         library: ctypes.CDLL | None,
         needs_reset: np.ndarray | None = None,
+        clip: bool = False,
     ) -> None:
         self.space = space
+        #: a Box's actions outside its bounds are clipped into them, not refused (NaN still is)
+        self._clip = clip and type(space) is spaces.Box
         self._check = action_checker(space)  # check_action, with a fast path for common valid actions
         self._needs_reset = needs_reset
         self._all_envs = np.arange(shared.n)
@@ -90,6 +95,8 @@ class ActionWriter:
         self._fast = self._bounds is not None
         self._shape = (shared.n, *space.shape) if self._fast else None
         self._dtype = target.dtype if self._fast else None
+        #: the batch's bounds, for clipping it in shared memory
+        self._bounds_of_batch = (self._batched.low, self._batched.high) if self._clip else None
         if self._range_check is None and self._fast:
             self._range_check = lambda: self._first_used_outside(self._target, self._all_envs)
 
@@ -100,6 +107,9 @@ class ActionWriter:
         if self._fast and type(actions) is np.ndarray and actions.shape == self._shape and self._takes(actions.dtype):
             self._target[...] = actions
             bad = self._range_check()
+            if bad >= 0 and self._clip:
+                np.clip(self._target, *self._bounds_of_batch, out=self._target)
+                bad = self._range_check()
             if bad >= 0 and not self._is_used(bad):
                 bad = self._first_used_outside(self._target, self._all_envs)
             if bad >= 0:
@@ -109,6 +119,8 @@ class ActionWriter:
         if self._dict is not None and self._dict.write(actions):
             self._given_dtype[0] = 0
             return
+        if self._clip and not _is_scalar(actions) and np.shape(actions) == self._batched.shape:
+            actions = np.clip(np.asarray(actions), self._batched.low, self._batched.high)
         self._check_each(actions)
         self.shared.write_batch(actions if self._dtype is None else np.asarray(actions).astype(self._dtype))
         self._given_dtype[0] = self._dtype_code(actions)

@@ -82,6 +82,7 @@ def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "
         first.observation_space, first.action_space, dict(first.metadata), first.render_mode, first.spec, step_path,
         tuple(observation_spaces), all(safe_in_caller(env) for env in envs),
         movable_reason(envs, "env {}", first_env),
+        all(getattr(getattr(env, "unwrapped", env), "clips_actions", False) is True for env in envs),
     )
     try:
         ForkingPickler.dumps(description.spec)

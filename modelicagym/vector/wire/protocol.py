@@ -120,6 +120,9 @@ class EnvDescription:
     #: why the envs cannot move between processes at an episode boundary, ``None`` if they can
     #: (`modelicagym.vector.slice.env_slice.movable_reason`)
     movable_reason: str | None = "not described"
+    #: every env of the slice clips an action outside its Box's bounds (``action_out_of_bounds="clip"``):
+    #: the parent clips the batch instead of refusing it
+    clips_actions: bool = False
 
 
 @dataclass(frozen=True)
