@@ -150,8 +150,8 @@ VARIANTS: dict[str, Variant] = {
     # the loops of direct feedthrough (tests/system/test_loops.py): a gain with an offset (FMI 2.0 and 3.0),
     # a proportional controller (FMI 2.0), an integrator whose output feeds its input through (FMI 3.0)
     "gain": Variant(FMUS_DIR / "gain"),
-    "pcontrol": Variant(FMUS_DIR / "pcontrol", fmi_versions=(2,)),
-    "feedplant": Variant(FMUS_DIR / "feedplant", fmi_versions=(3,)),
+    "pcontrol": Variant(SAMPLES_DIR / "pcontrol", fmi_versions=(2,)),
+    "feedplant": Variant(SAMPLES_DIR / "feedplant", fmi_versions=(3,)),
 }
 
 

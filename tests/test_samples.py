@@ -27,6 +27,7 @@ WRITES = {
     "heater": ["heater.fmu", "heater_task.py"],
     "drive": ["drive.fmu", "drive_task.py"],
     "system": ["motor.fmu", "inertia.fmu", "load.csv", "drive.ssp", "system_task.py"],
+    "loop": ["controller.fmu", "plant.fmu", "loop_task.py"],
 }
 
 
@@ -42,6 +43,18 @@ def test_a_sample_runs_as_written_from_an_empty_folder(tmp_path, name):
         for _ in range(5):
             observation, reward, terminated, truncated, _ = env.step(env.action_space.sample())
             assert np.all(np.isfinite(observation)) and np.isfinite(reward) and not terminated and not truncated
+
+
+def test_the_loop_sample_runs_its_loop_with_a_delay_it_names(tmp_path):
+    write_sample("loop", tmp_path)
+    with FMUEnv(load_task(tmp_path / "loop_task.py")) as env:
+        assert env.metadata["loops"] == ["loop controller.y -> plant.u, plant.y -> controller.u: gauss-seidel reads "
+                                         "plant.y -> controller.u from the previous step (controller steps first in "
+                                         "the loop)"]
+        env.reset(seed=0)
+        for _ in range(200):
+            observation, *_ = env.step(np.array([0.5]))
+    assert observation[1] == pytest.approx(0.5, abs=1e-3)  # the loop's plant output settles on the setpoint
 
 
 def test_the_drive_s_task_is_one_a_proportional_controller_does(tmp_path):
@@ -123,7 +136,7 @@ def test_writing_a_sample_again_is_harmless_and_a_user_s_file_is_kept(tmp_path):
 
 def test_bad_names_and_folders_are_refused_in_one_line(tmp_path):
     with pytest.raises(ArgumentError, match=r"no sample named 'heatr'\. Did you mean 'heater'\? Samples: heater, "
-                                            r"drive, system"):
+                                            r"drive, system, loop"):
         write_sample("heatr", tmp_path)
     (tmp_path / "a_file").write_text("")
     with pytest.raises(ArgumentError, match="a_file: not a folder"):

@@ -4,9 +4,10 @@ task file for it into a folder, to try every command on before your own FMU is a
 ``heater``: a room heater (``heater.fmu``, ``heater_task.py``: hold 21 degC); ``drive``: a two-mass
 drive (``drive.fmu``, ``drive_task.py``: hold the motor at 200 rad/s under a load drawn per episode);
 ``system``: a motor and a shaft that connect as a system (``motor.fmu``, ``inertia.fmu``, a load
-table ``load.csv``, the system as an SSP ``drive.ssp``, and ``system_task.py``).
+table ``load.csv``, the system as an SSP ``drive.ssp``, and ``system_task.py``); ``loop``: a controller
+and a plant that close a loop through direct feedthrough (``controller.fmu``, ``plant.fmu``, ``loop_task.py``).
 
-Each model folder here (``heater/``, ``drive/``, ``motor/``, ``inertia/``) holds C sources written
+Each model folder here (``heater/``, ``drive/``, ``motor/``, ``inertia/``, ``pcontrol/``, ``feedplant/``) holds C sources written
 with the framework in ``modelicagym/models/csrc`` and model descriptions; the FMUs are built from
 them on first use and cached, as the bundled cart-pole is (a C compiler is needed once).
 """

@@ -95,6 +95,10 @@ SAMPLES: dict[str, Sample] = {sample.name: sample for sample in (
             "drive.ssp": Archive("system/SystemStructure.ssd", ("motor.fmu", "inertia.fmu", "load.csv")),
             "system_task.py": Copied("system/system_task.py")},
            ("modelicagym info drive.ssp", "modelicagym try system_task.py", "modelicagym bench fmu drive.ssp")),
+    Sample("loop", "a controller (FMI 2.0) and a plant (FMI 3.0) that close a loop through direct feedthrough",
+           {"controller.fmu": Built("pcontrol", 2), "plant.fmu": Built("feedplant", 3),
+            "loop_task.py": Copied("loop/loop_task.py")},
+           ("modelicagym info plant.fmu", "modelicagym try loop_task.py")),
 )}
 
 
