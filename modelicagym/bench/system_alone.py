@@ -42,7 +42,7 @@ def alone_configs(config: Mapping[str, Any], system: SystemDescription) -> dict[
             configs[name] = {
                 "fmu": str(component.source), "mode": fmu.mode, "inputs": inputs,
                 "outputs": [v.name for v in fmu.output_variables] or [component.outputs[0].name],
-                "parameters": {k.split(".", 1)[1]: v for k, v in parameters.items() if k.startswith(name + ".")},
+                "parameters": {k[len(name) + 1:]: v for k, v in parameters.items() if system.split(k)[0] == name},
                 "time_step": time_step / instance.substeps, "action_bounds": held or None,
                 "max_episode_steps": config.get("max_episode_steps"),
             }

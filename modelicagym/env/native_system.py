@@ -61,8 +61,8 @@ class NativeSystem:
         for move, link in zip(system.link_moves, system.description.links):
             by_target[link.target].append(move)
         actions = {name: [] for name in order}
-        for (target, source), variable in zip(system.action_moves, system.input_variables):
-            actions[variable.name.split(".", 1)[0]].append((target, source, 1.0, 0.0))
+        for move, component in zip(system.action_moves, system.action_components):
+            actions[component].append(move)
         for struct, name in zip(components, order):
             component = system.components[name]
             if isinstance(component, TableInstance):
@@ -73,7 +73,7 @@ class NativeSystem:
             struct.links = ctypes.addressof(links)
             action_links, struct.n_action_links = self._keep_links(actions[name])
             struct.action_links = ctypes.addressof(action_links)
-        outputs, n_outputs = self._keep_links([(target, source, 1.0, 0.0) for target, source in system.output_moves])
+        outputs, n_outputs = self._keep_links(system.output_moves)
         guards, n_guards = self._keep_links([(values, values, 1.0, 0.0) for values in system.guard.values])
         self._components = components
         self.struct = MgSystem(components=ctypes.addressof(components), n_components=len(order),

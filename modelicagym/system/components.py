@@ -83,8 +83,8 @@ def open_component(name: str, source: str | os.PathLike[str] | dict, *, validate
             raise ConfigError(f"component {name!r}: give a path, or {{'fmu': path, 'mode': 'cs' or 'me'}}; "
                               f"got {source!r}")
         source, mode = source["fmu"], source.get("mode", mode)
-    if not isinstance(name, str) or not name or "." in name:
-        raise ConfigError(f"component name {name!r}: a component's name is a non-empty string without '.' "
+    if not isinstance(name, str) or "" in name.split("."):
+        raise ConfigError(f"component name {name!r}: a component's name is a non-empty string "
                           "(variables are named component.variable)")
     path = Path(source).expanduser()
     if path.suffix.lower() in TABLE_SUFFIXES:

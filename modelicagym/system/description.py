@@ -1,6 +1,7 @@
 """What a system declares, in the shape `FMUEnv` reads an FMU's (`FMUDescription`): its
-variables named ``component.variable``, its inputs (the components' inputs no connection feeds),
-outputs and parameters, the checked connections, the order Gauss-Seidel steps in and the loops of
+variables named ``component.variable`` (``system.component.variable`` inside a nested SSP system),
+its inputs (the components' inputs nothing feeds, and the SSP system's own input connectors),
+outputs (the components', and the system's own output connectors) and parameters, the checked connections, the order Gauss-Seidel steps in and the loops of
 direct feedthrough (`modelicagym.system.loops`).
 
 `open_system` opens one from an SSP archive or folder, or from a config's ``fmus`` and
@@ -21,10 +22,10 @@ from modelicagym.fmu.description import DefaultExperiment
 from modelicagym.fmu.errors import VariableError
 from modelicagym.fmu.variables import Variable
 from modelicagym.system.components import Component, open_component
-from modelicagym.system.graph import ConnectionSpec, Link, check_connections, split_name, stepping_order
+from modelicagym.system.graph import ConnectionSpec, Link, check_connections, component_of, split_name, stepping_order
 from modelicagym.system.loops import Loop, check_breaks_hold, find_loops, named_breaks
-from modelicagym.system.ssp import SystemSpec, read_ssp
-from modelicagym.system.units import Unit, conversion, declared_unit
+from modelicagym.system.ssp import SystemConnector, SystemSpec, read_ssp
+from modelicagym.system.units import Conversion, Unit, conversion, declared_unit
 
 #: the master algorithms: how the components' inputs are updated within a communication step
 MASTERS = ("gauss-seidel", "jacobi")
@@ -49,15 +50,63 @@ class SystemDescription:
         check_breaks_hold(self.loop_breaks, self.order, self.name)
         self._fed = {(link.target, link.target_variable): link for link in self.links}
         self.start_time = spec.start_time
+        #: the SSP system's own inputs and outputs (`SystemConnector`), those that reach a component
+        self.connectors: dict[str, SystemConnector] = self._usable_connectors(spec)
+        self._through = {target for c in self.connectors.values() if c.kind == "input" for target, _ in c.targets}
+        #: what the SSP declares without effect (a parameter that feeds nothing), one line each
+        self.notes: list[str] = list(spec.notes)
         #: the values the SSP's parameter sets give (in their variables' units), applied under the
         #: env's own at every reset
-        self.parameter_values: dict[str, Any] = {name: self._in_own_unit(name, value, spec.parameter_units.get(name))
-                                                 for name, value in spec.parameters.items()}
+        self.parameter_values: dict[str, Any] = {}
+        self.parameter_values = {name: self._in_own_unit(name, value, spec.parameter_units.get(name))
+                                 for name, value in spec.parameters.items()}
+        for derived in ("variables", "inputs", "outputs", "parameters"):  # checking the values read them before
+            self.__dict__.pop(derived, None)
+
+    def _usable_connectors(self, spec: SystemSpec) -> dict[str, SystemConnector]:
+        """The top-level input connectors that feed a component and output connectors fed by one;
+        each checked as a connection is (the component's end exists, and is an input or output)."""
+        usable = {}
+        for connector in spec.connectors.values():
+            where = f"{self.name}: system connector {connector.name!r}"
+            if connector.kind == "input" and connector.targets:
+                for target, _ in connector.targets:
+                    component, local = split_name(target, self.components, where)
+                    if not component.variable(local, "input", component.inputs).is_input:
+                        raise ConfigError(f"{where}: it feeds {target!r}, which is not an input")
+                usable[connector.name] = connector
+            elif connector.kind == "output" and connector.source is not None:
+                component, local = split_name(connector.source[0], self.components, where)
+                if not component.variable(local, "output", component.outputs).is_output:
+                    raise ConfigError(f"{where}: it reads {connector.source[0]!r}, which is not an output")
+                usable[connector.name] = connector
+        return usable
+
+    def split(self, name: str) -> tuple[str, str]:
+        """``component.variable`` as the component's name and the variable's inside it."""
+        return component_of(name, self.components)
+
+    def feeds(self, name: str) -> list[tuple[str, Conversion]]:
+        """The component inputs input ``name`` sets, each with its conversion: itself, or what a
+        system input connector feeds."""
+        connector = self.connectors.get(name)
+        if connector is None:
+            return [(name, Conversion())]
+        return [(target, conversion or Conversion()) for target, conversion in connector.targets]
+
+    def reads(self, name: str) -> tuple[str, Conversion]:
+        """The component output that output ``name`` is (itself, or what a system output connector
+        reads), with its conversion."""
+        connector = self.connectors.get(name)
+        if connector is None:
+            return name, Conversion()
+        source, conversion = connector.source
+        return source, conversion or Conversion()
 
     def _in_own_unit(self, name: str, value: Any, unit: Unit | None) -> Any:
         """``value`` of parameter ``name``, given in ``unit``, in the unit its variable declares."""
         variable = self.settable_variable(name)
-        component = self.components[name.split(".", 1)[0]]
+        component = self.components[self.split(name)[0]]
         convert = conversion(unit, declared_unit(variable.unit, component.units), f"{self.name}: parameter {name!r}")
         return value if convert.identity else convert.scale * value + convert.shift
 
@@ -66,19 +115,31 @@ class SystemDescription:
 
     @cached_property
     def variables(self) -> dict[str, Variable]:
-        """Every component's variables, named ``component.variable``."""
-        return {f"{c.name}.{v.name}": replace(v, name=f"{c.name}.{v.name}")
-                for c in self.components.values() for v in c.variables.values()}
+        """Every component's variables, named ``component.variable``, then the system's own
+        connectors; a variable the SSP gives a value starts at that value."""
+        variables = {f"{c.name}.{v.name}": replace(v, name=f"{c.name}.{v.name}")
+                     for c in self.components.values() for v in c.variables.values()}
+        for connector in self.connectors.values():
+            behind = variables[connector.targets[0][0] if connector.kind == "input" else connector.source[0]]
+            variables[connector.name] = replace(behind, name=connector.name, causality=connector.kind,
+                                                start=behind.start if connector.value is None else connector.value)
+        for name, value in self.parameter_values.items():
+            if name in variables and not variables[name].shape:
+                variables[name] = replace(variables[name], start=value)
+        return variables
 
     @cached_property
     def inputs(self) -> list[Variable]:
-        """The components' inputs no connection feeds: what actions (or ``fixed_inputs``) drive."""
+        """The components' inputs nothing feeds, and the system's input connectors: what actions
+        (or ``fixed_inputs``) drive."""
         return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() for v in c.inputs
-                if (c.name, v.name) not in self._fed]
+                if (c.name, v.name) not in self._fed and f"{c.name}.{v.name}" not in self._through] + [
+            self.variables[c.name] for c in self.connectors.values() if c.kind == "input"]
 
     @cached_property
     def outputs(self) -> list[Variable]:
-        return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() for v in c.outputs]
+        return [self.variables[f"{c.name}.{v.name}"] for c in self.components.values() for v in c.outputs] + [
+            self.variables[c.name] for c in self.connectors.values() if c.kind == "output"]
 
     @cached_property
     def parameters(self) -> list[Variable]:
@@ -92,7 +153,7 @@ class SystemDescription:
 
     def locate(self, name: str) -> tuple[Component, Variable]:
         """The component of ``component.variable`` and the variable as the component names it."""
-        head, local = name.split(".", 1)
+        head, local = self.split(name)
         component = self.components[head]
         return component, component.variables[local]
 
@@ -115,8 +176,7 @@ class SystemDescription:
 
     def fed_by(self, name: str) -> Link | None:
         """The connection feeding input ``component.variable``, or None."""
-        head, _, local = name.partition(".")
-        return self._fed.get((head, local))
+        return self._fed.get(self.split(name)) if "." in name else None
 
     # -- variables by name, checked as an FMU's are ----------------------------------------------
 
@@ -132,7 +192,15 @@ class SystemDescription:
         return self.variables[name]
 
     def input_variable(self, name: str) -> Variable:
-        """``name`` checked to be driveable by an action: an unconnected input or a tunable parameter."""
+        """``name`` checked to be driveable by an action: an unconnected input, a tunable parameter
+        or the system's input connector."""
+        if name in self.connectors:
+            if self.connectors[name].kind != "input":
+                raise VariableError(f"{self.name}: {name!r} cannot be an action: it is the system's output")
+            return self.variables[name]
+        if name in self._through:
+            feeding = next(c.name for c in self.connectors.values() if name in dict(c.targets))
+            raise VariableError(f"{self.name}: {name!r} cannot be an action: the system's input {feeding!r} feeds it")
         component, variable = self._local(name, "input", self.inputs)
         link = self.fed_by(name)
         if link is not None:
@@ -144,6 +212,11 @@ class SystemDescription:
         return self.variables[name]
 
     def observable_variable(self, name: str) -> Variable:
+        if name in self.connectors:
+            if self.connectors[name].kind != "output":
+                raise VariableError(f"{self.name}: {name!r} cannot be observed: it is the system's input "
+                                    f"(observe what it feeds: {', '.join(t for t, _ in self.connectors[name].targets)})")
+            return self.variables[name]
         component, variable = self._local(name, "output", self.outputs)
         if component.description is not None:
             component.description.observable_variable(variable.name)
@@ -173,6 +246,10 @@ def open_system(fmu: str | os.PathLike[str] | None = None, *, fmus: Mapping[str,
             raise ConfigError("give 'fmu' (one FMU, or an SSP system) or 'fmus' (components to connect), not both")
         if not isinstance(fmus, Mapping):
             raise ConfigError(f"fmus must be {{name: path}}, got {fmus!r} ({type(fmus).__name__})")
+        for name in fmus:
+            if not isinstance(name, str) or not name or "." in name:
+                raise ConfigError(f"component name {name!r}: a component's name is a non-empty string without '.' "
+                                  "(variables are named component.variable)")
         spec = SystemSpec("system", dict(fmus), [_connection(c) for c in connections], loop_breaks=loop_breaks)
         return SystemDescription(spec, None, validate)
     if connections:

@@ -8,7 +8,7 @@ feedthrough).
 from __future__ import annotations
 
 import difflib
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 from modelicagym.errors import ConfigError
@@ -51,13 +51,23 @@ def split_name(name: str, components: Mapping[str, Component], where: str) -> tu
     naming ``where``, with close matches, for an unknown component."""
     if not isinstance(name, str) or "." not in name:
         raise ConfigError(f"{where}: {name!r} is not 'component.variable'; components: {', '.join(components)}")
-    head, local = name.split(".", 1)
+    head, local = component_of(name, components)
     component = components.get(head)
     if component is None:
         close = difflib.get_close_matches(head, list(components), n=3, cutoff=0.6)
         hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
         raise ConfigError(f"{where}: no component named {head!r}.{hint} Components: {', '.join(components)}")
     return component, local
+
+
+def component_of(name: str, components: Collection[str]) -> tuple[str, str]:
+    """``"component.variable"`` split after the longest name of ``components`` it starts with (the
+    components of a nested SSP system are named ``system.component``, and a variable's own name may
+    hold dots); after the first dot where none matches."""
+    head = max((c for c in components if name.startswith(c + ".")), key=len, default=None)
+    if head is None:
+        return name.split(".", 1)  # type: ignore[return-value]
+    return head, name[len(head) + 1:]
 
 
 def check_connections(components: Mapping[str, Component], connections: Sequence[ConnectionSpec],
@@ -80,7 +90,7 @@ def check_connections(components: Mapping[str, Component], connections: Sequence
         if not into.is_input:
             raise ConfigError(f"{where}: {connection.target!r} is not an input (causality {into.causality!r}); "
                               f"inputs of {target.name}: {', '.join(v.name for v in target.inputs) or 'none'}")
-        if out.kind != into.kind or out.shape != into.shape:
+        if not _kinds_connect(out.kind, into.kind) or out.shape != into.shape:
             raise ConfigError(f"{where}: type mismatch: a {out.fmi_type}{list(out.shape) if out.shape else ''} "
                               f"output into a {into.fmi_type}{list(into.shape) if into.shape else ''} input")
         key = (target.name, target_name)
@@ -95,6 +105,15 @@ def check_connections(components: Mapping[str, Component], connections: Sequence
             raise ConfigError(f"{where}: a unit conversion on a {out.fmi_type} value; only floats convert")
         links.append(Link(source.name, source_name, target.name, target_name, convert))
     return links
+
+
+#: the kinds of value a connection may join besides equal ones: SSP 1.0 (section 5.3.2.3) lets an
+#: Integer feed an Enumeration and back (the enumeration's value is its integer)
+_CONNECTING_KINDS = {("integer", "enumeration"), ("enumeration", "integer")}
+
+
+def _kinds_connect(source: str, target: str) -> bool:
+    return source == target or (source, target) in _CONNECTING_KINDS
 
 
 def stepping_order(components: Sequence[str], links: Sequence[Link], breaks: Sequence[Link] = ()) -> list[str]:

@@ -97,10 +97,11 @@ class SystemInstance:
             wanted_out[link.source].append(link.source_variable)
             wanted_in[link.target].append(link.target_variable)
         for variable in self.input_variables:
-            component, local = variable.name.split(".", 1)
-            wanted_in[component].append(local)
+            for target, _ in description.feeds(variable.name):
+                component, local = description.split(target)
+                wanted_in[component].append(local)
         for variable in self.output_variables:
-            component, local = variable.name.split(".", 1)
+            component, local = description.split(description.reads(variable.name)[0])
             wanted_out[component].append(local)
         self.components: dict[str, FMUInstance | TableInstance] = {}
         try:
@@ -119,10 +120,15 @@ class SystemInstance:
         self.inputs = Values(self.input_variables)
         self.outputs = Values(self.output_variables)
         # what a step copies (the native path copies the same, `modelicagym.env.native_system`):
-        # the action's values to the components, the connections (in description.links order),
-        # the components' outputs to the system's
-        self.action_moves = [(self._view(v.name, "inputs"), self.inputs.views[v.name]) for v in self.input_variables]
-        self.output_moves = [(self.outputs.views[v.name], self._view(v.name, "outputs")) for v in self.output_variables]
+        # the action's values to the components (an input connector's to every input it feeds), the
+        # connections (in description.links order), the components' outputs to the system's; each
+        # ``(target view, source view, scale, shift)``, and ``action_components``: whose input each action move sets
+        feeds = [(v.name, target, convert) for v in self.input_variables for target, convert in description.feeds(v.name)]
+        self.action_moves = [(self._view(target, "inputs"), self.inputs.views[name], convert.scale, convert.shift)
+                             for name, target, convert in feeds]
+        self.action_components = [description.split(target)[0] for _, target, _ in feeds]
+        self.output_moves = [(self.outputs.views[v.name], self._view(source, "outputs"), convert.scale, convert.shift)
+                             for v in self.output_variables for source, convert in [description.reads(v.name)]]
         self._order = [(self.components[name], self._moves(link for link in description.links if link.target == name))
                        for name in description.order]
         self.link_moves = self._moves(description.links)
@@ -135,7 +141,7 @@ class SystemInstance:
         self._origin, self._dt, self.steps = self.start_time, 0.0, 0
 
     def _view(self, name: str, side: str) -> np.ndarray:
-        component, local = name.split(".", 1)
+        component, local = self.description.split(name)
         return getattr(self.components[component], side).views[local]
 
     def _moves(self, links: Iterable[Link]) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
@@ -194,8 +200,7 @@ class SystemInstance:
         reset re-instantiates the failed FMU. A diverged loop raises `LoopDivergedError`."""
         if dt != self._dt:
             self._origin, self._dt, self.steps = self.time, dt, 0
-        for target, source in self.action_moves:
-            target[...] = source
+        self._copy(self.action_moves)
         h = dt / self.substeps
         gauss_seidel = self.master == "gauss-seidel"
         ended = False
@@ -213,8 +218,7 @@ class SystemInstance:
                 break
         self.steps += 1
         self.time = self._origin + self.steps * dt
-        for target, source in self.output_moves:
-            target[...] = source
+        self._copy(self.output_moves)
         return ended
 
     def loop_error(self, k: int) -> LoopDivergedError:
@@ -243,7 +247,7 @@ class SystemInstance:
         split: dict[str, dict[str, Any]] = {name: {} for name in self.components}
         for name, value in {**self.description.parameter_values, **(values or {})}.items():
             self.description.settable_variable(name)
-            component, local = name.split(".", 1)
+            component, local = self.description.split(name)
             split[component][local] = value
         return split
 
@@ -255,14 +259,12 @@ class SystemInstance:
             if moves and isinstance(component, FMUInstance) and not component.event_mode_inputs:
                 component.inputs.check(component.inputs.write(), "set inputs")
                 component.read_outputs()
-        for target, source in self.output_moves:
-            target[...] = source
+        self._copy(self.output_moves)
 
     def read_outputs(self) -> None:
         for component in self.components.values():
             component.read_outputs()
-        for target, source in self.output_moves:
-            target[...] = source
+        self._copy(self.output_moves)
 
     def save_state(self) -> SystemState:
         """Every component's state and the system's clock, as a picklable value (`load_state`)."""
@@ -284,15 +286,21 @@ class SystemInstance:
         for name, component in self.components.items():
             component.load_state(state.components[name], split[name])
         self.time, self.steps, self._origin, self._dt = state.time, state.steps, state.origin, state.dt
-        for target, source in self.output_moves:
-            target[...] = source
+        self._copy(self.output_moves)
 
     def get_values(self, names: Sequence[str]) -> dict[str, Any]:
-        """Read ``component.variable`` values by name (slow path, for inspection)."""
+        """Read ``component.variable`` values by name (slow path, for inspection); a system's output
+        connector reads what it connects to, an input connector that is an action holds the action's value."""
         values = {}
         for name in names:
-            component, local = name.split(".", 1)
-            values[name] = self.components[component].get_values([local])[local]
+            if name in self.description.connectors and name in self.inputs.views:
+                values[name] = self.inputs.views[name].copy() if self.inputs.views[name].shape else \
+                    self.inputs.views[name].item()
+                continue
+            source, convert = self.description.reads(name)
+            component, local = self.description.split(source)
+            value = self.components[component].get_values([local])[local]
+            values[name] = value if convert.identity else convert.scale * value + convert.shift
         return values
 
     def close(self) -> None:

@@ -4,19 +4,25 @@
 mappings (``.ssm``) applied, a value given in a unit (``ssv:Real unit``, defined in the set's
 ``ssv:Units`` or the FMU's) converted to its variable's.
 
-What is read: the components of the top-level system (FMUs, with their ``implementation`` as the
-mode, and tables: a ``.csv`` or ``.mat`` source), its connections between components (with an
-``ssc:LinearTransformation``), the parameter bindings of the system and of each component (a
-binding's ``prefix``; a mapping renames a parameter set's names, with its own linear
-transformation), and ``DefaultExperiment``'s start time. Connections to the system's own
-connectors leave the component's end unconnected (an input then becomes an action), except that a
-value the system's parameter sets give such a connector (OMSimulator's system parameters) goes to
-every component variable it feeds. Nested
-systems and signal dictionaries are refused in one line.
+A system that nests systems is read as one flat system: a component inside sub-system ``sub`` is
+named ``sub.component`` (``sub.inner.component`` one level further), its variables
+``sub.component.variable``. A connection to a sub-system's connector is followed through to the
+component behind it, at any depth, the linear transformations along the way composed. The
+top-level system's own connectors are the system's inputs and outputs (`SystemConnector`); a
+connection from one no component output feeds leaves the component's input to the actions.
+
+Parameter bindings apply at every level; where several give the same variable a value, the binding
+of the higher level (the enclosing system) wins over a lower level's (a sub-system's, a
+component's own), as SSP 1.0 section 5.3.3 orders them and OMSimulator does; within one level the
+later binding wins. A value given to a connector (OMSimulator's system parameters) goes to every
+component variable the connector feeds; one that feeds nothing is reported (`SystemSpec.notes`).
+
+A defect of the SSD, an SSV or an SSM is a `DataError` naming the file, the element and its line.
 """
 
 from __future__ import annotations
 
+import difflib
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,7 +30,7 @@ from typing import Any
 
 from lxml import etree
 
-from modelicagym.errors import ConfigError, DataError
+from modelicagym.errors import DataError
 from modelicagym.fmu.description import extract_archive
 from modelicagym.fmu.errors import FMUNotFoundError, InvalidFMUError
 from modelicagym.system.graph import ConnectionSpec
@@ -41,6 +47,22 @@ NS = {
 }
 #: SSD ``implementation`` -> the mode a component runs in (``Any``: its default)
 _IMPLEMENTATIONS = {"CoSimulation": "cs", "ModelExchange": "me", "Any": None, None: None}
+#: the kinds of a system's connector (SSP 1.0 section 5.3.2)
+CONNECTOR_KINDS = ("input", "output", "inout", "parameter", "calculatedParameter", "structuralParameter",
+                   "constant", "local")
+
+
+@dataclass
+class SystemConnector:
+    """A connector of the top-level system: an ``input`` feeds ``targets`` (component variables,
+    each with the linear transformation along the way, None: units convert), an ``output`` reads
+    ``source``; ``value``: what the system's parameter sets give it (None: nothing)."""
+
+    name: str
+    kind: str
+    targets: list[tuple[str, Conversion | None]] = field(default_factory=list)
+    source: tuple[str, Conversion | None] | None = None
+    value: Any = None
 
 
 @dataclass
@@ -58,6 +80,10 @@ class SystemSpec:
     parameter_units: dict[str, Unit] = field(default_factory=dict)
     #: the connections Gauss-Seidel reads from the previous step, as the config names them (`modelicagym.system.loops`)
     loop_breaks: list[Any] = field(default_factory=list)
+    #: the top-level system's own inputs and outputs, by name
+    connectors: dict[str, SystemConnector] = field(default_factory=dict)
+    #: what was read but has no effect (a parameter that feeds nothing), one line each
+    notes: list[str] = field(default_factory=list)
 
 
 def is_ssp(path: str | Path) -> bool:
@@ -73,118 +99,306 @@ def read_ssp(path: str | Path) -> SystemSpec:
         raise FMUNotFoundError(f"SSP system not found: {path} (resolved to {path.resolve()})")
     root = path.parent if path.name == SSD_NAME else path if path.is_dir() else extract_archive(
         path, SSD_NAME, "an SSP archive")
-    ssd = _parse(root / SSD_NAME, path)
+    ssd = _parse(root / SSD_NAME, path, "ssd:SystemStructureDescription")
     system = ssd.find("ssd:System", NS)
     if system is None:
-        raise InvalidFMUError(f"{path}: {SSD_NAME} declares no ssd:System")
-    name = system.get("name") or path.stem
-    if system.find("ssd:Elements/ssd:System", NS) is not None:
-        raise ConfigError(f"{path}: system {name!r} nests systems; flatten it into one system of components")
-    components: dict[str, Any] = {}
-    units: dict[str, Unit] = {}
-    parameters = _bindings(system, root, path, "", units)
-    for element in system.iterfind("ssd:Elements/ssd:Component", NS):
-        component = element.get("name")
-        source = element.get("source")
-        if not source:
-            raise InvalidFMUError(f"{path}: component {component!r} has no source")
+        raise DataError(f"{path}: {SSD_NAME} declares no ssd:System")
+    reader = _Reader(root, path)
+    reader.system(system, "", 0)
+    spec = reader.spec(system.get("name") or path.stem)
+    experiment = ssd.find("ssd:DefaultExperiment", NS)
+    if experiment is not None and experiment.get("startTime") is not None:
+        spec.start_time = reader.number(experiment, "startTime", SSD_NAME)
+    return spec
+
+
+@dataclass
+class _Edge:
+    start: str
+    end: str
+    transformation: Conversion | None
+    where: str
+
+
+@dataclass
+class _Binding:
+    """A value a parameter set gives ``name`` (a component variable or a connector, by its full
+    name), bound at ``depth`` (0: the top-level system)."""
+
+    depth: int
+    name: str
+    value: Any
+    unit: Unit | None
+    where: str
+
+
+class _Reader:
+    """The nested systems of one SSD, read into one flat system (see the module docstring)."""
+
+    def __init__(self, root: Path, where: Path):
+        self.root, self.where = root, where
+        self.components: dict[str, Any] = {}
+        self.connectors: dict[str, str] = {}  # a system's connector, by its full name -> its kind
+        self.edges: list[_Edge] = []
+        self.bindings: list[_Binding] = []
+
+    # -- reading ---------------------------------------------------------------------------------
+
+    def error(self, element: Any, message: str, file: str = SSD_NAME) -> DataError:
+        """A `DataError` naming the file, ``element`` (its tag, name and line) and ``message``."""
+        tag = etree.QName(element).localname if isinstance(element.tag, str) else "element"
+        name = f" {element.get('name')!r}" if element.get("name") is not None else ""
+        return DataError(f"{self.where}: {file}, line {element.sourceline}: {tag}{name}: {message}")
+
+    def required(self, element: Any, attribute: str, file: str = SSD_NAME) -> str:
+        value = element.get(attribute)
+        if not value:
+            raise self.error(element, f"has no {attribute!r}", file)
+        return value
+
+    def number(self, element: Any, attribute: str, file: str, default: float | None = None) -> float:
+        text = element.get(attribute)
+        if text is None and default is not None:
+            return default
+        try:
+            return float(text)
+        except (TypeError, ValueError):
+            raise self.error(element, f"{attribute}={text!r} is not a number", file) from None
+
+    def transformation(self, element: Any, file: str = SSD_NAME) -> Conversion | None:
+        linear = element.find("ssc:LinearTransformation", NS)
+        if linear is None:
+            return None
+        return Conversion(self.number(linear, "factor", file, 1.0), self.number(linear, "offset", file, 0.0))
+
+    def system(self, element: Any, prefix: str, depth: int) -> None:
+        """Read system ``element``, whose components are named ``prefix`` + name."""
+        for connector in element.iterfind("ssd:Connectors/ssd:Connector", NS):
+            kind = connector.get("kind")
+            if kind not in CONNECTOR_KINDS:
+                raise self.error(connector, f"kind {kind!r} is none of {', '.join(CONNECTOR_KINDS)}")
+            self.connectors[prefix + self.required(connector, "name")] = kind
+        elements: dict[str, str] = {}
+        for child in element.iterfind("ssd:Elements/*", NS):
+            if not isinstance(child.tag, str):
+                continue  # a comment
+            tag, name = etree.QName(child).localname, self.required(child, "name")
+            if name in elements:
+                raise self.error(child, f"a second element of that name in system {element.get('name')!r}")
+            elements[name] = tag
+            if tag == "System":
+                self.system(child, f"{prefix}{name}.", depth + 1)
+            elif tag == "Component":
+                self.component(child, prefix + name, depth + 1)
+            else:
+                raise self.error(child, "not supported (only components and systems are)")
+        self.bind(element, prefix, depth)
+        for connection in element.iterfind("ssd:Connections/ssd:Connection", NS):
+            start = self.end(connection, "start", prefix, elements)
+            end = self.end(connection, "end", prefix, elements)
+            self.edges.append(_Edge(start, end, self.transformation(connection),
+                                    f"{SSD_NAME}, line {connection.sourceline}"))
+
+    def component(self, element: Any, name: str, depth: int) -> None:
+        source = self.required(element, "source")
         implementation = element.get("implementation")
         if implementation not in _IMPLEMENTATIONS:
-            raise InvalidFMUError(f"{path}: component {component!r}: unknown implementation {implementation!r}; "
-                                  f"one of {', '.join(k for k in _IMPLEMENTATIONS if k)}")
+            raise self.error(element, f"unknown implementation {implementation!r}; one of "
+                                      f"{', '.join(k for k in _IMPLEMENTATIONS if k)}")
         mode = _IMPLEMENTATIONS[implementation]
-        location = str(root / source)
-        components[component] = {"fmu": location, "mode": mode} if mode else location
-        parameters.update(_bindings(element, root, path, f"{component}.", units))
-    connections = []
-    fed: dict[str, list[tuple[str, Conversion | None]]] = {}  # a system connector -> the components' ends it feeds
-    for element in system.iterfind("ssd:Connections/ssd:Connection", NS):
-        start, end = element.get("startElement"), element.get("endElement")
-        if start is None and end is not None:
-            fed.setdefault(element.get("startConnector"), []).append(
-                (f"{end}.{element.get('endConnector')}", _transformation(element)))
-        if start is None or end is None:
-            logger.debug("%s: connection of %s.%s to %s.%s touches the system's own connectors: its component end "
-                         "stays unconnected", path, start, element.get("startConnector"), end,
-                         element.get("endConnector"))
-            continue
-        connections.append(ConnectionSpec(f"{start}.{element.get('startConnector')}",
-                                          f"{end}.{element.get('endConnector')}", _transformation(element)))
-    for connector in [name for name in parameters if name in fed]:  # a system parameter: the value of what it feeds
-        value = parameters.pop(connector)
-        unit = units.pop(connector, None)
-        for target, transformation in fed[connector]:
-            parameters[target] = value if transformation is None else transformation.scale * value + transformation.shift
-            if unit is not None and transformation is None:
-                units[target] = unit
-    experiment = ssd.find("ssd:DefaultExperiment", NS)
-    start_time = experiment.get("startTime") if experiment is not None else None
-    return SystemSpec(name, components, connections, parameters, None if start_time is None else float(start_time),
-                      units)
+        location = str(self.root / source)
+        self.components[name] = {"fmu": location, "mode": mode} if mode else location
+        self.bind(element, f"{name}.", depth)
+
+    def end(self, connection: Any, side: str, prefix: str, elements: dict[str, str]) -> str:
+        """The full name of a connection's ``side`` end: a component's variable or a system's connector."""
+        element, connector = connection.get(f"{side}Element"), self.required(connection, f"{side}Connector")
+        system = f" {prefix[:-1]!r}" if prefix else ""
+        if not element:
+            name = prefix + connector
+            if name not in self.connectors:
+                own = [c[len(prefix):] for c in self.connectors if c.startswith(prefix) and "." not in c[len(prefix):]]
+                raise self.error(connection, f"{side}Connector {connector!r} is no connector of the system{system}"
+                                             f"{_close(connector, own)}")
+            return name
+        if element not in elements:
+            raise self.error(connection, f"{side}Element {element!r} is no element of the system{system}"
+                                         f"{_close(element, elements)}")
+        name = f"{prefix}{element}.{connector}"
+        if elements[element] == "System" and name not in self.connectors:
+            raise self.error(connection, f"{side}Connector {connector!r} is no connector of the system "
+                                         f"{prefix + element!r}")
+        return name
+
+    def bind(self, element: Any, scope: str, depth: int) -> None:
+        """Record the values of ``element``'s bindings, named ``scope`` + prefix + name, mappings applied."""
+        for binding in element.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
+            prefix = binding.get("prefix") or ""
+            sets = [(binding.get("source"), _parse(self.root / binding.get("source"), self.where, "ssv:ParameterSet"))
+                    ] if binding.get("source") else []
+            sets += [(SSD_NAME, inline) for inline in binding.iterfind("ssd:ParameterValues/ssv:ParameterSet", NS)]
+            mapping = self.mapping(binding)
+            for file, parameter_set in sets:
+                defined = {self.required(unit, "name", file): self.unit(unit, file)
+                           for unit in parameter_set.iterfind("ssv:Units/ssc:Unit", NS)}
+                for parameter in parameter_set.iterfind("ssv:Parameters/ssv:Parameter", NS):
+                    name, value = self.required(parameter, "name", file), self.value(parameter, file)
+                    real = parameter.find("ssv:Real", NS)
+                    unit = None
+                    if real is not None and real.get("unit"):
+                        unit = defined.get(real.get("unit")) or Unit(real.get("unit"), None)
+                    for target, transformation in mapping.get(name, [(name, None)]):
+                        mapped = value if transformation is None else transformation.scale * value + transformation.shift
+                        self.bindings.append(_Binding(depth, scope + prefix + target, mapped,
+                                                      unit if transformation is None else None,
+                                                      f"{file}, line {parameter.sourceline}"))
+
+    def mapping(self, binding: Any) -> dict[str, list[tuple[str, Conversion | None]]]:
+        """A binding's parameter mapping: each source name -> every target it sets."""
+        mapping: dict[str, list[tuple[str, Conversion | None]]] = {}
+        for reference in binding.iterfind("ssd:ParameterMapping", NS):
+            file = reference.get("source")
+            document = (_parse(self.root / file, self.where, "ssm:ParameterMapping") if file
+                        else reference.find("ssm:ParameterMapping", NS))
+            file = file or SSD_NAME
+            for entry in document.iterfind("ssm:MappingEntry", NS) if document is not None else ():
+                source, target = self.required(entry, "source", file), self.required(entry, "target", file)
+                mapping.setdefault(source, []).append((target, self.transformation(entry, file)))
+        return mapping
+
+    def value(self, parameter: Any, file: str) -> Any:
+        """A parameter's value from its ``ssv:Real`` / ``Integer`` / ``Boolean`` / ``String`` element."""
+        for kind, parse in (("Real", float), ("Integer", int), ("Boolean", _boolean), ("String", str)):
+            element = parameter.find(f"ssv:{kind}", NS)
+            if element is not None:
+                try:
+                    return parse(element.get("value"))
+                except (TypeError, ValueError):
+                    raise self.error(parameter, f"{element.get('value')!r} is not a {kind}", file) from None
+        raise self.error(parameter, "has no Real, Integer, Boolean or String value", file)
+
+    def unit(self, element: Any, file: str) -> Unit:
+        """An ``ssc:Unit`` with its ``ssc:BaseUnit``, as an FMU's unit definition."""
+        base = element.find("ssc:BaseUnit", NS)
+        attributes = {} if base is None else base.attrib
+        try:
+            return Unit(element.get("name"), tuple(int(attributes.get(b, 0)) for b in BASE_UNITS),
+                        float(attributes.get("factor", 1.0)), float(attributes.get("offset", 0.0)))
+        except ValueError as error:
+            raise self.error(base, f"not a unit definition: {error}", file) from None
+
+    # -- flattening ------------------------------------------------------------------------------
+
+    def source(self, name: str) -> tuple[str, Conversion | None]:
+        """What feeds ``name`` in the end, through systems' connectors: a component's variable, a
+        top-level connector, or a connector nothing feeds; with the transformations composed."""
+        feeding = {edge.end: edge for edge in self.edges}
+        seen, transformation = {name}, None
+        while name in self.connectors and name in feeding:
+            edge = feeding[name]
+            transformation = _compose(edge.transformation, transformation)
+            name = edge.start
+            if name in seen:
+                raise DataError(f"{self.where}: {edge.where}: the connectors {', '.join(sorted(seen))} feed each other")
+            seen.add(name)
+        return name, transformation
+
+    def targets(self, name: str, seen: frozenset[str] = frozenset()) -> list[tuple[str, Conversion | None]]:
+        """The component variables connector ``name`` feeds, through systems' connectors."""
+        found = []
+        for edge in self.edges:
+            if edge.start != name or edge.end in seen:
+                continue
+            if edge.end in self.connectors:
+                found += [(target, _compose(transformation, edge.transformation))
+                          for target, transformation in self.targets(edge.end, seen | {name})]
+            else:
+                found.append((edge.end, edge.transformation))
+        return found
+
+    def spec(self, name: str) -> SystemSpec:
+        connectors = {c: SystemConnector(c, kind) for c, kind in self.connectors.items() if "." not in c}
+        connections = []
+        for edge in self.edges:
+            if edge.end in self.connectors:
+                continue
+            start, transformation = self.source(edge.start)
+            transformation = _compose(transformation, edge.transformation)
+            if start in connectors:
+                connectors[start].targets.append((edge.end, transformation))
+            elif start in self.connectors:
+                logger.debug("%s: %s: nothing feeds %s: %s stays unconnected", self.where, edge.where, start, edge.end)
+            else:
+                connections.append(ConnectionSpec(start, edge.end, transformation))
+        for connector in connectors.values():
+            source = self.source(connector.name)
+            if source[0] != connector.name and source[0] not in self.connectors:
+                connector.source = source
+        notes: list[str] = []
+        parameters, units = self.parameters(connectors, notes)
+        return SystemSpec(name, self.components, connections, parameters, None, units, connectors=connectors,
+                          notes=notes)
+
+    def parameters(self, connectors: dict[str, SystemConnector],
+                   notes: list[str]) -> tuple[dict[str, Any], dict[str, Unit]]:
+        """Every binding's value by the component variable it sets, the higher level's winning."""
+        values: dict[str, Any] = {}
+        units: dict[str, Unit] = {}
+        for binding in sorted(self.bindings, key=lambda b: -b.depth):  # stable: a level's later binding wins
+            if binding.name not in self.connectors:
+                values[binding.name] = binding.value
+                _set_unit(units, binding.name, binding.unit)
+                continue
+            if binding.name in connectors:
+                connectors[binding.name].value = binding.value
+            targets = self.targets(binding.name)
+            if not targets:
+                note = f"parameter {binding.name!r} ({binding.where}) feeds no component: it has no effect"
+                logger.warning("%s: %s", self.where, note)
+                notes.append(note)
+            for target, transformation in targets:
+                values[target] = binding.value if transformation is None else \
+                    transformation.scale * binding.value + transformation.shift
+                _set_unit(units, target, binding.unit if transformation is None else None)
+        return values, units
 
 
-def _parse(file: Path, where: Path) -> Any:
+def _set_unit(units: dict[str, Unit], name: str, unit: Unit | None) -> None:
+    if unit is None:
+        units.pop(name, None)
+    else:
+        units[name] = unit
+
+
+def _compose(first: Conversion | None, then: Conversion | None) -> Conversion | None:
+    """``then`` applied after ``first`` (None: no transformation, the units convert)."""
+    if first is None or then is None:
+        return then if first is None else first
+    return Conversion(then.scale * first.scale, then.scale * first.shift + then.shift)
+
+
+def _close(name: str, names: Any) -> str:
+    close = difflib.get_close_matches(name, list(names), n=3, cutoff=0.6)
+    return f". Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+
+
+def _boolean(text: str) -> bool:
+    if text not in ("true", "false", "1", "0"):
+        raise ValueError(text)
+    return text in ("true", "1")
+
+
+def _parse(file: Path, where: Path, root: str) -> Any:
+    """The root element of ``file``, which must be ``root`` (``prefix:Name``)."""
     if not file.is_file():
         raise FMUNotFoundError(f"{where}: {file.name} not found (resolved to {file})")
     try:
-        return etree.parse(str(file)).getroot()
+        element = etree.parse(str(file)).getroot()
     except etree.XMLSyntaxError as error:
         raise InvalidFMUError(f"{where}: cannot read {file.name}: {error}") from None
+    prefix, local = root.split(":")
+    if element.tag != f"{{{NS[prefix]}}}{local}":
+        raise DataError(f"{where}: {file.name}: its root element is {element.tag!r}, not {root} "
+                        f"({NS[prefix]})")
+    return element
 
-
-def _transformation(element: Any) -> Conversion | None:
-    linear = element.find("ssc:LinearTransformation", NS)
-    if linear is None:
-        return None
-    return Conversion(float(linear.get("factor", 1.0)), float(linear.get("offset", 0.0)))
-
-
-def _bindings(element: Any, root: Path, where: Path, scope: str, units: dict[str, Unit]) -> dict[str, Any]:
-    """The parameter values of ``element``'s bindings, named ``scope`` + prefix + name (a
-    component's bindings name its variables), mappings applied; into ``units``, the unit of each
-    value that names one (defined by its parameter set's ``ssv:Units``, else by name only)."""
-    values: dict[str, Any] = {}
-    for binding in element.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
-        prefix = binding.get("prefix") or ""
-        sets = [_parse(root / binding.get("source"), where)] if binding.get("source") else []
-        sets += list(binding.iterfind("ssd:ParameterValues/ssv:ParameterSet", NS))
-        mapping: dict[str, tuple[str, Conversion | None]] = {}
-        for reference in binding.iterfind("ssd:ParameterMapping", NS):
-            inline = reference.find("ssm:ParameterMapping", NS)
-            document = _parse(root / reference.get("source"), where) if reference.get("source") else inline
-            for entry in document.iterfind("ssm:MappingEntry", NS) if document is not None else ():
-                mapping[entry.get("source")] = (entry.get("target"), _transformation(entry))
-        for parameter_set in sets:
-            defined = {unit.get("name"): _unit(unit) for unit in parameter_set.iterfind("ssv:Units/ssc:Unit", NS)}
-            for parameter in parameter_set.iterfind("ssv:Parameters/ssv:Parameter", NS):
-                name, value = parameter.get("name"), _value(parameter, where)
-                target, transformation = mapping.get(name, (name, None))
-                if transformation is not None:
-                    value = transformation.scale * value + transformation.shift
-                values[scope + prefix + target] = value
-                unit = parameter.find("ssv:Real", NS)
-                if unit is not None and unit.get("unit") and transformation is None:
-                    units[scope + prefix + target] = defined.get(unit.get("unit")) or Unit(unit.get("unit"), None)
-    return values
-
-
-def _unit(element: Any) -> Unit:
-    """An ``ssc:Unit`` with its ``ssc:BaseUnit``, as an FMU's unit definition."""
-    base = element.find("ssc:BaseUnit", NS)
-    attributes = {} if base is None else base.attrib
-    return Unit(element.get("name"), tuple(int(attributes.get(b, 0)) for b in BASE_UNITS),
-                float(attributes.get("factor", 1.0)), float(attributes.get("offset", 0.0)))
-
-
-def _value(parameter: Any, where: Path) -> Any:
-    """A parameter's value from its ``ssv:Real`` / ``Integer`` / ``Boolean`` / ``String`` element."""
-    for kind, parse in (("Real", float), ("Integer", int), ("Boolean", lambda text: text.lower() in ("true", "1")),
-                        ("String", str)):
-        element = parameter.find(f"ssv:{kind}", NS)
-        if element is not None:
-            try:
-                return parse(element.get("value"))
-            except (TypeError, ValueError):
-                raise DataError(f"{where}: parameter {parameter.get('name')!r}: {element.get('value')!r} is not "
-                                f"a {kind}") from None
-    raise DataError(f"{where}: parameter {parameter.get('name')!r} has no Real, Integer, Boolean or String value")
