@@ -33,6 +33,7 @@ The native step path runs the same algorithm in C (``advance_system`` in
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -114,6 +115,7 @@ class SystemInstance:
                         component.description, mode=component.mode or mode, inputs=_unique(wanted_in[name]),
                         outputs=_unique(wanted_out[name]), start_time=self.start_time, instance_name=name,
                         step_size=None if step_size is None else step_size / substeps, **options)
+                    self._start_inputs_at_bound_values(name, self.components[name])
         except BaseException:
             self.close()
             raise
@@ -139,6 +141,15 @@ class SystemInstance:
             if description.variables[f"{link.source}.{link.source_variable}"].kind == "float"])
         self.time = self.start_time
         self._origin, self._dt, self.steps = self.start_time, 0.0, 0
+
+    def _start_inputs_at_bound_values(self, name: str, fmu: FMUInstance) -> None:
+        """Start ``fmu``'s inputs that the SSP gives a value at that value, in every episode (an
+        FMU's inputs start at their declared start values, on the Python and the native path)."""
+        bound = {v.name: self.description.variables[f"{name}.{v.name}"].start for v in fmu.inputs.variables
+                 if f"{name}.{v.name}" in self.description.parameter_values and not v.shape}
+        if bound:
+            fmu.inputs.variables = [replace(v, start=bound.get(v.name, v.start)) for v in fmu.inputs.variables]
+            fmu.inputs.fill_start_values()
 
     def _view(self, name: str, side: str) -> np.ndarray:
         component, local = self.description.split(name)

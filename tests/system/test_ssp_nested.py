@@ -1,0 +1,196 @@
+"""SSP systems as other tools export them (modelicagym/system/ssp.py): systems nested two and three
+deep load as one flat system (``sub.component.variable``), connections through sub-systems'
+connectors reach the components behind them with their transformations composed, the higher
+level's parameter binding wins, the top-level system's connectors are the env's inputs and
+outputs. The Gain FMU (``y = k u + b``) makes every value computable by hand."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+from ssp_cases import bindings, component, connect, connectors, mapping, parameter_set, system, write_ssp_folder
+
+from modelicagym import FMUEnv
+from modelicagym.errors import ConfigError, DataError
+from modelicagym.system import open_system
+
+
+@pytest.fixture
+def gain(family_fmu):
+    return family_fmu("gain", 2)
+
+
+def stage(name: str, parameters: str = "", gain_parameters: str = "") -> str:
+    """A sub-system: its input ``u`` doubled into a gain, the gain's ``y`` its output ``y``."""
+    return system(name, [component("g", "gain", gain_parameters)],
+                  [connect(".u", "g.u", factor=2.0), connect("g.y", ".y")], connectors(u="input", y="output"),
+                  parameters)
+
+
+def test_a_sub_system_is_flattened_and_its_connectors_are_the_envs_inputs_and_outputs(gain, tmp_path):
+    # the sub-system's binding (k = 3) wins over the component's own (k = 10); the top's sets b
+    top = system("top", [stage("stage", bindings({"g.k": 3.0}), bindings({"k": 10.0}))],
+                 [connect(".u", "stage.u"), connect("stage.y", ".y")], connectors(u="input", y="output"),
+                 bindings({"stage.g.b": 0.5}))
+    folder = write_ssp_folder(tmp_path / "nested", top, {"gain": gain})
+    described = open_system(folder)
+    assert list(described.components) == ["stage.g"]
+    assert described.parameter_values == {"stage.g.k": 3.0, "stage.g.b": 0.5}
+    assert [v.name for v in described.inputs] == ["u"] and "y" in [v.name for v in described.outputs]
+    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["y", "stage.g.u"], time_step=0.1)
+    env.reset(seed=0)
+    for action in (1.0, -0.25, 4.0):
+        observation = env.step(np.array([action]))[0]
+        np.testing.assert_allclose(observation, [3.0 * 2.0 * action + 0.5, 2.0 * action])
+    with pytest.raises(Exception, match="'stage.g.u' cannot be an action: the system's input 'u' feeds it"):
+        FMUEnv(fmu=folder, inputs=["stage.g.u"], outputs=["y"], time_step=0.1)
+    env.close()
+
+
+def test_three_levels_deep_the_transformations_compose_and_the_top_binding_wins(gain, tmp_path):
+    inner = system("s2", [component("g", "gain", bindings({"k": 10.0, "b": 1.0}))],
+                   [connect(".u", "g.u"), connect("g.y", ".y", factor=2.0)], connectors(u="input", y="output"),
+                   bindings({"g.k": 20.0, "g.b": 2.0}))
+    middle = system("s1", [inner], [connect(".u", "s2.u"), connect("s2.y", ".y", offset=1.0)],
+                    connectors(u="input", y="output"), bindings({"s2.g.k": 30.0}))
+    top = system("top", [middle, component("g2", "gain")],
+                 [connect(".u", "s1.u"), connect("s1.y", "g2.u", factor=3.0), connect("g2.y", ".y")],
+                 connectors(u="input", y="output"), bindings({"s1.s2.g.k": 40.0}))
+    folder = write_ssp_folder(tmp_path / "deep", top, {"gain": gain})
+    described = open_system(folder)
+    assert list(described.components) == ["s1.s2.g", "g2"]
+    assert described.parameter_values == {"s1.s2.g.k": 40.0, "s1.s2.g.b": 2.0}
+    (link,) = described.links
+    assert link.label == "s1.s2.g.y -> g2.u"
+    assert (link.conversion.scale, link.conversion.shift) == (6.0, 3.0)  # 3 (2 y + 1)
+    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["y", "s1.s2.g.y"], time_step=0.1)
+    env.reset(seed=0)
+    observation = env.step(np.array([0.5]))[0]
+    deep = 40.0 * 0.5 + 2.0
+    np.testing.assert_allclose(observation, [3.0 * (2.0 * deep + 1.0), deep])
+    env.close()
+
+
+def test_a_system_parameter_wins_over_the_components_own_binding(gain, tmp_path):
+    # OMSimulator's toplevelparameter1: the system's parameter connectors feed the components' k
+    top = system("top", [component("a", "gain", bindings({"k": 10.0})), component("b", "gain", bindings({"k": 10.0}))],
+                 [connect(".k1", "a.k"), connect(".k2", "b.k")], connectors(k1="parameter", k2="parameter"),
+                 bindings({"k1": -200.0}, {"k1": -100.0, "k2": -300.0}))  # the later binding of a level wins
+    described = open_system(write_ssp_folder(tmp_path / "top", top, {"gain": gain}))
+    assert described.parameter_values == {"a.k": -100.0, "b.k": -300.0}
+
+
+def test_a_parameter_that_feeds_nothing_is_reported_not_fatal(gain, tmp_path, caplog):
+    top = system("top", [component("g", "gain")], [], connectors(Input_cref="parameter"),
+                 bindings({"Input_cref": 7.0}))
+    with caplog.at_level(logging.WARNING, logger="modelicagym.system.ssp"):
+        described = open_system(write_ssp_folder(tmp_path / "loose", top, {"gain": gain}))
+    assert described.parameter_values == {}
+    assert len(described.notes) == 1 and "parameter 'Input_cref'" in described.notes[0]
+    assert "feeds no component" in described.notes[0] and "feeds no component" in caplog.text
+
+
+def test_a_mapping_with_one_source_and_several_targets_sets_every_target(gain, tmp_path):
+    top = system("top", [component("a", "gain"), component("b", "gain")],
+                 parameters=bindings(source="resources/k.ssv", ssm="resources/k.ssm"))
+    folder = write_ssp_folder(tmp_path / "mapped", top, {"gain": gain}, {
+        "resources/k.ssv": parameter_set({"k_all": 4.0, "a.b": 1.5}),
+        "resources/k.ssm": mapping(("k_all", "a.k"), ("k_all", "b.k"))})
+    assert open_system(folder).parameter_values == {"a.k": 4.0, "b.k": 4.0, "a.b": 1.5}
+
+
+def test_an_input_bound_by_the_ssp_starts_every_episode_at_that_value(gain, tmp_path):
+    # LinearTransformation3: the component input g.u is bound to 14 and driven by the agent
+    top = system("top", [component("g", "gain", bindings({"k": 13.0}))], parameters=bindings({"g.u": 14.0}))
+    folder = write_ssp_folder(tmp_path / "bound", top, {"gain": gain})
+    env = FMUEnv(fmu=folder, inputs=["g.u"], outputs=["g.y"], time_step=0.1)
+    assert env.description.input_variable("g.u").start == 14.0
+    for seed in (0, 1):
+        observation, _ = env.reset(seed=seed)
+        assert observation[0] == 13.0 * 14.0
+        assert env.fmu.inputs.views["g.u"] == 14.0
+        env.step(np.array([1.0]))
+    env.close()
+
+
+def test_a_bound_input_connector_starts_at_its_value_and_feeds_its_targets(gain, tmp_path):
+    top = system("top", [component("a", "gain"), component("b", "gain")],
+                 [connect(".u", "a.u"), connect(".u", "b.u", factor=-1.0)], connectors(u="input"),
+                 bindings({"u": 2.5}))
+    folder = write_ssp_folder(tmp_path / "fan", top, {"gain": gain})
+    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["a.y", "b.y"], time_step=0.1)
+    assert env.description.variables["u"].start == 2.5
+    np.testing.assert_array_equal(env.reset(seed=0)[0], [2.5, -2.5])
+    np.testing.assert_array_equal(env.step(np.array([1.0]))[0], [1.0, -1.0])
+    env.close()
+
+
+def test_connections_through_sub_systems_are_checked_as_any_other(gain, tmp_path):
+    inner = system("sub", [component("g", "gain")], [connect("g.y", ".y")], connectors(y="output"))
+    top = system("top", [inner, component("h", "gain")], [connect("sub.y", "h.y")])
+    with pytest.raises(ConfigError, match=r"connection sub\.g\.y -> h\.y: 'h\.y' is not an input"):
+        open_system(write_ssp_folder(tmp_path / "wrong", top, {"gain": gain}))
+
+
+def test_an_integer_output_feeds_an_enumeration_input(family_fmu):
+    probe = family_fmu("probe", 2)
+    env = FMUEnv(fmus={"counter": str(probe), "follower": str(probe)},
+                 connections=["counter.steps -> follower.mode", "follower.mode_out -> counter.gear"],
+                 inputs=["counter.boost"], outputs=["follower.mode_out", "counter.steps"], time_step=0.1)
+    env.reset(seed=0)
+    for k in (1, 2, 3):  # Gauss-Seidel: the counter steps first, the follower takes its new count
+        observation = env.step(0)[0]
+        assert (observation["follower.mode_out"], observation["counter.steps"]) == (k, k)
+    env.close()
+    with pytest.raises(ConfigError, match="type mismatch: a Real output into a Integer input"):
+        open_system(fmus={"a": str(family_fmu("gain", 2)), "b": str(probe)}, connections=["a.y -> b.gear"])
+
+
+#: defects of the kinds OMSimulator's invalidSSD, invalidSSV and invalidSSM hold, each in a runnable
+#: system: the file, where, and the message
+DEFECTS = {
+    "a mapping entry without a target": (
+        "resources/k.ssm", '<ssm:MappingEntry source="k_all"/>',
+        r"resources/k\.ssm, line 1: MappingEntry: has no 'target'"),
+    "a parameter without a value": (
+        "resources/k.ssv", '<ssv:Parameter name="a.b"/>',
+        r"resources/k\.ssv, line 1: Parameter 'a\.b': has no Real, Integer, Boolean or String value"),
+    "a Real that is no number": (
+        "resources/k.ssv", '<ssv:Parameter name="a.b"><ssv:Real value="fast"/></ssv:Parameter>',
+        r"resources/k\.ssv, line 1: Parameter 'a\.b': 'fast' is not a Real"),
+    "a connection to an unknown element": (
+        "SystemStructure.ssd", '<ssd:Connection startElement="aa" startConnector="y" endElement="b" endConnector="u"/>',
+        r"SystemStructure\.ssd, line \d+: Connection: startElement 'aa' is no element of the system\. "
+        r"Did you mean 'a'\?"),
+    "a connector of an unknown kind": (
+        "SystemStructure.ssd", '<ssd:Connector name="w" kind="sideways"><ssc:Real/></ssd:Connector>',
+        r"SystemStructure\.ssd, line \d+: Connector 'w': kind 'sideways' is none of input, output"),
+    "a mapping of the wrong document": (
+        "resources/k.ssm", None, r"k\.ssm: its root element is .*ParameterSet', not ssm:ParameterMapping"),
+}
+
+
+@pytest.mark.parametrize("defect", DEFECTS)
+def test_a_malformed_file_is_refused_naming_the_file_and_the_element(gain, tmp_path, defect):
+    file, bad, message = DEFECTS[defect]
+    ssv = parameter_set({"k_all": 4.0, "a.b": 1.5})
+    ssm = mapping(("k_all", "a.k"), ("k_all", "b.k"))
+    top = system("top", [component("a", "gain"), component("b", "gain")], [connect("a.y", "b.u")],
+                 connectors(u="input"), bindings(source="resources/k.ssv", ssm="resources/k.ssm"))
+    files = {"resources/k.ssv": ssv, "resources/k.ssm": ssm}
+    folder = write_ssp_folder(tmp_path / "good", top, {"gain": gain}, files)
+    assert open_system(folder).parameter_values == {"a.k": 4.0, "b.k": 4.0, "a.b": 1.5}  # runnable as written
+    if file == "resources/k.ssm":
+        files[file] = ssm.replace('<ssm:MappingEntry source="k_all" target="b.k"/>', bad) if bad else ssv
+    elif file == "resources/k.ssv":
+        files[file] = ssv.replace('<ssv:Parameter name="a.b"><ssv:Real value="1.5"/></ssv:Parameter>', bad)
+    elif "Connection" in bad:
+        top = top.replace('<ssd:Connection startElement="a"', bad + '<ssd:Connection startElement="a"')
+    else:
+        top = top.replace("<ssd:Connectors>", "<ssd:Connectors>" + bad)
+    broken = write_ssp_folder(tmp_path / "broken", top, {"gain": gain}, files)
+    with pytest.raises(DataError, match=message) as refusal:
+        open_system(broken)
+    assert str(refusal.value).startswith(f"{broken}: ")
