@@ -21,4 +21,14 @@ try:
     __version__ = version("modelicagym")
 except PackageNotFoundError:  # imported from a source tree that was never installed
     __version__ = "0+unknown"
-__all__ = ["FMUEnv", "FMUEnvConfig", "ModelicaGymError", "errors", "make", "make_vec", "register_environments"]
+__all__ = ["FMUEnv", "FMUEnvConfig", "ModelicaGymError", "errors", "make", "make_vec", "register_environments",
+           "simulate"]
+
+
+def __getattr__(name: str) -> object:
+    """``simulate`` (`modelicagym.simulation.simulate`), imported when first used."""
+    if name == "simulate":
+        from modelicagym.simulation import simulate
+
+        return simulate
+    raise AttributeError(f"module 'modelicagym' has no attribute {name!r}")

@@ -1,4 +1,4 @@
-"""The ``modelicagym`` command: ``sample``, ``info``, ``try``, ``build``, ``bench``, ``reproduce``, ``report``."""
+"""The ``modelicagym`` command: ``sample``, ``info``, ``try``, ``simulate``, ``build``, ``bench``, ``reproduce``, ``report``."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from modelicagym.console import add_debug_flag, add_module_commands, run_command
+from modelicagym.console import ModuleParser, add_debug_flag, add_module_commands, run_command
 from modelicagym.errors import ArgumentError
 
 if TYPE_CHECKING:
@@ -131,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     add_debug_flag(parser)
-    commands = parser.add_subparsers(dest="command", required=True)
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=ModuleParser)
 
     sample = commands.add_parser("sample", help="write a sample FMU and its task file, to try the commands on")
     sample.add_argument("name", nargs="?", help="the sample: heater, drive or system (none: list them)")
@@ -164,6 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="what chooses the actions: random samples (default), or the task file's baseline controller")
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
+
+    commands.add_parser("simulate", module="modelicagym.simulation_cli", formatter_class=argparse.RawDescriptionHelpFormatter,
+                        help="run an FMU, an SSP system or a task file to a stop time with no agent; every variable "
+                             "to CSV")
 
     build = commands.add_parser("build", help="build the bundled model FMUs, or a model folder, from their C sources")
     build.add_argument("folder", nargs="?", help="a model folder written with our C framework (e.g. "

@@ -9,7 +9,9 @@ read or write allocates nothing and costs one ctypes call per FMI type.
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -94,3 +96,12 @@ class ValueBuffer:
 
 def _no_call() -> int:
     return OK
+
+
+def start_at(buffer: Any, values: Mapping[str, Any]) -> None:
+    """Start the variables of ``buffer`` (a `ValueBuffer`, or a system's values) that ``values``
+    names at those values from now on: at every `fill_start_values`, and so at every reset, on the
+    Python and the native path."""
+    if any(v.name in values for v in buffer.variables):
+        buffer.variables = [replace(v, start=values[v.name]) if v.name in values else v for v in buffer.variables]
+        buffer.fill_start_values()

@@ -33,12 +33,12 @@ The native step path runs the same algorithm in C (``advance_system`` in
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from modelicagym.errors import ConfigError, LoopDivergedError
+from modelicagym.fmu.buffers import start_at
 from modelicagym.fmu.clock import OnClock, StepClock
 from modelicagym.fmu.errors import StateMismatchError
 from modelicagym.fmu.instance import FMUInstance
@@ -115,11 +115,13 @@ class SystemInstance:
                         component.description, mode=component.mode or mode, inputs=_unique(wanted_in[name]),
                         outputs=_unique(wanted_out[name]), start_time=self.start_time, instance_name=name,
                         step_size=None if step_size is None else step_size / substeps, **options)
-                    self._start_inputs_at_bound_values(name, self.components[name])
         except BaseException:
             self.close()
             raise
         self.inputs = Values(self.input_variables)
+        # an FMU's inputs start at their declared start values; those the SSP gives a value, at that
+        self.start_inputs_at({name: description.variables[name].start for name in description.parameter_values
+                              if description.variables[name].is_input and not description.variables[name].shape})
         self.outputs = Values(self.output_variables)
         # what a step copies (the native path copies the same, `modelicagym.env.native_system`):
         # the action's values to the components (an input connector's to every input it feeds), the
@@ -142,14 +144,18 @@ class SystemInstance:
         self.time = self.start_time
         self._origin, self._dt, self.steps = self.start_time, 0.0, 0
 
-    def _start_inputs_at_bound_values(self, name: str, fmu: FMUInstance) -> None:
-        """Start ``fmu``'s inputs that the SSP gives a value at that value, in every episode (an
-        FMU's inputs start at their declared start values, on the Python and the native path)."""
-        bound = {v.name: self.description.variables[f"{name}.{v.name}"].start for v in fmu.inputs.variables
-                 if f"{name}.{v.name}" in self.description.parameter_values and not v.shape}
-        if bound:
-            fmu.inputs.variables = [replace(v, start=bound.get(v.name, v.start)) for v in fmu.inputs.variables]
-            fmu.inputs.fill_start_values()
+    def start_inputs_at(self, values: Mapping[str, Any]) -> None:
+        """Start the system's inputs ``values`` names at those values in every episode: an input
+        connector's, and the inputs of its components it feeds (its transformation applied); a
+        component's input, in the component."""
+        start_at(self.inputs, values)
+        fed: dict[str, dict[str, Any]] = {}
+        for name, value in values.items():
+            for target, convert in self.description.feeds(name):
+                component, local = self.description.split(target)
+                fed.setdefault(component, {})[local] = value if convert.identity else convert.scale * value + convert.shift
+        for component, starts in fed.items():
+            start_at(self.components[component].inputs, starts)
 
     def _view(self, name: str, side: str) -> np.ndarray:
         component, local = self.description.split(name)
