@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from modelicagym.errors import ArgumentError, ConfigError
-from modelicagym.fmu.errors import VariableError
 from modelicagym.fmu.buffers import start_at
+from modelicagym.fmu.errors import VariableError
 from modelicagym.system import SystemInstance, new_instance, open_model
 from modelicagym.system.table import read_table
 from modelicagym.task import load_config_file, load_task

@@ -162,8 +162,8 @@ DEFECTS = {
         r"resources/k\.ssv, line 1: Parameter 'a\.b': 'fast' is not a Real"),
     "a connection to an unknown element": (
         "SystemStructure.ssd", '<ssd:Connection startElement="aa" startConnector="y" endElement="b" endConnector="u"/>',
-        r"SystemStructure\.ssd, line \d+: Connection: startElement 'aa' is no element of the system\. "
-        r"Did you mean 'a'\?"),
+        (r"SystemStructure\.ssd, line \d+: Connection: startElement 'aa' is no element of the system\. "
+         r"Did you mean 'a'\?")),
     "a connector of an unknown kind": (
         "SystemStructure.ssd", '<ssd:Connector name="w" kind="sideways"><ssc:Real/></ssd:Connector>',
         r"SystemStructure\.ssd, line \d+: Connector 'w': kind 'sideways' is none of input, output"),
