@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from modelicagym.fmu import FMUDescription, open_fmu
@@ -121,9 +121,14 @@ def _names(variables: Iterable[Variable]) -> str:
     return ", ".join(v.name for v in variables)
 
 
-def _actions(d: FMUDescription) -> tuple[list[Variable], str | None]:
-    """The variables to act on, and a note when they are not the inputs."""
+def _actions(d: FMUDescription | SystemDescription) -> tuple[list[Variable], str | None]:
+    """The variables to act on, and a note when they are not the inputs. A system's are its inputs:
+    the SSP's own input connectors where it declares some, else its components' inputs nothing
+    feeds; never its components' tunable parameters (a system has dozens; name those you mean)."""
     inputs = _usable(d.inputs)
+    if isinstance(d, SystemDescription):
+        own = [v for v in inputs if v.name in d.connectors]
+        return own or inputs, None
     if inputs:
         return inputs, None
     tunable = _usable(v for v in d.parameters if v.is_tunable_parameter)
@@ -175,8 +180,8 @@ def _as_declared(v: Variable, d: FMUDescription | SystemDescription) -> tuple[Va
     """``v`` as the FMU declaring it names it, and that FMU's description (a system's variable is
     its component's)."""
     if isinstance(d, SystemDescription):
-        component, local = d.locate(v.name)
-        return local, component.description
+        component, local = d.locate(d.feeds(v.name)[0][0] if v.name in d.connectors else v.name)
+        return replace(local, start=v.start), component.description  # the start the SSP gives it
     return v, d
 
 
@@ -315,6 +320,10 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
         return Suggestion(None, f"{d.name} supports neither co-simulation nor model exchange{scheduled}: "
                                 "modelicagym cannot run it, so there is no config")
     actions, action_note = _actions(d)
+    if not actions and system:
+        return Suggestion(None, f"{d.name} has no inputs (no input connectors of its own, no component input that "
+                                "nothing feeds), which is what an FMUEnv's actions drive: name the tunable "
+                                "parameters to act on in 'inputs'")
     if not actions:
         return Suggestion(None, f"{d.name} has nothing to act on: no inputs and no tunable parameters, which is "
                                 "what an FMUEnv's actions drive, so there is no config")
@@ -331,6 +340,8 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
     if split_note:
         notes.insert(0, split_note)
     acted = {v.name for v in actions}
+    if system:  # an action that is a system's input sets what it feeds
+        acted |= {target for name in list(acted) for target, _ in d.feeds(name)}
     inferred = {v.name: infer_bounds(*_as_declared(v, d)) for v in actions
                 if v.kind == "float" and (v.min is None or v.max is None)}
     fixed = {v.name: _held_value(*_as_declared(v, d)) for v in held}
@@ -543,8 +554,10 @@ def format_system_info(system: SystemDescription, validate: bool = True) -> str:
         lines.append("    (none)")
     lines.append(f"stepping order (Gauss-Seidel): {', '.join(system.order)}")
     lines += _loop_lines(system)
-    lines += ["", "inputs (not connected):", *_table(system.inputs), "", "outputs:", *_table(system.outputs), "",
-              "parameters:", *_table(system.parameters), ""]
+    lines += ["", "inputs (the system's own, and components' inputs nothing feeds):", *_table(system.inputs), "",
+              "outputs:", *_table(system.outputs), "", "parameters:", *_table(system.parameters), ""]
+    if system.notes:
+        lines += ["read without effect:", *[f"  {note}" for note in system.notes], ""]
     suggestion = suggest(system, validate)
     if suggestion.config is None:
         return "\n".join([*lines, f"no config: {suggestion.refusal}"])

@@ -14,6 +14,7 @@ from ssp_cases import bindings, component, connect, connectors, mapping, paramet
 
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError, DataError
+from modelicagym.info import describe_fmu, suggest
 from modelicagym.system import open_system
 
 
@@ -194,3 +195,20 @@ def test_a_malformed_file_is_refused_naming_the_file_and_the_element(gain, tmp_p
     with pytest.raises(DataError, match=message) as refusal:
         open_system(broken)
     assert str(refusal.value).startswith(f"{broken}: ")
+
+
+def test_info_offers_the_systems_own_inputs_at_the_ssps_values(gain, tmp_path):
+    top = system("top", [component("a", "gain", bindings({"k": 10.0})), component("b", "gain")],
+                 [connect(".u", "a.u"), connect("a.y", "b.u"), connect("b.y", ".y")],
+                 connectors(u="input", y="output", p="parameter"), bindings({"u": 2.0, "p": 1.0, "b.k": 0.5}))
+    folder = write_ssp_folder(tmp_path / "sys", top, {"gain": gain})
+    report = describe_fmu(folder)
+    assert "read without effect:\n  parameter 'p' (SystemStructure.ssd, line 3) feeds no component" in report
+    config = suggest(open_system(folder)).config
+    assert config["inputs"] == ["u"]  # not the gains' tunable k and b
+    assert config["action_bounds"] == {"u": (1.0, 3.0)}  # around the SSP's 2, not the FMU's start 0
+    assert config["parameters"] == {"a.k": 10.0, "a.b": 0.0, "b.k": 0.5, "b.b": 0.0}
+    env = FMUEnv(**config)
+    np.testing.assert_array_equal(env.reset(seed=0)[0], [20.0, 10.0, 10.0])
+    np.testing.assert_array_equal(env.step(np.array([3.0]))[0], [30.0, 15.0, 15.0])
+    env.close()
