@@ -220,6 +220,9 @@ class SystemDescription:
         component, variable = self._local(name, "output", self.outputs)
         if component.description is not None:
             component.description.observable_variable(variable.name)
+        elif not variable.is_output:
+            raise VariableError(f"{self.name}: {name!r} cannot be observed: a table's outputs are its columns "
+                                f"({', '.join(v.name for v in component.outputs)})")
         return self.variables[name]
 
     def settable_variable(self, name: str) -> Variable:

@@ -13,7 +13,7 @@ connection from one no component output feeds leaves the component's input to th
 
 Parameter bindings apply at every level; where several give the same variable a value, the binding
 of the higher level (the enclosing system) wins over a lower level's (a sub-system's, a
-component's own), as SSP 1.0 section 5.3.3 orders them and OMSimulator does; within one level the
+component's own), the rule OMSimulator follows (its test suite expects the system's value); within one level the
 later binding wins. A value given to a connector (OMSimulator's system parameters) goes to every
 component variable the connector feeds; one that feeds nothing is reported (`SystemSpec.notes`).
 
