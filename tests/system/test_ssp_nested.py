@@ -15,6 +15,7 @@ from ssp_cases import bindings, component, connect, connectors, mapping, paramet
 from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError, DataError
 from modelicagym.info import describe_fmu, suggest
+from modelicagym.simulation import simulate
 from modelicagym.system import open_system
 
 
@@ -116,15 +117,18 @@ def test_an_input_bound_by_the_ssp_starts_every_episode_at_that_value(gain, tmp_
     env.close()
 
 
-def test_a_bound_input_connector_starts_at_its_value_and_feeds_its_targets(gain, tmp_path):
+@pytest.mark.parametrize("step_path, taken", [("auto", "native"), ("python", "python")])
+def test_a_bound_input_connector_starts_at_its_value_and_feeds_its_targets(gain, tmp_path, step_path, taken):
     top = system("top", [component("a", "gain"), component("b", "gain")],
-                 [connect(".u", "a.u"), connect(".u", "b.u", factor=-1.0)], connectors(u="input"),
-                 bindings({"u": 2.5}))
+                 [connect(".u", "a.u"), connect(".u", "b.u", factor=-1.0, offset=0.5), connect("b.y", ".y")],
+                 connectors(u="input", y="output"), bindings({"u": 2.5}))
     folder = write_ssp_folder(tmp_path / "fan", top, {"gain": gain})
-    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["a.y", "b.y"], time_step=0.1)
-    assert env.description.variables["u"].start == 2.5
-    np.testing.assert_array_equal(env.reset(seed=0)[0], [2.5, -2.5])
-    np.testing.assert_array_equal(env.step(np.array([1.0]))[0], [1.0, -1.0])
+    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["a.y", "b.y", "y"], time_step=0.1, step_path=step_path)
+    assert env.step_path == taken and env.description.variables["u"].start == 2.5
+    for _ in range(2):  # every episode
+        np.testing.assert_array_equal(env.reset(seed=0)[0], [2.5, -2.0, -2.0])
+        for action in (1.0, -3.0):
+            np.testing.assert_array_equal(env.step(np.array([action]))[0], [action, 0.5 - action, 0.5 - action])
     env.close()
 
 
@@ -212,3 +216,18 @@ def test_info_offers_the_systems_own_inputs_at_the_ssps_values(gain, tmp_path):
     np.testing.assert_array_equal(env.reset(seed=0)[0], [20.0, 10.0, 10.0])
     np.testing.assert_array_equal(env.step(np.array([3.0]))[0], [30.0, 15.0, 15.0])
     env.close()
+
+
+def test_connector_values_at_two_levels_reach_their_gains(gain, tmp_path):
+    # OMSimulator's NestedSystemSimulation2: the top's input1 = 3 and the sub-system's own input1 = 10,
+    # each connected to a gain of its level; its script prints Gain1.u = 3 and sub-system1.Gain1.u = 10
+    inner = system("sub-system1", [component("Add1", "gain"), component("Gain1", "gain")],
+                   [connect(".input1", "Gain1.u"), connect("Gain1.y", "Add1.u")],
+                   connectors(input1="input", param1="parameter"), bindings({"input1": 10.0}))
+    top = system("default", [inner, component("Add1", "gain"), component("Gain1", "gain")],
+                 [connect(".input1", "Gain1.u"), connect("Gain1.y", "Add1.u")],
+                 connectors(input1="input", param1="parameter"), bindings({"input1": 3.0}))
+    folder = write_ssp_folder(tmp_path / "NestedSystemSimulation2", top, {"gain": gain})
+    names = ["Gain1.u", "Gain1.y", "Add1.u", "sub-system1.Gain1.u", "sub-system1.Gain1.y", "sub-system1.Add1.u"]
+    run = simulate(folder, 1.0, outputs=names, time_step=0.1)
+    assert [run[name][-1] for name in names] == [3.0, 3.0, 3.0, 10.0, 10.0, 10.0]

@@ -8,6 +8,7 @@ from functools import partial
 
 import pytest
 from gymnasium.vector import SyncVectorEnv
+from ssp_cases import bindings, component, connect, connectors, system, write_ssp_folder
 from system_cases import system_config
 from vector_rollouts import assert_same, rollout
 
@@ -32,4 +33,23 @@ def test_a_pool_of_systems_matches_sync_vector_env(family_fmu, tmp_path, init):
     with modelicagym.make_vec(config, n=3, num_workers=2, init=init) as pool:
         assert {path for path, _ in pool.step_paths} == {"native"}
         actual = rollout(pool, 40)
+    assert_same(expected, actual)
+
+
+def test_a_pool_of_a_nested_ssp_driven_through_its_own_connectors(family_fmu, tmp_path):
+    inner = system("sub", [component("g", "gain", bindings({"k": 2.0}))],
+                   [connect(".u", "g.u", factor=-1.0, offset=0.5), connect("g.y", ".y")],
+                   connectors(u="input", y="output"))
+    top = system("top", [inner, component("h", "gain")], [connect(".u", "sub.u"), connect(".u", "h.u"),
+                                                          connect("sub.y", ".y")],
+                 connectors(u="input", y="output"), bindings({"u": 1.5}))
+    folder = write_ssp_folder(tmp_path / "nested", top, {"gain": family_fmu("gain", 2)})
+    config = {"fmu": str(folder), "inputs": ["u"], "outputs": ["y", "h.y"], "time_step": 0.1,
+              "max_episode_steps": 7, "action_bounds": {"u": (-2.0, 2.0)}}
+    sync = SyncVectorEnv([partial(FMUEnv, {**config, "step_path": "python"})] * 3)
+    expected = rollout(sync, 20)
+    sync.close()
+    with modelicagym.make_vec(config, n=3, num_workers=2, init="once") as pool:
+        assert {path for path, _ in pool.step_paths} == {"native"}
+        actual = rollout(pool, 20)
     assert_same(expected, actual)
