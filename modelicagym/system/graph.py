@@ -66,7 +66,8 @@ def component_of(name: str, components: Collection[str]) -> tuple[str, str]:
     hold dots); after the first dot where none matches."""
     head = max((c for c in components if name.startswith(c + ".")), key=len, default=None)
     if head is None:
-        return name.split(".", 1)  # type: ignore[return-value]
+        head, _, local = name.partition(".")
+        return head, local
     return head, name[len(head) + 1:]
 
 

@@ -8,8 +8,8 @@ A system that nests systems is read as one flat system: a component inside sub-s
 named ``sub.component`` (``sub.inner.component`` one level further), its variables
 ``sub.component.variable``. A connection to a sub-system's connector is followed through to the
 component behind it, at any depth, the linear transformations along the way composed. The
-top-level system's own connectors are the system's inputs and outputs (`SystemConnector`); a
-connection from one no component output feeds leaves the component's input to the actions.
+top-level system's own connectors are the system's inputs and outputs (`SystemConnector`); an
+input reached only through connectors that nothing feeds stays unconnected (an action, if chosen).
 
 Parameter bindings apply at every level; where several give the same variable a value, the binding
 of the higher level (the enclosing system) wins over a lower level's (a sub-system's, a
@@ -25,6 +25,7 @@ from __future__ import annotations
 import difflib
 import logging
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -289,10 +290,21 @@ class _Reader:
 
     # -- flattening ------------------------------------------------------------------------------
 
+    @cached_property
+    def feeding(self) -> dict[str, _Edge]:
+        """The connection into each system connector; a `DataError` for a connector fed twice."""
+        feeding: dict[str, _Edge] = {}
+        for edge in self.edges:
+            if edge.end in self.connectors and edge.end in feeding:
+                raise DataError(f"{self.where}: {edge.where}: the connector {edge.end!r} is already fed by "
+                                f"{feeding[edge.end].start!r} ({feeding[edge.end].where}): a connector has one source")
+            feeding[edge.end] = edge
+        return feeding
+
     def source(self, name: str) -> tuple[str, Conversion | None]:
         """What feeds ``name`` in the end, through systems' connectors: a component's variable, a
         top-level connector, or a connector nothing feeds; with the transformations composed."""
-        feeding = {edge.end: edge for edge in self.edges}
+        feeding = self.feeding
         seen, transformation = {name}, None
         while name in self.connectors and name in feeding:
             edge = feeding[name]

@@ -231,3 +231,12 @@ def test_connector_values_at_two_levels_reach_their_gains(gain, tmp_path):
     names = ["Gain1.u", "Gain1.y", "Add1.u", "sub-system1.Gain1.u", "sub-system1.Gain1.y", "sub-system1.Add1.u"]
     run = simulate(folder, 1.0, outputs=names, time_step=0.1)
     assert [run[name][-1] for name in names] == [3.0, 3.0, 3.0, 10.0, 10.0, 10.0]
+
+
+def test_a_connector_fed_twice_is_refused(gain, tmp_path):
+    inner = system("sub", [component("g", "gain")], [connect(".u", "g.u")], connectors(u="input"))
+    top = system("top", [inner, component("a", "gain"), component("b", "gain")],
+                 [connect("a.y", "sub.u"), connect("b.y", "sub.u")])
+    with pytest.raises(DataError, match=r"SystemStructure\.ssd, line \d+: the connector 'sub\.u' is already fed by "
+                                        r"'a\.y' \(SystemStructure\.ssd, line \d+\): a connector has one source"):
+        open_system(write_ssp_folder(tmp_path / "twice", top, {"gain": gain}))
