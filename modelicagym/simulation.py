@@ -76,9 +76,16 @@ def simulate(target: str | os.PathLike[str] | Mapping[str, Any], stop_time: floa
     if both:
         raise ArgumentError(f"{', '.join(both)}: given a value and a column of {table}; give one")
     driven = [*held, *columns]
-    for name in driven:
+    for name in held:
         description.input_variable(name)  # an unknown or connected input: its own clear error
+    for name in columns:
+        try:
+            description.input_variable(name)
+        except (ConfigError, VariableError) as error:
+            raise type(error)(f"{table}: column {name!r} drives no input: {error}") from None
     names = list(outputs) if outputs else _scalar_variables(description)
+    if "time" in names:
+        raise ArgumentError("'time' is the trajectory's first field already: leave it out of the outputs")
     for name in names:
         description.observable_variable(name)
     dt = float(time_step or config.get("time_step") or description.default_experiment.step_size or 0.0)
@@ -126,10 +133,10 @@ def simulate(target: str | os.PathLike[str] | Mapping[str, Any], stop_time: floa
 
 
 def _scalar_variables(description: Any) -> list[str]:
-    """Every variable a run can record: scalar, observable, not time itself."""
+    """Every variable a run can record: scalar, observable, not time itself (an FMU's ``time``)."""
     names = []
     for variable in description.variables.values():
-        if variable.shape:
+        if variable.shape or variable.name == "time":
             continue
         try:
             description.observable_variable(variable.name)

@@ -87,3 +87,17 @@ def test_bad_requests_are_refused_in_one_line(family_fmu, tmp_path, capsys):
         simulate(gain, -1)
     assert main(["simulate", str(gain), "--input", "u=fast"]) == 1
     assert "--input expects NAME=VALUE with a number, got 'u=fast'" in capsys.readouterr().err
+
+
+def test_a_shaft_speeds_up_as_its_equation_says(family_fmu):
+    # J dw/dt = tau - d w from rest: w = tau / d (1 - exp(-d t / J)); the FMU's own 'time' is left out
+    run = simulate(family_fmu("inertia", 3), 1.0, inputs={"tau": 0.1}, parameters={"J": 0.01, "d": 0.001})
+    assert "time" not in run.dtype.names[1:] and {"w", "phi", "tau"} <= set(run.dtype.names)
+    np.testing.assert_allclose(run["w"], 0.1 / 0.001 * (1 - np.exp(-0.001 * run["time"] / 0.01)), rtol=1e-6, atol=1e-9)
+
+
+def test_a_table_column_that_drives_no_input_is_named(family_fmu, tmp_path):
+    table = tmp_path / "load.csv"
+    table.write_text("time,torque\n0,1\n")
+    with pytest.raises(VariableError, match=r"load\.csv: column 'torque' drives no input: .*no input named 'torque'"):
+        simulate(family_fmu("inertia", 3), 0.1, table=table)
