@@ -7,12 +7,16 @@ multi-process pool and ``modelicagym.fmu`` the FMI runtime underneath. Every err
 """
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
 from modelicagym import errors
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.fmu_env import FMUEnv
 from modelicagym.errors import ModelicaGymError
 from modelicagym.registry import make, make_vec, register_environments
+
+if TYPE_CHECKING:  # imported when first used (`__getattr__`): numpy's CSV and plotting stay out of `import modelicagym`
+    from modelicagym.simulation import simulate
 
 register_environments()
 
