@@ -6,14 +6,17 @@ holds the values its gains give by hand."""
 from __future__ import annotations
 
 import csv
+import sys
 
 import numpy as np
 import pytest
+from bench_runs import run
+from help_texts import SCREEN, help_text
 from ssp_cases import bindings, component, connect, connectors, system, write_ssp_folder
 from system_cases import OUTPUTS, SSP_PARAMETERS, hand_loop, write_ssp
 
 import modelicagym
-from modelicagym.cli import main
+from modelicagym.cli import build_parser, main
 from modelicagym.errors import ArgumentError
 from modelicagym.fmu.errors import VariableError
 from modelicagym.simulation import simulate
@@ -101,3 +104,24 @@ def test_a_table_column_that_drives_no_input_is_named(family_fmu, tmp_path):
     table.write_text("time,torque\n0,1\n")
     with pytest.raises(VariableError, match=r"load\.csv: column 'torque' drives no input: .*no input named 'torque'"):
         simulate(family_fmu("inertia", 3), 0.1, table=table)
+
+
+def test_the_help_fits_a_screen(monkeypatch):
+    text = help_text(build_parser(), "simulate", monkeypatch=monkeypatch)
+    assert len(text.splitlines()) <= SCREEN and "--inputs TABLE.csv" in text, text
+
+
+#: run in a fresh process: parse another command, import the package, print the simulation modules imported
+IMPORTED = """
+import sys
+from modelicagym.cli import build_parser
+build_parser().parse_args(["info", "any.fmu"])
+import modelicagym
+print(sorted(m for m in sys.modules if m.startswith("modelicagym.simulation")))
+"""
+
+
+@pytest.mark.processes
+def test_neither_another_command_nor_the_package_imports_it():
+    imported = run([sys.executable, "-c", IMPORTED], timeout=120)
+    assert imported.returncode == 0 and imported.stdout.splitlines()[-1] == "[]", imported.stderr
