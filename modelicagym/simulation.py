@@ -133,10 +133,11 @@ def simulate(target: str | os.PathLike[str] | Mapping[str, Any], stop_time: floa
 
 
 def _scalar_variables(description: Any) -> list[str]:
-    """Every variable a run can record: scalar, observable, not time itself (an FMU's ``time``)."""
+    """Every variable a run can record: scalar, observable, not time itself (an FMU's independent
+    variable, which the first field already is)."""
     names = []
     for variable in description.variables.values():
-        if variable.shape or variable.name == "time":
+        if variable.shape or variable.causality == "independent":
             continue
         try:
             description.observable_variable(variable.name)
