@@ -1,4 +1,5 @@
-"""The ``modelicagym`` command: ``sample``, ``info``, ``try``, ``simulate``, ``build``, ``bench``, ``reproduce``, ``report``."""
+"""The ``modelicagym`` command: ``sample``, ``info``, ``try``, ``simulate``, ``build``, ``bench``, ``reproduce``,
+``report``."""
 
 from __future__ import annotations
 
@@ -165,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     try_.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
     try_.set_defaults(func=_try)
 
-    commands.add_parser("simulate", module="modelicagym.simulation_cli", formatter_class=argparse.RawDescriptionHelpFormatter,
+    commands.add_parser("simulate", module="modelicagym.simulation_cli",
+                        formatter_class=argparse.RawDescriptionHelpFormatter,
                         help="run an FMU, an SSP system or a task file to a stop time with no agent; every variable "
                              "to CSV")
 

@@ -1,8 +1,9 @@
 """What a system declares, in the shape `FMUEnv` reads an FMU's (`FMUDescription`): its
 variables named ``component.variable`` (``system.component.variable`` inside a nested SSP system),
 its inputs (the components' inputs nothing feeds, and the SSP system's own input connectors),
-outputs (the components', and the system's own output connectors) and parameters, the checked connections, the order Gauss-Seidel steps in and the loops of
-direct feedthrough (`modelicagym.system.loops`).
+outputs (the components', and the system's own output connectors) and parameters, the checked
+connections, the order Gauss-Seidel steps in and the loops of direct feedthrough
+(`modelicagym.system.loops`).
 
 `open_system` opens one from an SSP archive or folder, or from a config's ``fmus`` and
 ``connections``; reading it loads no FMU binary.
@@ -214,8 +215,9 @@ class SystemDescription:
     def observable_variable(self, name: str) -> Variable:
         if name in self.connectors:
             if self.connectors[name].kind != "output":
+                fed = ", ".join(target for target, _ in self.connectors[name].targets)
                 raise VariableError(f"{self.name}: {name!r} cannot be observed: it is the system's input "
-                                    f"(observe what it feeds: {', '.join(t for t, _ in self.connectors[name].targets)})")
+                                    f"(observe what it feeds: {fed})")
             return self.variables[name]
         component, variable = self._local(name, "output", self.outputs)
         if component.description is not None:

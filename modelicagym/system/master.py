@@ -127,7 +127,8 @@ class SystemInstance:
         # the action's values to the components (an input connector's to every input it feeds), the
         # connections (in description.links order), the components' outputs to the system's; each
         # ``(target view, source view, scale, shift)``, and ``action_components``: whose input each action move sets
-        feeds = [(v.name, target, convert) for v in self.input_variables for target, convert in description.feeds(v.name)]
+        feeds = [(v.name, target, convert) for v in self.input_variables
+                 for target, convert in description.feeds(v.name)]
         self.action_moves = [(self._view(target, "inputs"), self.inputs.views[name], convert.scale, convert.shift)
                              for name, target, convert in feeds]
         self.action_components = [description.split(target)[0] for _, target, _ in feeds]
@@ -153,7 +154,8 @@ class SystemInstance:
         for name, value in values.items():
             for target, convert in self.description.feeds(name):
                 component, local = self.description.split(target)
-                fed.setdefault(component, {})[local] = value if convert.identity else convert.scale * value + convert.shift
+                fed.setdefault(component, {})[local] = convert.scale * value + convert.shift if not convert.identity \
+                    else value
         for component, starts in fed.items():
             start_at(self.components[component].inputs, starts)
 

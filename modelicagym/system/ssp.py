@@ -249,7 +249,8 @@ class _Reader:
                     if real is not None and real.get("unit"):
                         unit = defined.get(real.get("unit")) or Unit(real.get("unit"), None)
                     for target, transformation in mapping.get(name, [(name, None)]):
-                        mapped = value if transformation is None else transformation.scale * value + transformation.shift
+                        mapped = value if transformation is None else \
+                            transformation.scale * value + transformation.shift
                         self.bindings.append(_Binding(depth, scope + prefix + target, mapped,
                                                       unit if transformation is None else None,
                                                       f"{file}, line {parameter.sourceline}"))
@@ -322,7 +323,7 @@ class _Reader:
             if edge.start != name or edge.end in seen:
                 continue
             if edge.end in self.connectors:
-                found += [(target, _compose(transformation, edge.transformation))
+                found += [(target, _compose(edge.transformation, transformation))
                           for target, transformation in self.targets(edge.end, seen | {name})]
             else:
                 found.append((edge.end, edge.transformation))

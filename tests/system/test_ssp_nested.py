@@ -75,6 +75,18 @@ def test_three_levels_deep_the_transformations_compose_and_the_top_binding_wins(
     env.close()
 
 
+def test_a_value_bound_to_a_connector_goes_through_each_transformation_in_turn(gain, tmp_path):
+    # outside in: x 3 at the top, then + 1 inside (not (x + 1) 3)
+    inner = system("sub", [component("g", "gain"), component("h", "gain")],
+                   [connect(".p", "g.k", offset=1.0), connect(".p", "g.b"), connect(".u", "h.u", offset=1.0)],
+                   connectors(p="parameter", u="input"))
+    top = system("top", [inner], [connect(".p", "sub.p", factor=3.0), connect(".u", "sub.u", factor=3.0)],
+                 connectors(p="parameter", u="input"), bindings({"p": 2.0}))
+    described = open_system(write_ssp_folder(tmp_path / "chain", top, {"gain": gain}))
+    assert described.parameter_values == {"sub.g.k": 3.0 * 2.0 + 1.0, "sub.g.b": 3.0 * 2.0}
+    assert [(target, (c.scale, c.shift)) for target, c in described.feeds("u")] == [("sub.h.u", (3.0, 1.0))]
+
+
 def test_a_system_parameter_wins_over_the_components_own_binding(gain, tmp_path):
     # OMSimulator's toplevelparameter1: the system's parameter connectors feed the components' k
     top = system("top", [component("a", "gain", bindings({"k": 10.0})), component("b", "gain", bindings({"k": 10.0}))],
