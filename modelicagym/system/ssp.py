@@ -33,7 +33,7 @@ from lxml import etree
 
 from modelicagym.errors import DataError
 from modelicagym.fmu.description import extract_archive
-from modelicagym.fmu.errors import FMUNotFoundError, InvalidFMUError
+from modelicagym.fmu.errors import FMUNotFoundError
 from modelicagym.system.graph import ConnectionSpec
 from modelicagym.system.units import BASE_UNITS, Conversion, Unit
 
@@ -51,6 +51,18 @@ _IMPLEMENTATIONS = {"CoSimulation": "cs", "ModelExchange": "me", "Any": None, No
 #: the kinds of a system's connector (SSP 1.0 section 5.3.2)
 CONNECTOR_KINDS = ("input", "output", "inout", "parameter", "calculatedParameter", "structuralParameter",
                    "constant", "local")
+#: the attributes the standard gives the elements read here (besides id and description, and any
+#: attribute of another namespace): one it does not know is a defect of the file, refused
+_ATTRIBUTES = {
+    "Component": ("name", "type", "source", "implementation"),
+    "System": ("name",),
+    "Connector": ("name", "kind"),
+    "Connection": ("startElement", "startConnector", "endElement", "endConnector", "suppressUnitConversion"),
+    "ParameterBinding": ("type", "source", "sourceBase", "prefix"),
+    "ParameterMapping": ("type", "source", "sourceBase"),
+    "MappingEntry": ("source", "target", "suppressUnitConversion"),
+    "Parameter": ("name",),
+}
 
 
 @dataclass
@@ -100,7 +112,7 @@ def read_ssp(path: str | Path) -> SystemSpec:
         raise FMUNotFoundError(f"SSP system not found: {path} (resolved to {path.resolve()})")
     root = path.parent if path.name == SSD_NAME else path if path.is_dir() else extract_archive(
         path, SSD_NAME, "an SSP archive")
-    ssd = _parse(root / SSD_NAME, path, "ssd:SystemStructureDescription")
+    ssd = _parse(root / SSD_NAME, SSD_NAME, path, "ssd:SystemStructureDescription")
     system = ssd.find("ssd:System", NS)
     if system is None:
         raise DataError(f"{path}: {SSD_NAME} declares no ssd:System")
@@ -151,6 +163,25 @@ class _Reader:
         name = f" {element.get('name')!r}" if element.get("name") is not None else ""
         return DataError(f"{self.where}: {file}, line {element.sourceline}: {tag}{name}: {message}")
 
+    def known(self, element: Any, file: str = SSD_NAME) -> Any:
+        """``element``, checked to carry only the attributes the standard gives it (`_ATTRIBUTES`)."""
+        allowed = _ATTRIBUTES[etree.QName(element).localname]
+        for attribute in element.attrib:
+            if not attribute.startswith("{") and attribute not in (*allowed, "id", "description"):
+                raise self.error(element, f"unknown attribute {attribute!r}{_close(attribute, allowed)} "
+                                          f"(the standard gives it {', '.join(allowed)}, id and description)", file)
+        return element
+
+    def document(self, reference: Any, root: str) -> tuple[str, Any]:
+        """The file ``reference`` names in its ``source`` (an .ssv or .ssm), whose root element must be ``root``."""
+        source = reference.get("source")
+        file = self.root / source
+        if not file.is_file():
+            raise FMUNotFoundError(f"{self.where}: {SSD_NAME}, line {reference.sourceline}: "
+                                   f"{etree.QName(reference).localname}: its source {source!r} is not in the SSP "
+                                   f"(resolved to {file})")
+        return source, _parse(file, source, self.where, root)
+
     def required(self, element: Any, attribute: str, file: str = SSD_NAME) -> str:
         value = element.get(attribute)
         if not value:
@@ -174,7 +205,7 @@ class _Reader:
 
     def system(self, element: Any, prefix: str, depth: int) -> None:
         """Read system ``element``, whose components are named ``prefix`` + name."""
-        for connector in element.iterfind("ssd:Connectors/ssd:Connector", NS):
+        for connector in map(self.known, element.iterfind("ssd:Connectors/ssd:Connector", NS)):
             kind = connector.get("kind")
             if kind not in CONNECTOR_KINDS:
                 raise self.error(connector, f"kind {kind!r} is none of {', '.join(CONNECTOR_KINDS)}")
@@ -184,6 +215,8 @@ class _Reader:
             if not isinstance(child.tag, str):
                 continue  # a comment
             tag, name = etree.QName(child).localname, self.required(child, "name")
+            if tag in _ATTRIBUTES:
+                self.known(child)
             if name in elements:
                 raise self.error(child, f"a second element of that name in system {element.get('name')!r}")
             elements[name] = tag
@@ -194,7 +227,7 @@ class _Reader:
             else:
                 raise self.error(child, "not supported (only components and systems are)")
         self.bind(element, prefix, depth)
-        for connection in element.iterfind("ssd:Connections/ssd:Connection", NS):
+        for connection in map(self.known, element.iterfind("ssd:Connections/ssd:Connection", NS)):
             start = self.end(connection, "start", prefix, elements)
             end = self.end(connection, "end", prefix, elements)
             self.edges.append(_Edge(start, end, self.transformation(connection),
@@ -233,16 +266,16 @@ class _Reader:
 
     def bind(self, element: Any, scope: str, depth: int) -> None:
         """Record the values of ``element``'s bindings, named ``scope`` + prefix + name, mappings applied."""
-        for binding in element.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS):
+        for binding in map(self.known, element.iterfind("ssd:ParameterBindings/ssd:ParameterBinding", NS)):
             prefix = binding.get("prefix") or ""
-            sets = [(binding.get("source"), _parse(self.root / binding.get("source"), self.where, "ssv:ParameterSet"))
-                    ] if binding.get("source") else []
+            sets = [self.document(binding, "ssv:ParameterSet")] if binding.get("source") else []
             sets += [(SSD_NAME, inline) for inline in binding.iterfind("ssd:ParameterValues/ssv:ParameterSet", NS)]
             mapping = self.mapping(binding)
             for file, parameter_set in sets:
                 defined = {self.required(unit, "name", file): self.unit(unit, file)
                            for unit in parameter_set.iterfind("ssv:Units/ssc:Unit", NS)}
                 for parameter in parameter_set.iterfind("ssv:Parameters/ssv:Parameter", NS):
+                    self.known(parameter, file)
                     name, value = self.required(parameter, "name", file), self.value(parameter, file)
                     real = parameter.find("ssv:Real", NS)
                     unit = None
@@ -258,12 +291,15 @@ class _Reader:
     def mapping(self, binding: Any) -> dict[str, list[tuple[str, Conversion | None]]]:
         """A binding's parameter mapping: each source name -> every target it sets."""
         mapping: dict[str, list[tuple[str, Conversion | None]]] = {}
-        for reference in binding.iterfind("ssd:ParameterMapping", NS):
-            file = reference.get("source")
-            document = (_parse(self.root / file, self.where, "ssm:ParameterMapping") if file
-                        else reference.find("ssm:ParameterMapping", NS))
-            file = file or SSD_NAME
-            for entry in document.iterfind("ssm:MappingEntry", NS) if document is not None else ():
+        for reference in map(self.known, binding.iterfind("ssd:ParameterMapping", NS)):
+            if reference.get("source"):
+                file, document = self.document(reference, "ssm:ParameterMapping")
+            else:
+                file, document = SSD_NAME, reference.find("ssm:ParameterMapping", NS)
+                if document is None:
+                    raise self.error(reference, "has neither a source nor an inline ssm:ParameterMapping")
+            for entry in document.iterfind("ssm:MappingEntry", NS):
+                self.known(entry, file)
                 source, target = self.required(entry, "source", file), self.required(entry, "target", file)
                 mapping.setdefault(source, []).append((target, self.transformation(entry, file)))
         return mapping
@@ -401,17 +437,16 @@ def _boolean(text: str) -> bool:
     return text in ("true", "1")
 
 
-def _parse(file: Path, where: Path, root: str) -> Any:
-    """The root element of ``file``, which must be ``root`` (``prefix:Name``)."""
+def _parse(file: Path, name: str, where: Path, root: str) -> Any:
+    """The root element of ``file`` (``name`` in the SSP ``where``), which must be ``root`` (``prefix:Name``)."""
     if not file.is_file():
-        raise FMUNotFoundError(f"{where}: {file.name} not found (resolved to {file})")
+        raise FMUNotFoundError(f"{where}: {name} not found (resolved to {file})")
     try:
         element = etree.parse(str(file)).getroot()
     except etree.XMLSyntaxError as error:
-        raise InvalidFMUError(f"{where}: cannot read {file.name}: {error}") from None
+        raise DataError(f"{where}: {name} is not well-formed XML: {error}") from None
     prefix, local = root.split(":")
     if element.tag != f"{{{NS[prefix]}}}{local}":
-        raise DataError(f"{where}: {file.name}: its root element is {element.tag!r}, not {root} "
-                        f"({NS[prefix]})")
+        raise DataError(f"{where}: {name}: its root element is {element.tag!r}, not {root} ({NS[prefix]})")
     return element
 

@@ -185,7 +185,18 @@ DEFECTS = {
         "SystemStructure.ssd", '<ssd:Connector name="w" kind="sideways"><ssc:Real/></ssd:Connector>',
         r"SystemStructure\.ssd, line \d+: Connector 'w': kind 'sideways' is none of input, output"),
     "a mapping of the wrong document": (
-        "resources/k.ssm", None, r"k\.ssm: its root element is .*ParameterSet', not ssm:ParameterMapping"),
+        "resources/k.ssm", None, r"resources/k\.ssm: its root element is .*ParameterSet', not ssm:ParameterMapping"),
+    # invalidSSM: 'destination' for 'target'
+    "a mapping entry with an attribute the standard does not have": (
+        "resources/k.ssm", '<ssm:MappingEntry source="k_all" destination="b.k"/>',
+        r"resources/k\.ssm, line 1: MappingEntry: unknown attribute 'destination' \(the standard gives it source, "
+        r"target, suppressUnitConversion, id and description\)"),
+    # invalidSSD: a connector with a 'type'
+    "a connector with an attribute the standard does not have": (
+        "SystemStructure.ssd", '<ssd:Connector name="w" type="Real" kind="input"><ssc:Real/></ssd:Connector>',
+        r"SystemStructure\.ssd, line \d+: Connector 'w': unknown attribute 'type'"),
+    "a parameter set that is not XML": (
+        "resources/k.ssv", "<ssv:ParameterSet", r"resources/k\.ssv is not well-formed XML"),
 }
 
 
@@ -201,9 +212,11 @@ def test_a_malformed_file_is_refused_naming_the_file_and_the_element(gain, tmp_p
     assert open_system(folder).parameter_values == {"a.k": 4.0, "b.k": 4.0, "a.b": 1.5}  # runnable as written
     if file == "resources/k.ssm":
         files[file] = ssm.replace('<ssm:MappingEntry source="k_all" target="b.k"/>', bad) if bad else ssv
-    elif file == "resources/k.ssv":
+    elif file == "resources/k.ssv" and bad.startswith("<ssv:Parameter "):
         files[file] = ssv.replace('<ssv:Parameter name="a.b"><ssv:Real value="1.5"/></ssv:Parameter>', bad)
-    elif "Connection" in bad:
+    elif file == "resources/k.ssv":
+        files[file] = bad
+    elif "<ssd:Connection " in bad:
         top = top.replace('<ssd:Connection startElement="a"', bad + '<ssd:Connection startElement="a"')
     else:
         top = top.replace("<ssd:Connectors>", "<ssd:Connectors>" + bad)
@@ -252,3 +265,11 @@ def test_a_connector_fed_twice_is_refused(gain, tmp_path):
     with pytest.raises(DataError, match=r"SystemStructure\.ssd, line \d+: the connector 'sub\.u' is already fed by "
                                         r"'a\.y' \(SystemStructure\.ssd, line \d+\): a connector has one source"):
         open_system(write_ssp_folder(tmp_path / "twice", top, {"gain": gain}))
+
+
+def test_a_parameter_set_missing_from_the_archive_is_named_with_its_binding(gain, tmp_path):
+    # invalidSSV: the system binds resources/System1.ssv, which the SSP does not hold
+    top = system("top", [component("a", "gain")], parameters=bindings(source="resources/System1.ssv"))
+    with pytest.raises(FileNotFoundError, match=r"SystemStructure\.ssd, line \d+: ParameterBinding: its source "
+                                                r"'resources/System1\.ssv' is not in the SSP"):
+        open_system(write_ssp_folder(tmp_path / "missing", top, {"gain": gain}))
