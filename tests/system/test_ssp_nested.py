@@ -189,8 +189,8 @@ DEFECTS = {
     # invalidSSM: 'destination' for 'target'
     "a mapping entry with an attribute the standard does not have": (
         "resources/k.ssm", '<ssm:MappingEntry source="k_all" destination="b.k"/>',
-        r"resources/k\.ssm, line 1: MappingEntry: unknown attribute 'destination' \(the standard gives it source, "
-        r"target, suppressUnitConversion, id and description\)"),
+        (r"resources/k\.ssm, line 1: MappingEntry: unknown attribute 'destination' \(the standard gives it source, "
+         r"target, suppressUnitConversion, id and description\)")),
     # invalidSSD: a connector with a 'type'
     "a connector with an attribute the standard does not have": (
         "SystemStructure.ssd", '<ssd:Connector name="w" type="Real" kind="input"><ssc:Real/></ssd:Connector>',
