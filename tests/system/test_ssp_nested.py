@@ -132,15 +132,17 @@ def test_an_input_bound_by_the_ssp_starts_every_episode_at_that_value(gain, tmp_
 @pytest.mark.parametrize("step_path, taken", [("auto", "native"), ("python", "python")])
 def test_a_bound_input_connector_starts_at_its_value_and_feeds_its_targets(gain, tmp_path, step_path, taken):
     top = system("top", [component("a", "gain"), component("b", "gain")],
-                 [connect(".u", "a.u"), connect(".u", "b.u", factor=-1.0, offset=0.5), connect("b.y", ".y")],
+                 [connect(".u", "a.u"), connect(".u", "b.u", factor=-1.0, offset=0.5),
+                  connect("b.y", ".y", factor=2.0, offset=-1.0)],
                  connectors(u="input", y="output"), bindings({"u": 2.5}))
     folder = write_ssp_folder(tmp_path / "fan", top, {"gain": gain})
     env = FMUEnv(fmu=folder, inputs=["u"], outputs=["a.y", "b.y", "y"], time_step=0.1, step_path=step_path)
     assert env.step_path == taken and env.description.variables["u"].start == 2.5
     for _ in range(2):  # every episode
-        np.testing.assert_array_equal(env.reset(seed=0)[0], [2.5, -2.0, -2.0])
+        np.testing.assert_array_equal(env.reset(seed=0)[0], [2.5, -2.0, -5.0])
         for action in (1.0, -3.0):
-            np.testing.assert_array_equal(env.step(np.array([action]))[0], [action, 0.5 - action, 0.5 - action])
+            np.testing.assert_array_equal(env.step(np.array([action]))[0],
+                                          [action, 0.5 - action, 2.0 * (0.5 - action) - 1.0])
     env.close()
 
 
