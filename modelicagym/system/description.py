@@ -228,6 +228,12 @@ class SystemDescription:
         return self.variables[name]
 
     def settable_variable(self, name: str) -> Variable:
+        """``name`` checked to be settable at a reset: a parameter, an input nothing is connected to,
+        or the system's input connector (which sets what it feeds)."""
+        if name in self.connectors:
+            if self.connectors[name].kind != "input":
+                raise VariableError(f"{self.name}: {name!r} cannot be set: it is the system's output")
+            return self.variables[name]
         component, variable = self._local(name, "parameter", self.parameters)
         link = self.fed_by(name)
         if link is not None:

@@ -262,12 +262,14 @@ class SystemInstance:
         self._started()
 
     def split_values(self, values: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
-        """``{component: {variable: value}}`` of the SSP's values updated by ``values``."""
+        """``{component: {variable: value}}`` of the SSP's values updated by ``values`` (a value of
+        the system's input connector goes to every input it feeds, converted)."""
         split: dict[str, dict[str, Any]] = {name: {} for name in self.components}
         for name, value in {**self.description.parameter_values, **(values or {})}.items():
             self.description.settable_variable(name)
-            component, local = self.description.split(name)
-            split[component][local] = value
+            for target, convert in self.description.feeds(name):
+                component, local = self.description.split(target)
+                split[component][local] = value if convert.identity else convert.scale * value + convert.shift
         return split
 
     def _started(self) -> None:

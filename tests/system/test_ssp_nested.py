@@ -275,3 +275,13 @@ def test_a_parameter_set_missing_from_the_archive_is_named_with_its_binding(gain
     with pytest.raises(FileNotFoundError, match=r"SystemStructure\.ssd, line \d+: ParameterBinding: its source "
                                                 r"'resources/System1\.ssv' is not in the SSP"):
         open_system(write_ssp_folder(tmp_path / "missing", top, {"gain": gain}))
+
+
+def test_an_input_connector_can_be_held_as_a_fixed_input(gain, tmp_path):
+    top = system("top", [component("a", "gain"), component("b", "gain")],
+                 [connect(".u", "a.u", factor=2.0), connect(".v", "b.u")], connectors(u="input", v="input"))
+    folder = write_ssp_folder(tmp_path / "held", top, {"gain": gain})
+    env = FMUEnv(fmu=folder, inputs=["v"], outputs=["a.y", "b.y"], fixed_inputs={"u": 1.5}, time_step=0.1)
+    np.testing.assert_array_equal(env.reset(seed=0)[0], [3.0, 0.0])
+    np.testing.assert_array_equal(env.step(np.array([4.0]))[0], [3.0, 4.0])
+    env.close()
