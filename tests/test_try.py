@@ -232,8 +232,8 @@ def test_try_runs_the_task_files_baseline_and_draws_the_setpoint_and_the_load(tm
         observation, *_ = env.step(task.baseline.act(observation))
     chart = env.strip_chart
     names = [s.name for s in chart.series]
-    assert names == ["M_A", "wA", "setpoint of wA", "wB", "M_B"]
-    assert chart.values[-1, 2] == env.episode_setpoints["wA"] == observation[2]
+    assert names == ["M_A", "wA", "wB", "setpoint of wA", "M_B"]
+    assert chart.values[-1, 3] == env.episode_setpoints["wA"] == observation[2]
     assert abs(observation[0] - observation[2]) < 1.0  # the PI reached its setpoint
     assert chart.values[0, 4] == env.episode_parameters["M_B"]
     env.close()
