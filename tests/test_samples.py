@@ -51,15 +51,15 @@ def test_the_drive_s_task_draws_a_setpoint_and_a_load_per_episode_and_its_pi_tra
     env = FMUEnv(task.config)
     try:
         assert env.action_space.low.tolist() == [low] and env.action_space.high.tolist() == [high]
-        assert env.observation_names == ["wA", "wB", "setpoint:wA", "error_integral:wA", "M_B"]
-        assert env.observation_space.low[2:].tolist() == [50.0, -np.inf, -1.0]
-        assert env.observation_space.high[2:].tolist() == [200.0, np.inf, 0.0]
+        assert env.observation_names == ["wA", "wB", "setpoint:wA", "error:wA", "error_integral:wA", "M_B"]
+        assert env.observation_space.low[2:].tolist() == [50.0, -np.inf, -np.inf, -1.0]
+        assert env.observation_space.high[2:].tolist() == [200.0, np.inf, np.inf, 0.0]
         draws = set()
         for seed in range(4):
             observation, _ = env.reset(seed=seed)
             setpoint, load = env.episode_setpoints["wA"], env.episode_parameters["M_B"]
             assert 50.0 <= setpoint <= 200.0 and -1.0 <= load <= 0.0
-            assert observation.tolist() == [0.0, 0.0, setpoint, 0.0, load]
+            assert observation.tolist() == [0.0, 0.0, setpoint, -setpoint, 0.0, load]
             draws.add((setpoint, load))
             task.baseline.reset()
             speeds, torques, rewards = [], [], []

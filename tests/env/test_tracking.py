@@ -265,10 +265,10 @@ def test_the_drive_sample_s_task_draws_per_env_and_per_episode_in_a_pool_and_its
                 assert observations.tolist() == [run[step] for run in expected]
         assert truncated.all() and [infos["final_obs"][k].tolist() for k in range(2)] == [run[-1] for run in expected]
         # the next episodes: new draws, from rest
-        assert observations[:, 0].tolist() == [0.0, 0.0] and observations[:, 3].tolist() == [0.0, 0.0]
+        assert observations[:, 0].tolist() == [0.0, 0.0] and observations[:, 4].tolist() == [0.0, 0.0]
         for k in range(2):
-            assert observations[k, [2, 4]].tolist() != [expected[k][0][2], expected[k][0][4]]
-            assert 50.0 <= observations[k, 2] <= 200.0 and -1.0 <= observations[k, 4] <= 0.0
+            assert observations[k, [2, 5]].tolist() != [expected[k][0][2], expected[k][0][5]]
+            assert 50.0 <= observations[k, 2] <= 200.0 and -1.0 <= observations[k, 5] <= 0.0
     finally:
         pool.close()
     assert expected[0][0][2:] != expected[1][0][2:]  # each env its own draws

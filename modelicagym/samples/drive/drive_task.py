@@ -15,8 +15,9 @@ from modelicagym.env import uniform
 # 1. From `modelicagym info drive.fmu`, then edited: the agent sets the motor's torque M_A (bounded
 #    by the FMU: -2..2 N.m) and sees both speeds; the angles grow without end, so they are left out.
 #    The load torque M_B and the speed to reach are drawn at every reset (`uniform` also tells the
-#    observation space their ranges). The policy sees, after wA and wB, the setpoint, the integral of
-#    its error and the load. An episode: 40 steps of 0.25 s, from rest.
+#    observation space their ranges). The policy sees, after wA and wB, the setpoint, the error
+#    (wA - setpoint: a small error stands out better than as the difference of two large numbers),
+#    its integral and the load. An episode: 40 steps of 0.25 s, from rest.
 TIME_STEP = 0.25  # s
 config = {
     'fmu': 'drive.fmu',
@@ -27,7 +28,7 @@ config = {
     'fixed_inputs': {'M_B': uniform(-1.0, 0.0)},
     # the motor's speed to reach (rad/s): full torque less the load reaches the highest within 3 s
     'setpoints': {'wA': uniform(50.0, 200.0)},
-    'observe': ['setpoint', 'error_integral', 'M_B'],
+    'observe': ['setpoint', 'error', 'error_integral', 'M_B'],
     'time_step': TIME_STEP,
     'mode': 'cs',
     'max_episode_steps': 40,
