@@ -1,5 +1,5 @@
 """Tracking tasks from the config alone (``setpoints``, ``observe``, ``action_out_of_bounds``), on the
-inertia (``tests/fmus/inertia``: a shaft whose speed ``w`` lags the torque ``tau`` by J/d = 10 s, a
+inertia (``modelicagym/samples/inertia``: a shaft whose speed ``w`` lags the torque ``tau`` by J/d = 10 s, a
 load torque ``tau_load`` held, the angle ``phi`` integrating ``w``) and the room heater
 (``tests/fmus/own_heater``): in `FMUEnv` on both step paths, with saved states, and in the pool; and
 the task of ``modelicagym sample drive`` in a pool."""
