@@ -16,8 +16,7 @@ from modelicagym.env import uniform
 #    by the FMU: -2..2 N.m) and sees both speeds; the angles grow without end, so they are left out.
 #    The load torque M_B and the speed to reach are drawn at every reset (`uniform` also tells the
 #    observation space their ranges). The policy sees, after wA and wB, the setpoint, the error
-#    (wA - setpoint: a small error stands out better than as the difference of two large numbers),
-#    its integral and the load. An episode: 40 steps of 0.25 s, from rest.
+#    (wA - setpoint), its integral and the load. An episode: 40 steps of 0.25 s, from rest.
 TIME_STEP = 0.25  # s
 config = {
     'fmu': 'drive.fmu',
