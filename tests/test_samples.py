@@ -1,7 +1,7 @@
 """``modelicagym sample NAME`` / `modelicagym.samples.write_sample`: each sample, written into an empty
 folder, runs as written (its task file loaded as ``modelicagym try`` and ``train_own_fmu.py`` load it);
-the drive's task is one a proportional controller does; the system's SSP is the system its task file
-connects; and nothing a user has is overwritten unasked."""
+the drive's task draws a setpoint and a load per episode, and its PI baseline tracks them; the system's
+SSP is the system its task file connects; and nothing a user has is overwritten unasked."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from modelicagym.fmu.build import build_source_fmu
 from modelicagym.samples import SAMPLES, SampleExistsError, write_sample
 from modelicagym.samples.writer import SAMPLES_DIR
 from modelicagym.system.ssp import read_ssp
-from modelicagym.task import load_task
+from modelicagym.task import load_task, read_task_file
 
 pytestmark = pytest.mark.timeout(300)
 
@@ -57,29 +57,42 @@ def test_the_loop_sample_runs_its_loop_with_a_delay_it_names(tmp_path):
     assert observation[1] == pytest.approx(0.5, abs=1e-3)  # the loop's plant output settles on the setpoint
 
 
-def test_the_drive_s_task_is_one_a_proportional_controller_does(tmp_path):
+def test_the_drive_s_task_draws_a_setpoint_and_a_load_per_episode_and_its_pi_tracks_it(tmp_path):
     write_sample("drive", tmp_path)
-    config = load_task(tmp_path / "drive_task.py")
+    task = read_task_file(tmp_path / "drive_task.py")
     low, high = -2.0, 2.0  # M_A's range, as the FMU declares it
-    with FMUEnv(config) as env:
+    env = FMUEnv(task.config)
+    try:
         assert env.action_space.low.tolist() == [low] and env.action_space.high.tolist() == [high]
-        for seed in range(3):
+        assert env.observation_names == ["wA", "wB", "setpoint:wA", "error:wA", "error_integral:wA", "M_B"]
+        assert env.observation_space.low[2:].tolist() == [50.0, -np.inf, -np.inf, -1.0]
+        assert env.observation_space.high[2:].tolist() == [200.0, np.inf, np.inf, 0.0]
+        draws = set()
+        for seed in range(4):
             observation, _ = env.reset(seed=seed)
-            load = env.episode_parameters["M_B"]
-            assert -1.0 <= load <= 0.0 and observation.tolist() == [0.0, 0.0]
-            speeds, rewards = [], []
-            for _ in range(config["max_episode_steps"]):
-                torque = np.clip(0.05 * (200.0 - observation[0]), low, high)
-                observation, reward, terminated, truncated, _ = env.step(np.array([torque]))
+            setpoint, load = env.episode_setpoints["wA"], env.episode_parameters["M_B"]
+            assert 50.0 <= setpoint <= 200.0 and -1.0 <= load <= 0.0
+            assert observation.tolist() == [0.0, 0.0, setpoint, -setpoint, 0.0, load]
+            draws.add((setpoint, load))
+            task.baseline.reset()
+            speeds, torques, rewards = [], [], []
+            for _ in range(task.config["max_episode_steps"]):
+                torque = task.baseline.act(observation)
+                observation, reward, terminated, truncated, _ = env.step(torque)
                 speeds.append(observation[0])
+                torques.append(torque[0])
                 rewards.append(reward)
             assert truncated and not terminated
-            assert rewards == pytest.approx([-abs(200.0 - w) for w in speeds])
-            # full torque less the load brings the motor to speed within 3 s; then the error the load leaves
-            # a proportional controller, |M_B| / 0.05, and the load as fast as the motor
-            settled = np.array(speeds[30:])
-            assert np.abs(settled - (200.0 + load / 0.05)).max() < 1.0, (seed, load, settled)
-            assert abs(observation[1] - observation[0]) < 0.1
+            assert rewards == pytest.approx([-abs(setpoint - w) / 10.0 for w in speeds])
+            # full torque while far below the setpoint, then the speed held at it and the load balanced
+            assert torques[0] == high
+            reach = setpoint * 0.015 / (high + load)  # the whole drive's inertia at full torque less the load
+            settled = np.array(speeds[int(reach / 0.25) + 6:])
+            assert np.abs(settled - setpoint).max() < 0.5, (seed, setpoint, load, settled)
+            assert torques[-1] == pytest.approx(-load, abs=0.01)  # found by the integral: the PI does not see it
+        assert len(draws) == 4  # drawn again at every reset
+    finally:
+        env.close()
 
 
 def test_the_drive_steps_alike_in_fmi_2_and_3_co_simulation_and_model_exchange():

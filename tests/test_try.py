@@ -214,42 +214,40 @@ def test_the_result_names_every_variable_left_out_of_the_plot(tmp_path):
                                   "--set outputs='[...]' or --set inputs='[...]'")
 
 
-SHAFT_TASK = Path(__file__).parents[1] / "examples" / "shaft_task.py"
-
-
 @requires("plots")
-def test_try_runs_the_task_files_baseline_and_draws_the_setpoint_and_the_load(family_fmu, tmp_path, capsys,
-                                                                              monkeypatch):
-    (tmp_path / "shaft.fmu").write_bytes(family_fmu("inertia", 3).read_bytes())
-    (tmp_path / "shaft_task.py").write_text(SHAFT_TASK.read_text())
-    monkeypatch.chdir(tmp_path)
-    status, lines, _ = run_try(capsys, "shaft_task.py", "--policy", "baseline", "--out", "pi.png")
-    assert status == 0 and lines[0] == "Inertia: 60 steps of the task's baseline (seed 0), t = 0 s to 30 s"
+def test_try_runs_the_task_files_baseline_and_draws_the_setpoint_and_the_load(tmp_path, capsys, monkeypatch):
     from modelicagym import FMUEnv
+    from modelicagym.samples import write_sample
     from modelicagym.task import read_task_file
 
-    task = read_task_file("shaft_task.py")
+    write_sample("drive", tmp_path)
+    monkeypatch.chdir(tmp_path)
+    status, lines, _ = run_try(capsys, "drive_task.py", "--policy", "baseline", "--out", "pi.png")
+    assert status == 0 and lines[0] == "TwoMassDrive: 40 steps of the task's baseline (seed 0), t = 0 s to 10 s"
+    task = read_task_file("drive_task.py")
     env = FMUEnv(task.config, render_mode="rgb_array")
     observation, _ = env.reset(seed=0)
     task.baseline.reset()
-    for _ in range(60):
+    for _ in range(40):
         observation, *_ = env.step(task.baseline.act(observation))
     chart = env.strip_chart
     names = [s.name for s in chart.series]
-    assert names == ["tau", "w", "setpoint of w", "tau_load"]
-    assert chart.values[-1, 2] == env.episode_setpoints["w"] == observation[1]
-    assert abs(observation[0] - observation[1]) < 2.0  # the PI reached its setpoint
-    assert chart.values[0, 3] == env.episode_parameters["tau_load"]
+    assert names == ["M_A", "wA", "wB", "setpoint of wA", "M_B"]
+    assert chart.values[-1, 3] == env.episode_setpoints["wA"] == observation[2]
+    assert abs(observation[0] - observation[2]) < 1.0  # the PI reached its setpoint
+    assert chart.values[0, 4] == env.episode_parameters["M_B"]
     env.close()
-    assert lines[2] == "plot of 1 action and 1 observation over time: pi.png"
-    status, lines, _ = run_try(capsys, "shaft_task.py")  # random actions: another picture
-    assert lines[0].startswith("Inertia: 60 steps of random actions")
-    assert not np.array_equal(read_png(tmp_path / "pi.png"), read_png(tmp_path / "shaft_task-try.png"))
+    assert lines[2] == "plot of 1 action and 2 observations over time: pi.png"
+    status, lines, _ = run_try(capsys, "drive_task.py")  # random actions: another picture
+    assert lines[0].startswith("TwoMassDrive: 40 steps of random actions")
+    assert not np.array_equal(read_png(tmp_path / "pi.png"), read_png(tmp_path / "drive_task-try.png"))
 
 
-def test_try_policy_baseline_needs_a_baseline(family_fmu, tmp_path, capsys, monkeypatch):
-    (tmp_path / "shaft.fmu").write_bytes(family_fmu("inertia", 3).read_bytes())
-    (tmp_path / "task.py").write_text(SHAFT_TASK.read_text().split("class baseline")[0])
+def test_try_policy_baseline_needs_a_baseline(tmp_path, capsys, monkeypatch):
+    from modelicagym.samples import write_sample
+
+    write_sample("drive", tmp_path)
+    (tmp_path / "task.py").write_text((tmp_path / "drive_task.py").read_text().split("class baseline")[0])
     monkeypatch.chdir(tmp_path)
     status, lines, err = run_try(capsys, "task.py", "--policy", "baseline")
     assert status == 1 and "task.py defines no baseline" in err and err.count("\n") == 1

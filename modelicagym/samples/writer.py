@@ -85,9 +85,11 @@ SAMPLES: dict[str, Sample] = {sample.name: sample for sample in (
            {"heater.fmu": Built("heater", 2), "heater_task.py": Copied("heater/heater_task.py")},
            ("modelicagym info heater.fmu", "modelicagym try heater_task.py", "modelicagym bench fmu heater.fmu",
             "python examples/train_own_fmu.py heater_task.py   (the script is in the repository's examples/)")),
-    Sample("drive", "a motor turning a load through an elastic shaft (FMI 2.0); task: hold the motor at 200 rad/s",
+    Sample("drive", "a motor turning a load through an elastic shaft (FMI 2.0); task: a speed setpoint under a "
+                    "random load, with a PI to compare with",
            {"drive.fmu": Built("drive", 2), "drive_task.py": Copied("drive/drive_task.py")},
            ("modelicagym info drive.fmu", "modelicagym try drive_task.py", "modelicagym bench fmu drive.fmu",
+            "modelicagym try drive_task.py --policy baseline",
             "python examples/train_own_fmu.py drive_task.py   (the script is in the repository's examples/)")),
     Sample("system", "a motor (FMI 2.0) and a shaft (FMI 3.0) that connect as a system, a load table, "
                      "and the system as an SSP",

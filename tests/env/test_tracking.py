@@ -1,7 +1,8 @@
 """Tracking tasks from the config alone (``setpoints``, ``observe``, ``action_out_of_bounds``), on the
-inertia (``tests/fmus/inertia``: a shaft whose speed ``w`` lags the torque ``tau`` by J/d = 10 s, a
+inertia (``modelicagym/samples/inertia``: a shaft whose speed ``w`` lags the torque ``tau`` by J/d = 10 s, a
 load torque ``tau_load`` held, the angle ``phi`` integrating ``w``) and the room heater
-(``tests/fmus/own_heater``): in `FMUEnv` on both step paths, with saved states, and in the pool."""
+(``tests/fmus/own_heater``): in `FMUEnv` on both step paths, with saved states, and in the pool; and
+the task of ``modelicagym sample drive`` in a pool."""
 
 from __future__ import annotations
 
@@ -226,3 +227,49 @@ def test_a_task_file_s_table_is_beside_it_and_a_json_config_draws_uniformly(iner
     observation, _ = env.reset(seed=1)
     assert observation[1:].tolist() == [env.episode_setpoints["w"], env.episode_parameters["tau_load"]]
     env.close()
+
+
+@pytest.mark.processes
+def test_the_drive_sample_s_task_draws_per_env_and_per_episode_in_a_pool_and_its_pi_tracks(tmp_path, no_leaks):
+    """`modelicagym sample drive`'s task, from an empty folder: each env of a pool draws its own
+    setpoint and load, again at every autoreset, as a single env with the same seed does; the task's
+    PI brings each env's motor to its setpoint."""
+    from modelicagym.samples import write_sample
+    from modelicagym.task import read_task_file
+
+    write_sample("drive", tmp_path)
+    tasks = [read_task_file(tmp_path / "drive_task.py") for _ in range(2)]  # a PI of its own for each env
+    config, steps = tasks[0].config, tasks[0].config["max_episode_steps"]
+    expected = []
+    for seed, task in zip((5, 6), tasks):
+        env = FMUEnv(config)
+        observation, _ = env.reset(seed=seed)
+        task.baseline.reset()
+        run = [observation.tolist()]
+        for _ in range(steps):
+            observation = env.step(task.baseline.act(observation))[0]
+            run.append(observation.tolist())
+        expected.append(run)
+        env.close()
+    pool = modelicagym.make_vec(config, n=2, num_workers=1, autoreset_mode="SameStep")
+    try:
+        assert pool.call("step_path") == ("native", "native")
+        observations, _ = pool.reset(seed=[5, 6])
+        assert observations.tolist() == [run[0] for run in expected]
+        for task in tasks:
+            task.baseline.reset()
+        for step in range(1, steps + 1):
+            actions = np.array([task.baseline.act(o) for task, o in zip(tasks, observations)])
+            observations, _, _, truncated, infos = pool.step(actions)
+            if step < steps:
+                assert observations.tolist() == [run[step] for run in expected]
+        assert truncated.all() and [infos["final_obs"][k].tolist() for k in range(2)] == [run[-1] for run in expected]
+        # the next episodes: new draws, from rest
+        assert observations[:, 0].tolist() == [0.0, 0.0] and observations[:, 4].tolist() == [0.0, 0.0]
+        for k in range(2):
+            assert observations[k, [2, 5]].tolist() != [expected[k][0][2], expected[k][0][5]]
+            assert 50.0 <= observations[k, 2] <= 200.0 and -1.0 <= observations[k, 5] <= 0.0
+    finally:
+        pool.close()
+    assert expected[0][0][2:] != expected[1][0][2:]  # each env its own draws
+    assert all(abs(run[-1][0] - run[-1][2]) < 0.5 for run in expected)  # the PI reached each setpoint
