@@ -2,10 +2,12 @@
 
 The README and each user page of the site (`USER_PAGES`) are read with Sybil: its Python code
 blocks run one after another in one namespace a page, as a reader's session would, and its
-``bash`` blocks run in a shell. A page runs in an empty folder of its own, like a newcomer's
-(``modelicagym sample heater`` on the page writes the FMU it goes on to use), where ``.venv`` is
-the environment running the tests and ``examples/`` the checkout's scripts, so the README's
-``.venv/bin/python examples/rollout.py`` runs as written. What must not run here says so on the
+``bash`` blocks run in a shell, one after another as in a reader's terminal (a ``cd`` holds for
+the blocks after it). A page runs in an empty folder of its own, like a newcomer's (``modelicagym
+sample heater`` on the page writes the FMU it goes on to use), where ``.venv`` is the environment
+running the tests and ``examples/`` the checkout's scripts, so the README's ``.venv/bin/python
+examples/rollout.py`` runs as written; the folder sits beside the checkout's ``examples/`` and
+``tests/``, as a folder made inside a clone does. What must not run here says so on the
 page, in a comment the reader does not see: ``<!-- skip: next "why" -->`` before the block (an
 install line, which `tests/test_wheel.py` runs in a fresh venv; a server that never ends). A block
 that takes minutes as written runs smaller, saying how: ``<!-- smaller: "50_000", "2_048" -->``
@@ -20,6 +22,7 @@ from __future__ import annotations
 import ast
 import importlib
 import os
+import shlex
 import subprocess
 import sys
 import unittest
@@ -71,14 +74,17 @@ SHELL_TIMEOUT_S = 600
 
 
 def run_shell(example: Example) -> None:
-    """Run a ``bash`` block in the page's folder; a failing command fails the page, showing its output."""
-    folder = Path(example.namespace["__folder__"])
+    """Run a ``bash`` block where the reader's shell is (a ``cd`` in one block holds for the next
+    blocks, Python's too); a failing command fails the page, showing its output."""
     environment = {**os.environ, "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ["PATH"]])}
-    result = subprocess.run(["bash", "-euo", "pipefail", "-c", example.parsed], cwd=folder, env=environment,
+    where = Path(example.namespace["__shell_folder_file__"])  # the folder the block ends in, for the next
+    script = f"{example.parsed}\npwd > {shlex.quote(str(where))}\n"
+    result = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=Path.cwd(), env=environment,
                             capture_output=True, text=True, timeout=SHELL_TIMEOUT_S, check=False)
     if result.returncode != 0:
         raise AssertionError(f"{example.path}, line {example.line}: exit status {result.returncode} from\n"
                              f"{example.parsed}\n--- output ---\n{result.stdout[-3000:]}{result.stderr[-3000:]}")
+    os.chdir(where.read_text(encoding="utf-8").strip())
 
 
 class SmallerParser:
@@ -127,20 +133,26 @@ def importable(module: str) -> bool:
 
 @pytest.fixture
 def page_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
-    """An empty folder a page runs in, as a newcomer's, with the checkout's examples and this
-    environment as ``.venv``."""
-    (tmp_path / ".venv").symlink_to(sys.prefix, target_is_directory=True)
-    (tmp_path / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
-    monkeypatch.chdir(tmp_path)
+    """An empty folder a page runs in, as a newcomer's: in a stand-in for a clone (its examples and
+    tests beside it, so ``../examples/train_own_fmu.py`` runs as from a folder inside the clone), with
+    the clone's examples and this environment as ``.venv`` in it too (the README's commands, run from
+    the clone's root)."""
+    for name in ("examples", "tests"):
+        (tmp_path / name).symlink_to(ROOT / name, target_is_directory=True)
+    folder = tmp_path / "work"
+    folder.mkdir()
+    (folder / ".venv").symlink_to(sys.prefix, target_is_directory=True)
+    (folder / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
+    monkeypatch.chdir(folder)
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    yield tmp_path
+    yield folder
 
 
 @requires("plots")
 @pytest.mark.parametrize("page", USER_PAGES)
 def test_page_examples_run(page: str, page_folder: Path) -> None:
     document = SYBIL.parse(ROOT / page)
-    document.namespace["__folder__"] = str(page_folder)
+    document.namespace["__shell_folder_file__"] = str(page_folder.parent / "shell-folder")
     document.namespace["importable"] = importable
     try:
         for example in document:
