@@ -63,7 +63,7 @@ from modelicagym.vector.saved_states import VectorState, check_options_per_env, 
 from modelicagym.vector.timing import StepTiming
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 
@@ -291,7 +291,7 @@ class PoolVectorEnv(VectorEnv):
         config = WorkerConfig(
             self.autoreset_mode,
             spin_time,
-            shared_signals=futex_library() is not None,
+            shared_signals=pool_native_library() is not None,
             step_timeout=step_timeout,
             startup_timeout=startup_timeout,
             observation_mode="same" if observation_mode == "same" else "different",
@@ -322,7 +322,7 @@ class PoolVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._buffers: SharedBuffers = self._workers.buffers
         self._actions = ActionWriter(
-            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library(),
+            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, pool_native_library(),
             self._buffers.needs_reset if self.autoreset_mode is AutoresetMode.NEXT_STEP else None,
             clip=first.clips_actions,
         )

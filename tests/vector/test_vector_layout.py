@@ -26,14 +26,14 @@ from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, PartyTimes
 from modelicagym.vector.parent.dispatch import go_poll_time
 from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
 from modelicagym.vector.pool import DEFAULT_SPIN_TIME
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 #: a stand-in's layouts: one worker of 4 envs and the stand-in with 4 (the stand-in is the home party)
 STAND_IN_SHAPES = placement.layout_shapes([range(4)], 4)
 
 pytestmark = [
     pytest.mark.timeout(180),
-    pytest.mark.skipif(futex_library() is None, reason="the adaptive layout needs the native library"),
+    pytest.mark.skipif(pool_native_library() is None, reason="the adaptive layout needs the native library"),
 ]
 
 

@@ -95,7 +95,7 @@ class Dispatcher:
         #: the calling process's slice as a party, or ``None``
         self.caller = None if local is None else CallerParty(local, buffers)
         #: with a stand-in worker (every env isolated), its polling waits for a quiet machine
-        self._machine = MachineWatch() if any(handle.in_caller for handle in handles) else None
+        self._machine = MachineWatch() if any(handle.home for handle in handles) else None
         self._machine_quiet = False
         #: every party in slot order: the workers, then the calling process
         self._parties: list[Party] = [*handles, self.caller] if self.caller is not None else list(handles)
@@ -140,7 +140,7 @@ class Dispatcher:
     def stepping_changed(self) -> None:
         """Take in which workers step envs now (``stepping``): a step wakes only those (and the
         calling process, which always takes part)."""
-        self._stepping_parties = [party for party in self._parties if party.in_caller or self.stepping[party.index]]
+        self._stepping_parties = [party for party in self._parties if party.home or self.stepping[party.index]]
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
         #: a step wakes at least one worker
         self._workers_step = any(party is not self.caller for party in self._stepping_parties)
@@ -284,7 +284,7 @@ class Dispatcher:
             if command.message is not None and id(command.message) not in payloads:
                 payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
         if self.max_concurrency is not None:  # the calling process's own command first: it is never held
-            commands = sorted(commands, key=lambda command: not command.party.in_caller)
+            commands = sorted(commands, key=lambda command: not command.party.home)
         if not slots_hold_code:
             self._slots_say_step = False
         self._step_sent = False
@@ -427,7 +427,7 @@ class Dispatcher:
         party = command.party
         running = time.monotonic() - self._posted_at[party.index]
         overran = self.step_timeout is not None and running > self.step_timeout
-        if not overran and (running <= LIVENESS_INTERVAL or party.process.is_alive()):
+        if not overran and (running <= LIVENESS_INTERVAL or party.is_alive()):
             return None
         if party.poll_done(0.0, 0.0):
             return self._read(command, doing)
@@ -439,7 +439,7 @@ class Dispatcher:
         ``OBSERVATIONS`` reply is stored (its infos left as the message)."""
         party = command.party
         if message is not None and message.kind is Kind.ERROR:
-            failure = message.data.to_env_error(party.index, doing, party.process if party.in_caller else None)
+            failure = message.data.to_env_error(party.index, doing, party.where)
             message = None
         elif message is not None and message.kind is Kind.OBSERVATIONS:
             message = self._take_observations(message)
@@ -467,9 +467,9 @@ class Dispatcher:
                 remote = message.data
                 original = None if named else remote.original()
                 raise original if original is not None else remote.to_env_error(
-                    party.index, doing, party.process if party.in_caller else None)
+                    party.index, doing, party.where)
             for index, value in zip(party.env_indices, message.data):
-                if bool(in_caller[index]) == party.in_caller:
+                if bool(in_caller[index]) == party.home:
                     results[index] = value
         return [results[index] for index in sorted(results)]
 

@@ -31,10 +31,11 @@ class Party(Protocol):
     index: int
     #: the contiguous range of env indices it holds
     env_indices: range
-    #: it is the calling process (its envs run here, uninterruptibly)
-    in_caller: bool
-    #: where its envs run, for messages (``None``: ``"worker <index>"``)
-    process: str | None
+    #: it is a home party: the calling process, or the worker standing in for it; it steps the
+    #: envs the shared ``in_caller`` array marks
+    home: bool
+    #: where its envs run, for messages: ``"worker 2"``, ``"the calling process"``...
+    where: str
 
     def env_range(self) -> str:
         """``"4-7"`` or ``"4"``: its env indices, for messages."""
@@ -89,8 +90,8 @@ class CallerParty:
     like a worker's. A command never run (the pool closed first) is dropped.
     """
 
-    in_caller = True
-    process = "the calling process"
+    home = True
+    where = "the calling process"
 
     def __init__(self, envs: EnvSlice, buffers: SharedBuffers) -> None:
         self.envs = envs

@@ -51,7 +51,7 @@ from modelicagym.vector.slice.creation import close_envs, create_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import EnvDescription, WorkerConfig
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = ["LayoutState", "Placement", "layout_shapes", "move_order", "place_envs", "stand_in_fixed_reason"]
 
@@ -345,7 +345,7 @@ def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None
     (``None``: it can)."""
     if adapt_layout is False:
         return "adapt_layout=False"
-    if futex_library() is None:
+    if pool_native_library() is None:
         return "no native library: the pool signals through semaphores"
     return description.movable_reason
 
@@ -357,7 +357,7 @@ def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice, adapt_layout: bool
         return "num_workers=0: every env is in the calling process"
     if adapt_layout is False:
         return "adapt_layout=False"
-    if futex_library() is None:
+    if pool_native_library() is None:
         return "no native library: the pool signals through semaphores"
     unsafe = workers.unsafe_in_caller()
     if unsafe is not None:

@@ -60,9 +60,11 @@ class WorkerHandle:
     ) -> None:
         self.index = index
         self.env_indices = env_indices
-        #: the worker stands in for the calling process: it holds a copy of every env and steps
-        #: those the shared ``in_caller`` array marks (`modelicagym.vector.parent.placement`)
-        self.in_caller = stand_in
+        #: a home party: the worker stands in for the calling process; it holds a copy of every env
+        #: and steps those the shared ``in_caller`` array marks (`modelicagym.vector.parent.placement`)
+        self.home = stand_in
+        #: where its envs run, for messages
+        self.where = f"worker {index}, standing in for the calling process" if stand_in else f"worker {index}"
         self._env_fns = CloudpickleWrapper(list(env_fns))
         self.ctx = ctx
         self._config = config
@@ -89,7 +91,7 @@ class WorkerHandle:
             target=run_worker,
             name=f"modelicagym-pool-worker-{self.index}",
             args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config,
-                  self.in_caller),
+                  self.home),
             daemon=True,
         )
         self.conn = parent_conn

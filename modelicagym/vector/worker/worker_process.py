@@ -38,7 +38,7 @@ from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
 from modelicagym.vector.slice.native_slice import NativeServer
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
-from modelicagym.vector.wire.sync import AnswerSignal, GoSignal, SemaphoreSignal, futex_library
+from modelicagym.vector.wire.sync import AnswerSignal, GoSignal, SemaphoreSignal, pool_native_library
 
 __all__ = ["run_worker"]
 
@@ -135,7 +135,7 @@ class Worker:
             os.close(fd)
         self._envs.attach(self._buffers, needs_reset)
         if self._config.shared_signals:
-            library, buffers, index = futex_library(), self._buffers, self._index
+            library, buffers, index = pool_native_library(), self._buffers, self._index
             self._go = GoSignal(library, buffers.signal_address(index, SharedBuffers.GO), buffers.barrier_address, index)
             self._done = AnswerSignal(library, buffers.signal_address(index, SharedBuffers.DONE), buffers.barrier_address)
             if self._envs.native is not None:
