@@ -29,11 +29,18 @@ from modelicagym.distributed.errors import ActorDiedError
 from modelicagym.distributed.host import EnvHost, Policy, Rollout
 from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
-from modelicagym.vector.errors import PoolClosedError
-from modelicagym.vector.parent.argument_checks import check_reset_mask, seeds_per_env, values_per_env
-from modelicagym.vector.parent.infos import add_info, env_info
-from modelicagym.vector.pool import INIT_MODES
-from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
+from modelicagym.vector import PoolClosedError
+from modelicagym.vector.api import (
+    INIT_MODES,
+    VectorState,
+    add_info,
+    check_options_per_env,
+    check_reset_mask,
+    env_info,
+    seeds_per_env,
+    split_states,
+    values_per_env,
+)
 
 __all__ = ["RAY_OPTIONS", "RayVectorEnv"]
 

@@ -4,8 +4,11 @@
 worker or in the calling process) imports the wire; ``vector/worker/`` a slice and the wire;
 ``vector/parent/`` (the calling process only) any of them. The public API's values at the top
 (``errors``, ``env_contract``, ``timing``, ``saved_states``) import no side, and only ``pool.py`` and
-``__init__.py`` stand above the sides. Nothing in ``vector/`` imports ``fmu/``, ``env/`` or ``models/``.
-The imports are read from the source (docs/design.md, "The pool's folders"); nothing is run.
+``__init__.py`` (and ``api.py``, the names the rest of the package uses) stand above the sides. Nothing
+in ``vector/`` imports ``fmu/``, ``env/`` or ``models/``, and nothing outside it (the package's other
+modules, the maintainers' ``benchmarks/``) imports more of the pool than ``modelicagym.vector`` and
+``modelicagym.vector.api``. The imports are read from the source (docs/design.md, "The pool's folders");
+nothing is run.
 """
 
 from __future__ import annotations
@@ -21,7 +24,12 @@ VECTOR = Path(modelicagym.vector.__file__).parent
 SIDES = ("wire", "slice", "worker", "parent")
 #: what each side may import besides itself and the top's public values
 MAY_IMPORT = {"wire": set(), "slice": {"wire"}, "worker": {"slice", "wire"}, "parent": {"worker", "slice", "wire"}}
-API = {"pool", "__init__"}
+API = {"pool", "__init__", "api"}
+#: what a module outside the pool may import of it
+PUBLIC = {"modelicagym.vector", "modelicagym.vector.api"}
+#: the modules outside the pool: the package's others, and a clone's maintainers' benchmarks
+OUTSIDE = [path for folder in (VECTOR.parent, VECTOR.parents[1] / "benchmarks") if folder.is_dir()
+           for path in sorted(folder.rglob("*.py")) if VECTOR not in path.parents]
 
 
 def where(module: str) -> str:
@@ -53,7 +61,7 @@ def imported(path: Path) -> set[str]:
 
 def test_every_module_of_the_pool_is_in_a_side_or_the_public_api() -> None:
     top = {where(module) for module, path in modules() if path.parent == VECTOR}
-    assert top == {f"top:{name}" for name in ("__init__", "pool", "errors", "env_contract", "timing", "saved_states")}
+    assert top == {f"top:{name}" for name in ("__init__", "api", "pool", "errors", "env_contract", "timing", "saved_states")}
 
 
 @pytest.mark.parametrize("module,path", modules(), ids=[module for module, _ in modules()])
@@ -73,3 +81,9 @@ def test_a_module_imports_only_what_its_side_may(module: str, path: Path) -> Non
         if side.startswith("top:") or to not in MAY_IMPORT[side]:
             wrong.append(target)
     assert not wrong, f"{module} ({side}) imports {sorted(wrong)}"
+
+
+@pytest.mark.parametrize("path", OUTSIDE, ids=[str(path.relative_to(VECTOR.parents[1])) for path in OUTSIDE])
+def test_a_module_outside_the_pool_imports_only_its_exported_names(path: Path) -> None:
+    private = sorted(target for target in imported(path) if target.startswith("modelicagym.vector") and target not in PUBLIC)
+    assert not private, f"{path} imports the pool's private modules {private}: export what it needs in vector/api.py"
