@@ -10,7 +10,8 @@ from modelicagym.vector.parent.dispatch import collect_poll_time, go_poll_time
 from modelicagym.vector.parent.infos import add_info, env_info
 from modelicagym.vector.parent.plan import plan_workers
 from modelicagym.vector.pool import INIT_MODES, POOL_OPTIONS
-from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
+from modelicagym.vector.reset_options import check_options_per_env, options_for, with_initial_state
+from modelicagym.vector.saved_states import VectorState, split_states
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 
@@ -20,14 +21,17 @@ __all__ = [
     "POOL_OPTIONS",
     # where a pool's envs run, for a plan of many hosts
     "plan_workers",
-    # what a vector env of pools checks of its caller's arguments, and how it merges its pools' infos
+    # what a vector env of pools checks of its caller's arguments, how it splits them among its pools
+    # and merges their infos
     "add_info",
     "check_options_per_env",
     "check_reset_mask",
     "env_info",
+    "options_for",
     "seeds_per_env",
     "split_states",
     "values_per_env",
+    "with_initial_state",
     "VectorState",
     # what the maintainers' benchmarks measure of the pool's parts
     "BufferSpec",

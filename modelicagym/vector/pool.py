@@ -59,7 +59,8 @@ from modelicagym.vector.parent.placement import LayoutState
 from modelicagym.vector.parent.plan import default_start_method, plan_layout
 from modelicagym.vector.parent.recovery import RESTART_INFO_KEY, Recovery
 from modelicagym.vector.parent.timing_recorder import TimingRecorder
-from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
+from modelicagym.vector.reset_options import check_options_per_env, with_initial_state
+from modelicagym.vector.saved_states import VectorState, split_states
 from modelicagym.vector.timing import StepTiming
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
@@ -402,8 +403,7 @@ class PoolVectorEnv(VectorEnv):
         except Exception as error:  # it cannot serialize its state: each env initializes itself
             logger.info("init='once': env %d cannot give its state (%s); every env initializes itself", first, error)
             return options
-        per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
-        return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
+        return with_initial_state(options, state, self.num_envs)
 
     def _recv_reset(self, timeout: float | None) -> tuple[Any, dict[str, Any]]:
         """The observations and merged infos of the reset sent (see :meth:`_raise_if_overran`)."""

@@ -94,7 +94,7 @@ class SimulatedPool:
             self.now[0] += 0.01
             if self.policy.observe(PART_BATCHES, round(PART_BATCHES * caller * 1e3),
                                    round(PART_BATCHES * (batch - caller) * 1e3), shape.home_envs,
-                                   len(self.in_caller), parties=self.parties):
+                                   parties=self.parties):
                 self._place()
                 return True
         return False
@@ -151,7 +151,7 @@ class SimulatedStandIn:
                 self.parties.count()
             self.machine.run(0.01, 0.0)
             if self.policy.observe(PART_BATCHES, 0, round(PART_BATCHES * self.batch(target) * 1e3), 0,
-                                   len(self.env_us), parties=self.parties):
+                                   parties=self.parties):
                 return
 
     def settle(self, windows: int = 40) -> float:

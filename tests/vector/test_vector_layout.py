@@ -181,7 +181,7 @@ def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> Non
         changed = False
         for _ in range(WINDOW_PARTS):
             now[0] += 0.01
-            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 4, 8, settled)
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 4, settled)
         return changed
 
     now[0] += PROBE_FIRST_SECONDS
@@ -209,7 +209,7 @@ def test_a_failed_try_that_took_long_to_undo_delays_the_next_one_in_proportion()
         changed = False
         for _ in range(WINDOW_PARTS):
             now[0] += 0.01
-            changed |= policy.observe(8, 0, int(8 * batch_us * 1e3), 4, 8, settled)
+            changed |= policy.observe(8, 0, int(8 * batch_us * 1e3), 4, settled)
         return changed
 
     now[0] += PROBE_FIRST_SECONDS
@@ -310,7 +310,7 @@ def _windows_of(policy: ConsolidationPolicy, machine: Machine, stall_share: floa
         for _ in range(WINDOW_PARTS):
             machine.run(0.1, stall_share)
             parties = _party_times(worker_us, stand_in_us, policy.target)
-            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, 8, True, parties=parties)
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, True, parties=parties)
         return changed
 
     return window

@@ -31,6 +31,7 @@ from modelicagym.vector.parent.deadline import Deadline
 from modelicagym.vector.parent.machine_watch import MachineWatch
 from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
 from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.reset_options import options_for
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.slice.native_slice import NativeCollector
@@ -479,14 +480,6 @@ def _runs_envs(command: PendingCommand) -> bool:
     if command.code == Command.MESSAGE:
         return command.message.kind in _ENV_RUNNING_KINDS
     return command.code in _ENV_RUNNING_CODES
-
-
-def options_for(options: dict[str, Any] | None, indices: range) -> dict[str, Any] | None:
-    """A party's part of reset ``options``: its envs' entries of ``"options_per_env"`` (one dict per
-    env of the pool), so no party is sent the others' (they may hold large states)."""
-    if options is None or "options_per_env" not in options:
-        return options
-    return {**options, "options_per_env": options["options_per_env"][indices.start : indices.stop]}
 
 
 #: the longest the calling process polls for workers that fill the cores (seconds; see `collect_poll_time`)

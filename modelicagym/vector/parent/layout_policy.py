@@ -132,12 +132,11 @@ class LayoutPolicy(_Policy):
         super().__init__(shapes, cores, clock)
 
     def observe(
-        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, settled: bool = True,
         parties: PartyTimes | None = None,
     ) -> bool:
         """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
-        in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all,
-        and the workers' sampled stepping times (``parties``); ``True`` when the target changed.
+        in the caller, then ``wait_ns`` waiting for the workers, and the workers' sampled stepping times (``parties``); ``True`` when the target changed.
         Parts measured while envs still move (not ``settled``) are dropped: the model's shapes are
         those of settled layouts."""
         samples = [] if parties is None else parties.take()
@@ -266,7 +265,7 @@ class ConsolidationPolicy(_Policy):
         super().__init__(shapes, cores, clock)
 
     def observe(
-        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, settled: bool = True,
         parties: PartyTimes | None = None,
     ) -> bool:
         """Account a part of ``batches`` batches that took ``local_ns + wait_ns`` in all (the

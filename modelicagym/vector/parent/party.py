@@ -15,7 +15,7 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from modelicagym.vector.errors import PoolError
+from modelicagym.vector.errors import PoolError, env_range
 from modelicagym.vector.parent.caller_watch import CallerWatch
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.buffers import SharedBuffers
@@ -36,9 +36,6 @@ class Party(Protocol):
     home: bool
     #: where its envs run, for messages: ``"worker 2"``, ``"the calling process"``...
     where: str
-
-    def env_range(self) -> str:
-        """``"4-7"`` or ``"4"``: its env indices, for messages."""
 
     def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
         """Give it a command: ``code``, with ``message`` (pickled: ``payload``) for ``MESSAGE``;
@@ -105,10 +102,7 @@ class CallerParty:
         self._reply: Message | None = None
 
     def __repr__(self) -> str:
-        return f"CallerParty(envs {self.env_range()})"
-
-    def env_range(self) -> str:
-        return self.envs.env_range()
+        return f"CallerParty(envs {env_range(self.env_indices)})"
 
     def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
         self._command = (code, message)

@@ -191,10 +191,10 @@ class Placement:
         if self._countdown <= 0:
             self._countdown = PART_BATCHES
             times = take_times()
-            policy, envs = self.policy, len(self.in_caller)
+            policy = self.policy
             parties = {} if self._party_times is None else {"parties": self._party_times}
-            if times is not None and policy is not None and policy.observe(*times, self._caller_envs, envs,
-                                                                          self._settled, **parties):
+            if times is not None and policy is not None and policy.observe(*times, self._caller_envs, self._settled,
+                                                                          **parties):
                 self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
@@ -303,8 +303,7 @@ def place_envs(
             raise
         if reason is not None:
             close_envs(copies)
-    if reason is not None and adapt_layout:
-        raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+    _refuse_adapt_layout(reason, adapt_layout)
     worker_slices = [handle.env_indices for handle in workers.handles]
     policy = env_ns = None
     if reason is None:
@@ -330,8 +329,7 @@ def _place_with_stand_in(workers: WorkerSet, home: range, config: WorkerConfig, 
     if not worker_slices:  # one party for one core: nothing to move
         reason = unsafe + (f"one worker steps them all, the pool's one party for {len(home)} env(s) on "
                            f"{config.cores} core(s)")
-        if adapt_layout:
-            raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+        _refuse_adapt_layout(reason, adapt_layout)
         return Placement(buffers.in_caller, buffers.needs_reset, [], home, config.autoreset_mode, None, reason,
                          stand_in=True)
     policy = ConsolidationPolicy(layout_shapes(worker_slices, len(home)), config.cores)
@@ -340,14 +338,25 @@ def _place_with_stand_in(workers: WorkerSet, home: range, config: WorkerConfig, 
                      env_ns=buffers.timing[:, SharedBuffers.ENV_NS])
 
 
-def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
-    """Why a layout with a stand-in worker whose envs ``description`` describes could not adapt
-    (``None``: it can)."""
+def _refuse_adapt_layout(reason: str | None, adapt_layout: bool | None) -> None:
+    """Raise `ConfigError` where ``adapt_layout=True`` asks for a layout that cannot adapt (``reason``: why)."""
+    if reason is not None and adapt_layout:
+        raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+
+
+def _never_adapts_reason(adapt_layout: bool | None) -> str | None:
+    """Why no layout of this pool adapts, whatever its envs (``None``: one may)."""
     if adapt_layout is False:
         return "adapt_layout=False"
     if pool_native_library() is None:
         return "no native library: the pool signals through semaphores"
-    return description.movable_reason
+    return None
+
+
+def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
+    """Why a layout with a stand-in worker whose envs ``description`` describes could not adapt
+    (``None``: it can)."""
+    return _never_adapts_reason(adapt_layout) or description.movable_reason
 
 
 def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice, adapt_layout: bool | None) -> str | None:
@@ -355,10 +364,9 @@ def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice, adapt_layout: bool
     can), before any copy is made."""
     if not workers.handles:
         return "num_workers=0: every env is in the calling process"
-    if adapt_layout is False:
-        return "adapt_layout=False"
-    if pool_native_library() is None:
-        return "no native library: the pool signals through semaphores"
+    never = _never_adapts_reason(adapt_layout)
+    if never is not None:
+        return never
     unsafe = workers.unsafe_in_caller()
     if unsafe is not None:
         return (f"env {unsafe} does not say it is safe in the calling process (safe_in_caller), so no copy of it "

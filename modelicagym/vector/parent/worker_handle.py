@@ -18,7 +18,7 @@ import numpy as np
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.errors import ConfigError
-from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
+from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode, env_range
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, Reply, WorkerConfig
 from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal
 from modelicagym.vector.worker.worker_process import run_worker
@@ -75,12 +75,7 @@ class WorkerHandle:
 
     def __repr__(self) -> str:
         pid = None if self.process is None else self.process.pid
-        return f"WorkerHandle({self.index}, envs {self.env_range()}, pid={pid})"
-
-    def env_range(self) -> str:
-        """``"4-7"`` or ``"4"``: the env indices of this worker, for messages."""
-        first, last = self.env_indices[0], self.env_indices[-1]
-        return str(first) if first == last else f"{first}-{last}"
+        return f"WorkerHandle({self.index}, envs {env_range(self.env_indices)}, pid={pid})"
 
     def start(self) -> None:
         """Start the worker process; it begins creating its envs at once."""
@@ -202,7 +197,7 @@ class WorkerHandle:
         """The error reporting that this worker died while running ``doing`` on ``env_index``."""
         self.process.join(_TERMINATE_GRACE)
         exitcode = self.process.exitcode
-        where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
+        where = f"env {env_index}" if env_index is not None else f"envs {env_range(self.env_indices)}"
         # a worker exits by itself only when told to close: an exit status means the env's code called exit()
         cause = "; code in the env called exit()" if exitcode is not None and exitcode >= 0 else ""
         return WorkerDiedError(
@@ -217,7 +212,7 @@ class WorkerHandle:
         """The error reporting that this worker did not finish ``doing`` in time, with the limit
         and the option that sets it; kills the worker."""
         self.stop()
-        where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
+        where = f"env {env_index}" if env_index is not None else f"envs {env_range(self.env_indices)}"
         option = "startup_timeout" if doing in STARTUP_STAGES else "step_timeout"
         limit = getattr(self._config, option)
         within = "in time" if limit is None else f"within {option}={limit:g} s"
