@@ -5,10 +5,10 @@ They are exported here on purpose, so that the pool's folders may change behind 
 outside ``vector/`` imports any other of the pool's modules (a test reads every import).
 """
 
-from modelicagym.vector.parent.argument_checks import check_reset_mask, seeds_per_env, values_per_env
-from modelicagym.vector.parent.dispatch import collect_poll_time, go_poll_time
-from modelicagym.vector.parent.infos import add_info, env_info
-from modelicagym.vector.parent.plan import plan_workers
+from modelicagym.vector.checks import check_reset_mask, seeds_per_env, values_per_env
+from modelicagym.vector.dispatch.dispatcher import collect_poll_time, go_poll_time
+from modelicagym.vector.dispatch.infos import add_info, env_info
+from modelicagym.vector.layout.plan import plan_workers
 from modelicagym.vector.pool import INIT_MODES, POOL_OPTIONS
 from modelicagym.vector.reset_options import check_options_per_env, options_for, with_initial_state
 from modelicagym.vector.saved_states import VectorState, split_states

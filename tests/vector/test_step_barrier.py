@@ -22,8 +22,8 @@ from vector_rollouts import assert_native_equals_python, assert_same, rollout
 
 from modelicagym.native.abi import COLLECT_DONE, COLLECT_SLOW, MgBarrier, MgWaiter
 from modelicagym.vector import PoolVectorEnv, WorkerDiedError
-from modelicagym.vector.parent.recovery import RESTART_INFO_KEY
-from modelicagym.vector.slice.native_slice import NativeCollector
+from modelicagym.vector.dispatch.native_collector import NativeCollector
+from modelicagym.vector.dispatch.recovery import RESTART_INFO_KEY
 from modelicagym.vector.wire.sync import AnswerSignal, FutexSignal, GoSignal, pool_native_library
 
 pytestmark = [pytest.mark.timeout(180),

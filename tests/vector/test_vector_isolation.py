@@ -23,7 +23,7 @@ import modelicagym
 from modelicagym.cores import usable_cores
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
-from modelicagym.vector.parent.dispatch import CROWDED_COLLECT_SPIN, collect_poll_time, go_poll_time
+from modelicagym.vector.dispatch.dispatcher import CROWDED_COLLECT_SPIN, collect_poll_time, go_poll_time
 from modelicagym.vector.wire.sync import pool_native_library
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]

@@ -21,10 +21,10 @@ from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_l
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.parent import placement
-from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, PartyTimes
-from modelicagym.vector.parent.dispatch import go_poll_time
-from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
+from modelicagym.vector.dispatch.dispatcher import go_poll_time
+from modelicagym.vector.layout import placement
+from modelicagym.vector.layout.cost_model import SAMPLE_EVERY, PartyTimes
+from modelicagym.vector.layout.policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
 from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.wire.sync import pool_native_library
 

@@ -31,6 +31,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import RESET_THEN_STEP, Flags
+from modelicagym.vector.checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
 from modelicagym.vector.reset_options import options_of_env
@@ -39,7 +40,6 @@ from modelicagym.vector.slice.creation import create_envs
 from modelicagym.vector.slice.native_slice import NativeBatch, batch_path_reason, python_sides
 from modelicagym.vector.slice.slice_edges import SliceEdges
 from modelicagym.vector.slice.slice_endings import SliceEndings, has_python_endings
-from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Command, EnvDescription, Kind, Message, StepPath, same_step_info
 
@@ -71,7 +71,7 @@ def native_reason(envs: list[PoolEnv]) -> str:
 
 def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
     """What the parent needs to know about the envs; raises if they disagree on their spaces
-    (under ``observation_mode``, see `modelicagym.vector.slice.space_checks`)."""
+    (under ``observation_mode``, see `modelicagym.vector.checks`)."""
     first = envs[0]
     observation_spaces = [env.observation_space for env in envs]
     indices = range(first_env, first_env + len(envs))
@@ -103,7 +103,7 @@ class EnvSlice:
         caller: the calling process runs the slice: a step steps its envs marked in the shared
             ``in_caller`` array (a worker's slice steps those not marked). Resets, calls and
             attributes reach every env of the slice, stepped here or not, so that two copies of
-            an env stay interchangeable (see `modelicagym.vector.parent.placement`).
+            an env stay interchangeable (see `modelicagym.vector.layout.placement`).
     """
 
     def __init__(

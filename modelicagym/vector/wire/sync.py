@@ -42,7 +42,7 @@ from multiprocessing.context import BaseContext
 from os import sched_yield
 from time import perf_counter
 
-__all__ = ["AnswerSignal", "FutexSignal", "GoSignal", "SemaphoreSignal", "pool_native_library", "machine_crowded"]
+__all__ = ["AnswerSignal", "FutexSignal", "GoSignal", "SemaphoreSignal", "pool_native_library"]
 
 logger = logging.getLogger(__name__)
 
@@ -219,10 +219,3 @@ def pool_native_library() -> ctypes.CDLL | None:
     except NativeBuildError as error:
         logger.warning("the pool signals through semaphores (slower): %s", error)
         return None
-
-
-def machine_crowded() -> bool:
-    """Whether this process's waits now sleep at once because runnable threads outnumber the
-    cores (``mg_machine_crowded``; ``False`` without the native library)."""
-    library = pool_native_library()
-    return library is not None and bool(library.mg_machine_crowded())

@@ -41,7 +41,7 @@ class WaitStatus(enum.Enum):
 
 class WorkerHandle:
     """One worker process running the envs ``env_indices`` (a contiguous range); a
-    `~modelicagym.vector.parent.party.Party` of the pool's commands.
+    `~modelicagym.vector.dispatch.party.Party` of the pool's commands.
 
     The handle outlives its process: :meth:`start` can be called again after :meth:`stop` to
     restart the worker with fresh envs, a fresh pipe and fresh signals.
@@ -61,7 +61,7 @@ class WorkerHandle:
         self.index = index
         self.env_indices = env_indices
         #: a home party: the worker stands in for the calling process; it holds a copy of every env
-        #: and steps those the shared ``in_caller`` array marks (`modelicagym.vector.parent.placement`)
+        #: and steps those the shared ``in_caller`` array marks (`modelicagym.vector.layout.placement`)
         self.home = stand_in
         #: where its envs run, for messages
         self.where = f"worker {index}, standing in for the calling process" if stand_in else f"worker {index}"

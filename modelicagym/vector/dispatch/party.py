@@ -1,8 +1,8 @@
 """The parties a pool's commands reach: a worker process, or the calling process's own slice.
 
-The dispatcher (:mod:`~modelicagym.vector.parent.dispatch`, for whole and partial batches alike) talks
+The dispatcher (:mod:`~modelicagym.vector.dispatch.dispatcher`, for whole and partial batches alike) talks
 to every party through one protocol, :class:`Party`: post a command, wait until it is done, take
-its answer. A worker (`~modelicagym.vector.parent.worker_handle.WorkerHandle`) gets its command through
+its answer. A worker (`~modelicagym.vector.dispatch.worker_handle.WorkerHandle`) gets its command through
 its shared slot and its ``go`` signal and runs it in its own process; the calling process's slice
 (:class:`CallerParty`) keeps the command until the dispatcher's ``run_own_slice`` runs it, after
 waking the workers and before waiting for them, so the caller works while they do. Either answers
@@ -15,8 +15,8 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
+from modelicagym.vector.dispatch.caller_watch import CallerWatch
 from modelicagym.vector.errors import PoolError, env_range
-from modelicagym.vector.parent.caller_watch import CallerWatch
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Command, Message, Reply
@@ -95,7 +95,7 @@ class CallerParty:
         self.index = envs.index
         self.env_indices = envs.env_indices
         self._reply_slot = buffers.reply
-        #: names the env that ends this process, if one does (`modelicagym.vector.parent.caller_watch`)
+        #: names the env that ends this process, if one does (`modelicagym.vector.dispatch.caller_watch`)
         self.watch = CallerWatch(buffers.current_env[envs.slot : envs.slot + 1], envs.envs, envs.first,
                                  len(buffers.in_caller))
         self._command: tuple[int, Message | None] | None = None

@@ -18,9 +18,9 @@ from multiprocessing.context import BaseContext
 import gymnasium as gym
 from gymnasium import Space
 
-from modelicagym.vector.parent.worker_handle import WorkerHandle
+from modelicagym.vector.checks import check_action_spaces, check_observation_spaces
+from modelicagym.vector.dispatch.worker_handle import WorkerHandle
 from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
-from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.protocol import CREATION, START_UP, EnvDescription, Kind, Message, StepPath, WorkerConfig
 from modelicagym.vector.wire.sync import FutexSignal, GoSignal, pool_native_library

@@ -2,7 +2,7 @@
 
 A :class:`Dispatcher` is the calling process's side of the protocol (see
 :mod:`~modelicagym.vector.wire.protocol`). Its primitives are EnvPool's: :meth:`~Dispatcher.send`
-posts commands to some parties (:mod:`~modelicagym.vector.parent.party`: the worker processes, and the
+posts commands to some parties (:mod:`~modelicagym.vector.dispatch.party`: the worker processes, and the
 calling process's own slice when ``caller_steps``) and returns at once; :meth:`~Dispatcher.recv`
 waits for every party sent to, :meth:`~Dispatcher.recv_any` for the first ones done (partial
 batches). A whole-batch step is ``send_step`` + :meth:`~Dispatcher.run_own_slice` + ``recv``, a
@@ -14,7 +14,7 @@ its envs one after the other, so at most that many envs do): the others' command
 and posted as the first ones' answers come in.
 
 It knows which parties it is waiting for, but nothing of the Gymnasium API or of what a failure
-means for the pool: those are the pool's and :mod:`~modelicagym.vector.parent.recovery`'s business.
+means for the pool: those are the pool's and :mod:`~modelicagym.vector.dispatch.recovery`'s business.
 """
 
 from __future__ import annotations
@@ -27,17 +27,17 @@ from typing import Any
 import numpy as np
 
 from modelicagym.native.abi import COLLECT_DONE, MgWaiter
-from modelicagym.vector.parent.deadline import Deadline
-from modelicagym.vector.parent.machine_watch import MachineWatch
-from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
-from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.dispatch.deadline import Deadline
+from modelicagym.vector.dispatch.native_collector import NativeCollector
+from modelicagym.vector.dispatch.party import CallerParty, Outcome, Party, PendingCommand
+from modelicagym.vector.dispatch.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.layout.machine_load import MachineWatch, machine_crowded
 from modelicagym.vector.reset_options import options_for
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
-from modelicagym.vector.slice.native_slice import NativeCollector
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message
-from modelicagym.vector.wire.sync import FutexSignal, machine_crowded
+from modelicagym.vector.wire.sync import FutexSignal
 
 __all__ = ["Dispatcher"]
 
@@ -60,7 +60,7 @@ class Dispatcher:
             :mod:`~modelicagym.vector.wire.sync`; `go_poll_time` for the workers' waits and
             `collect_poll_time` for the calling process's).
         step_timeout: default timeout of a ``recv``; ``None`` waits as long as the workers live.
-        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.parent.placement`);
+        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.layout.placement`);
             a step wakes only those. Call :meth:`stepping_changed` after it changes.
         max_concurrency: at most this many parties run a step or reset at once (``None``: all).
         cores: the usable cores the pool plans for (`modelicagym.cores.usable_cores`).
@@ -149,7 +149,7 @@ class Dispatcher:
 
     def watch_machine(self) -> None:
         """Let an isolated pool's workers poll only on a quiet machine
-        (`~modelicagym.vector.parent.machine_watch`); cheap enough to call after every step."""
+        (`~modelicagym.vector.layout.machine_load`); cheap enough to call after every step."""
         if self._machine is not None and self._machine.quiet() != self._machine_quiet:
             self._machine_quiet = not self._machine_quiet
             self._set_go_spin()
