@@ -41,6 +41,7 @@ from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = [
     "IDLE_CORES_TO_PROBE",
+    "PSI_CPU",
     "QUIET_FOR",
     "READ_EVERY",
     "STALL_SHARE",
