@@ -14,7 +14,7 @@ Candidates, interleaved rounds of random pushes, medians of env steps per second
 (`gymnasium.vector.SyncVectorEnv`: one process, every env in turn), ``fixed`` (the pool with
 ``adapt_layout=False``: the planned workers, no balance) and ``pool`` (the default: the stand-in's
 layout, consolidated or spread, and the spread balanced by the parties' measured costs,
-`modelicagym.vector.parent.cost_model`). The pool's final layout is reported. Target:
+`modelicagym.vector.layout.cost_model`). The pool's final layout is reported. Target:
 ``pool`` faster than ``fixed`` on ``skewed``.
 """
 

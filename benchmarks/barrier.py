@@ -40,7 +40,7 @@ def spins(policy: str, workers: int, cores: int) -> tuple[int, int]:
     """Nanoseconds the workers poll for ``go`` and the caller for their answers, under ``policy``."""
     if policy == "asleep":
         return 0, 0
-    from modelicagym.vector.parent.dispatch import collect_poll_time, go_poll_time
+    from modelicagym.vector.api import collect_poll_time, go_poll_time
 
     return (round(go_poll_time(SPIN_TIME, workers, cores) * 1e9),
             round(collect_poll_time(SPIN_TIME, workers, cores) * 1e9))
@@ -90,7 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from modelicagym.vector.parent.plan import usable_cores
+    from modelicagym.cores import usable_cores
 
     load_before, cores = os.getloadavg(), usable_cores()
     workers = args.workers or default_workers(cores)

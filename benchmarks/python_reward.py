@@ -36,8 +36,7 @@ from gymnasium.vector import AutoresetMode
 import modelicagym
 from modelicagym.bench import add_round_arguments, conditions, format_table, median, write_json
 from modelicagym.bench.throughput import EPISODE_STEPS, Run, interleaved_rates, single_loop, vector_loop
-from modelicagym.vector.slice.env_slice import EnvSlice
-from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
+from modelicagym.vector.api import BufferSpec, EnvSlice, SharedBuffers
 
 logger = logging.getLogger(__name__)
 

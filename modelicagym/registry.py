@@ -159,7 +159,7 @@ def make_vec(
         observations, rewards, terminations, truncations, infos = envs.step(envs.action_space.sample())
         envs.close()
     """
-    from modelicagym.vector.pool import POOL_OPTIONS
+    from modelicagym.vector.api import POOL_OPTIONS
 
     if isinstance(n, bool) or not isinstance(n, Integral):
         raise ArgumentTypeError(f"n must be an int, got {type(n).__name__} {n!r}")

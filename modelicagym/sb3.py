@@ -39,7 +39,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
-from modelicagym.vector.parent.infos import env_info
+from modelicagym.vector.api import env_info
 
 try:
     from stable_baselines3.common.logger import Logger, make_output_format

@@ -39,7 +39,7 @@ from vector_leaks import Snapshot
 
 from modelicagym.models.cartpole import cartpole_fmu as build_cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.wire.sync import machine_crowded
+from modelicagym.vector.layout.machine_load import machine_crowded
 
 TESTS = Path(__file__).resolve().parent
 #: folders (of ``tests/``) whose every test starts processes: the pool's, Ray's, the examples',

@@ -47,7 +47,7 @@ from modelicagym.errors import ArgumentError
 from modelicagym.registry import EnvFactory
 from modelicagym.system import SystemDescription, open_model
 from modelicagym.try_fmu import prepare
-from modelicagym.vector.parent.placement import LayoutState
+from modelicagym.vector.api import LayoutState
 
 logger = logging.getLogger(__name__)
 

@@ -22,8 +22,8 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from modelicagym.errors import ArgumentError, ModelicaGymError
-from modelicagym.vector.errors import EnvError
-from modelicagym.vector.parent.infos import env_info
+from modelicagym.vector import EnvError
+from modelicagym.vector.api import env_info
 
 __all__ = ["EnvHost", "Policy", "Rollout", "local_vector_env"]
 

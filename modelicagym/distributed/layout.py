@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from modelicagym.errors import ConfigError
-from modelicagym.vector.parent.plan import plan_workers
+from modelicagym.vector.api import plan_workers
 
 __all__ = ["ActorPlan", "plan_actors", "split_by_weight"]
 
@@ -79,7 +79,7 @@ def plan_actors(
 def split_by_weight(num_envs: int, weights: Sequence[int]) -> list[range]:
     """Contiguous slices of ``num_envs`` envs in proportion to ``weights`` (largest remainders
     first, earlier slices on ties; each slice at least one env). Equal weights split as
-    `~modelicagym.vector.parent.plan.plan_workers` does."""
+    `~modelicagym.vector.plan_workers` does."""
     if not 1 <= len(weights) <= num_envs:
         raise ConfigError(f"cannot split {num_envs} envs into {len(weights)} non-empty slices")
     total = sum(weights)

@@ -29,11 +29,20 @@ from modelicagym.distributed.errors import ActorDiedError
 from modelicagym.distributed.host import EnvHost, Policy, Rollout
 from modelicagym.distributed.layout import plan_actors
 from modelicagym.errors import ArgumentError, ClusterError, ConfigError
-from modelicagym.vector.errors import PoolClosedError
-from modelicagym.vector.parent.argument_checks import check_reset_mask, seeds_per_env, values_per_env
-from modelicagym.vector.parent.infos import add_info, env_info
-from modelicagym.vector.pool import INIT_MODES
-from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
+from modelicagym.vector import PoolClosedError
+from modelicagym.vector.api import (
+    INIT_MODES,
+    VectorState,
+    add_info,
+    check_options_per_env,
+    check_reset_mask,
+    env_info,
+    options_for,
+    seeds_per_env,
+    split_states,
+    values_per_env,
+    with_initial_state,
+)
 
 __all__ = ["RAY_OPTIONS", "RayVectorEnv"]
 
@@ -159,12 +168,10 @@ class RayVectorEnv(VectorEnv):
                      mask: np.ndarray | None) -> Any:
         """Start resetting actor ``k``'s envs with their part of ``seeds``, ``options`` and ``mask``."""
         envs = self.slices[k]
-        part = dict(options or {})
+        part = options_for(options, envs)
         if mask is not None:
-            part["reset_mask"] = mask[envs.start:envs.stop]
-        if "options_per_env" in part:
-            part["options_per_env"] = part["options_per_env"][envs.start:envs.stop]
-        return self._actors[k].reset.remote(seeds[envs.start:envs.stop], part if part or options is not None else None)
+            part = {**(part or {}), "reset_mask": mask[envs.start:envs.stop]}
+        return self._actors[k].reset.remote(seeds[envs.start:envs.stop], part)
 
     def _initialized_once(self, seeds: list[int | None], options: dict[str, Any] | None, mask: np.ndarray | None,
                           refs: list[Any]) -> dict[str, Any] | None:
@@ -180,8 +187,7 @@ class RayVectorEnv(VectorEnv):
             logger.info("init='once': env %d cannot give its state (%s); each actor initializes its envs", first,
                         str(error).splitlines()[0])
             return options
-        per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
-        return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
+        return with_initial_state(options, state, self.num_envs)
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every env with its action; one remote call per actor, in parallel."""

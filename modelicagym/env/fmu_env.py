@@ -456,7 +456,7 @@ class FMUEnv(gym.Env):
     def reset_is_deterministic(self) -> bool:
         """Whether a reset without seed or options starts the same episode in every env made from
         the same config: no parameter drawn at random, no overridden ``reset``. The pool may then
-        move the env between processes at an episode boundary (``modelicagym.vector.parent.placement``)."""
+        move the env between processes at an episode boundary (``modelicagym.vector.layout.placement``)."""
         return (type(self).reset is FMUEnv.reset and self.config.start_states is None
                 and not any(callable(v) for v in self.config.reset_values.values())
                 and not any(callable(v) for v in self.config.setpoints.values()))

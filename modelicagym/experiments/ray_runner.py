@@ -29,7 +29,7 @@ from modelicagym.distributed.errors import SweepGroupError
 from modelicagym.experiments.config import SweepConfig
 from modelicagym.experiments.results import SweepResult
 from modelicagym.experiments.runner import MakeVec, SweepPart, assemble_sweep, progress_bar, run_sweep_part
-from modelicagym.vector.parent.plan import plan_workers
+from modelicagym.vector.api import plan_workers
 
 __all__ = ["DEFAULT_MAX_RETRIES", "RayRunner", "run_sweep_on_ray"]
 

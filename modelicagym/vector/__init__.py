@@ -19,7 +19,7 @@ from modelicagym.vector.errors import (
     WorkerDiedError,
     WorkerTimeoutError,
 )
-from modelicagym.vector.parent.plan import plan_workers
+from modelicagym.vector.layout.plan import plan_workers
 from modelicagym.vector.pool import RESTART_INFO_KEY, PoolVectorEnv
 from modelicagym.vector.timing import StepTiming
 

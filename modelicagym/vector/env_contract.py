@@ -22,7 +22,7 @@ env that offers more gets more, and the pool asks for it by these names only:
 * ``env.reset_is_deterministic`` (a reset without seed or options starts the same episode in any
   env the same env fn makes): with it, and the native step path, a pool whose layout it plans may
   move the env between the calling process and its worker at an episode boundary
-  (`~modelicagym.vector.parent.placement`);
+  (`~modelicagym.vector.layout.placement`);
 * ``env.unwrapped.safe_in_caller is True`` says that the env runs no native code but ours (the
   bundled models, built from this project's sources, say so): the pool may then step it in the
   calling process by default (``caller_steps=None``), where a crash would be the caller's. Any env

@@ -159,6 +159,12 @@ class CallerTimeoutError(ModelicaGymError, multiprocessing.TimeoutError):
     """
 
 
+def env_range(indices: range) -> str:
+    """``"4-7"`` or ``"4"``: a contiguous range of env indices (a party's), for messages."""
+    first, last = indices[0], indices[-1]
+    return str(first) if first == last else f"{first}-{last}"
+
+
 def describe_exitcode(exitcode: int | None) -> str:
     """Human-readable description of a process exit code (``-11`` -> ``killed by signal SIGSEGV``)."""
     if exitcode is None:

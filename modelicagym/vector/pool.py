@@ -2,13 +2,13 @@
 
 This module is the public API only, each call a plain ``def`` and a short composition of the parts
 (the path of one step through them is drawn in ``docs/design.md``, "Where a step is computed"):
-:mod:`~modelicagym.vector.parent.assembly` starts it; every call is a send and a receive through the one
-:mod:`~modelicagym.vector.parent.dispatch` (``step`` = ``_send_step`` + ``_recv_step``, ``reset``,
+:mod:`~modelicagym.vector.dispatch.assembly` starts it; every call is a send and a receive through the one
+:mod:`~modelicagym.vector.dispatch.dispatcher` (``step`` = ``_send_step`` + ``_recv_step``, ``reset``,
 ``call`` alike; ``send``/``recv`` for partial batches), which talks to the parties
-(:mod:`~modelicagym.vector.parent.party`); :mod:`~modelicagym.vector.parent.recovery` handles failures,
-:mod:`~modelicagym.vector.parent.placement` decides where envs run, :mod:`~modelicagym.vector.parent.call_state_checks`
+(:mod:`~modelicagym.vector.dispatch.party`); :mod:`~modelicagym.vector.dispatch.recovery` handles failures,
+:mod:`~modelicagym.vector.layout.placement` decides where envs run, :mod:`~modelicagym.vector.checks`
 checks each call (its decorator, ``public_call``, also applies the interrupt policy,
-``_interrupted``), :mod:`~modelicagym.vector.parent.infos` merges infos, :mod:`~modelicagym.vector.timing`
+``_interrupted``), :mod:`~modelicagym.vector.dispatch.infos` merges infos, :mod:`~modelicagym.vector.timing`
 keeps the timing. It is longer than our other
 modules because ``AsyncVectorEnv``'s API is wide (reset, step, call and set_attr in their sync,
 async and wait forms, partial batches, timing, close) and each call's docstring is the user's
@@ -33,37 +33,39 @@ from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
 from modelicagym.cores import usable_cores
 from modelicagym.errors import ArgumentError, ConfigError
-from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
-from modelicagym.vector.parent.action_writer import ActionWriter
-from modelicagym.vector.parent.argument_checks import (
-    check_env_ids,
-    check_reset_mask,
-    check_reset_options,
-    seeds_per_env,
-    values_per_env,
-)
-from modelicagym.vector.parent.assembly import assemble
-from modelicagym.vector.parent.call_state_checks import check_idle, check_open, check_waiting, public_call
-from modelicagym.vector.parent.config_checks import (
+from modelicagym.vector.checks import (
     check_async_vector_env_options,
     check_batch_size,
     check_env_fns,
+    check_env_ids,
+    check_idle,
     check_max_concurrency,
+    check_open,
     check_pool_options,
+    check_reset_mask,
+    check_reset_options,
+    check_waiting,
+    public_call,
+    seeds_per_env,
+    values_per_env,
 )
-from modelicagym.vector.parent.deadline import Deadline
-from modelicagym.vector.parent.infos import Entries, add_final_infos, merge_infos, select_infos
-from modelicagym.vector.parent.partial_batches import PartialBatches
-from modelicagym.vector.parent.party import Outcome
-from modelicagym.vector.parent.placement import LayoutState
-from modelicagym.vector.parent.plan import default_start_method, plan_layout
-from modelicagym.vector.parent.recovery import RESTART_INFO_KEY, Recovery
-from modelicagym.vector.parent.timing_recorder import TimingRecorder
-from modelicagym.vector.saved_states import VectorState, check_options_per_env, split_states
+from modelicagym.vector.dispatch.action_writer import ActionWriter
+from modelicagym.vector.dispatch.assembly import assemble
+from modelicagym.vector.dispatch.deadline import Deadline
+from modelicagym.vector.dispatch.infos import Entries, add_final_infos, merge_infos, select_infos
+from modelicagym.vector.dispatch.partial_batches import PartialBatches
+from modelicagym.vector.dispatch.party import Outcome
+from modelicagym.vector.dispatch.recovery import RESTART_INFO_KEY, Recovery
+from modelicagym.vector.dispatch.timing_recorder import TimingRecorder
+from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
+from modelicagym.vector.layout.placement import LayoutState
+from modelicagym.vector.layout.plan import default_start_method, plan_layout
+from modelicagym.vector.reset_options import check_options_per_env, with_initial_state
+from modelicagym.vector.saved_states import VectorState, split_states
 from modelicagym.vector.timing import StepTiming
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import StepPath, WorkerConfig
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = ["POOL_OPTIONS", "PoolVectorEnv", "RESTART_INFO_KEY"]
 
@@ -110,11 +112,11 @@ class PoolVectorEnv(VectorEnv):
     ``infos["final_info"]``; ``DISABLED`` leaves it to ``reset(options={"reset_mask": mask})``.
 
     With ``restart_dead_workers=True`` a failed worker is restarted and its envs report a
-    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.parent.recovery`);
+    truncation with the reason in ``infos["pool_restart"]`` (:mod:`~modelicagym.vector.dispatch.recovery`);
     otherwise a failure stops the whole pool before the error is raised, and further calls raise
     ``ClosedEnvironmentError``. The default start method is ``forkserver``
-    (:func:`~modelicagym.vector.parent.plan.default_start_method` says why); workers never re-run the
-    caller's script (:func:`~modelicagym.vector.parent.worker_handle.main_module_hidden`), so scripts without a
+    (:func:`~modelicagym.vector.layout.plan.default_start_method` says why); workers never re-run the
+    caller's script (:func:`~modelicagym.vector.dispatch.worker_handle.main_module_hidden`), so scripts without a
     main guard, stdin and notebooks work; env fns must be picklable by ``cloudpickle``.
 
     Where it deliberately differs from ``AsyncVectorEnv`` (Gymnasium's own vector tests pass
@@ -203,7 +205,7 @@ class PoolVectorEnv(VectorEnv):
             caller_steps: the calling process steps the last slice of envs itself while the
                 workers step theirs, so that no more parties wait for each other than there are
                 cores (the caller's share runs without process isolation: a crash there is the
-                caller's; one line on stderr names the env and its FMU, `modelicagym.vector.parent.caller_watch`).
+                caller's; one line on stderr names the env and its FMU, `modelicagym.vector.dispatch.caller_watch`).
                 ``None`` (default): when the pool plans its own layout and no fault handling is
                 asked for, i.e. ``num_workers``, ``max_envs_per_worker`` (or an env fn's
                 ``max_envs_per_process``), ``restart_dead_workers`` and ``step_timeout`` are unset,
@@ -220,11 +222,11 @@ class PoolVectorEnv(VectorEnv):
                 pool; else a `ConfigError`).
             worker: ``AsyncVectorEnv``'s custom worker function; ``None`` only (else a `ConfigError`).
             batch_size: how many envs :meth:`recv` returns, for EnvPool-style partial batches
-                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.parent.partial_batches`);
+                (:meth:`async_reset`, :meth:`send`, :meth:`recv`; `modelicagym.vector.dispatch.partial_batches`);
                 every env then lives in a worker. ``None``: ``num_envs``.
             adapt_layout: move envs between the workers and the calling process at episode
                 boundaries, measuring which layout is faster as the machine's load changes
-                (`modelicagym.vector.parent.placement`; :attr:`layout` says what runs where and why).
+                (`modelicagym.vector.layout.placement`; :attr:`layout` says what runs where and why).
                 ``None`` (default): when the pool plans its own layout with the caller stepping
                 (``caller_steps``), every env is an FMU env on the native step path whose reset
                 is deterministic and every worker's env is safe in the calling process; ``True``
@@ -241,7 +243,7 @@ class PoolVectorEnv(VectorEnv):
                 at once (``None``: no limit); calls and attributes are not limited. A party (a
                 worker, or the calling process) runs its envs one after the other, so the pool's
                 dispatcher lets at most this many parties run a step or reset at once and sends the
-                next as one finishes (`modelicagym.vector.parent.dispatch`).
+                next as one finishes (`modelicagym.vector.dispatch.dispatcher`).
             cores: the cores the pool may use: one stepping process per core, the calling
                 process's included, and the layout's cost model plans for them. ``None``
                 (default): ``MODELICAGYM_CORES`` if set, else the CPUs this process may run on,
@@ -291,7 +293,7 @@ class PoolVectorEnv(VectorEnv):
         config = WorkerConfig(
             self.autoreset_mode,
             spin_time,
-            shared_signals=futex_library() is not None,
+            shared_signals=pool_native_library() is not None,
             step_timeout=step_timeout,
             startup_timeout=startup_timeout,
             observation_mode="same" if observation_mode == "same" else "different",
@@ -322,7 +324,7 @@ class PoolVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._buffers: SharedBuffers = self._workers.buffers
         self._actions = ActionWriter(
-            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, futex_library(),
+            self._buffers.actions, self.single_action_space, self._buffers.action_dtype, pool_native_library(),
             self._buffers.needs_reset if self.autoreset_mode is AutoresetMode.NEXT_STEP else None,
             clip=first.clips_actions,
         )
@@ -402,8 +404,7 @@ class PoolVectorEnv(VectorEnv):
         except Exception as error:  # it cannot serialize its state: each env initializes itself
             logger.info("init='once': env %d cannot give its state (%s); every env initializes itself", first, error)
             return options
-        per_env = (options or {}).get("options_per_env") or [None] * self.num_envs
-        return {**(options or {}), "options_per_env": [{**(o or {}), "initial_state": state} for o in per_env]}
+        return with_initial_state(options, state, self.num_envs)
 
     def _recv_reset(self, timeout: float | None) -> tuple[Any, dict[str, Any]]:
         """The observations and merged infos of the reset sent (see :meth:`_raise_if_overran`)."""
@@ -439,7 +440,7 @@ class PoolVectorEnv(VectorEnv):
 
     @public_call
     def step_async(self, actions: Any) -> None:
-        """Check the actions (`modelicagym.vector.parent.action_writer`: an `ActionError` naming the env leaves
+        """Check the actions (`modelicagym.vector.dispatch.action_writer`: an `ActionError` naming the env leaves
         the pool as it was), write them to shared memory and wake the workers; see :meth:`step_wait`."""
         self._send_step(actions)
 
@@ -489,7 +490,7 @@ class PoolVectorEnv(VectorEnv):
         self._dispatcher.send_step()
 
     def _recv_step(self, timeout: float | None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """The results of the step sent: a failed worker's envs as :mod:`~modelicagym.vector.parent.recovery`
+        """The results of the step sent: a failed worker's envs as :mod:`~modelicagym.vector.dispatch.recovery`
         reports them, the layout adapted, the timing recorded, the infos merged."""
         self._assert_is_running()
         self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
@@ -524,7 +525,7 @@ class PoolVectorEnv(VectorEnv):
     def layout(self) -> LayoutState:
         """Where the envs run now and why: adaptive or fixed, envs in the calling process,
         workers stepping, and the measurement behind the last change (see
-        `modelicagym.vector.parent.placement`)."""
+        `modelicagym.vector.layout.placement`)."""
         return self._placement.state()
 
     # ------------------------------------------------------------------ partial batches
@@ -532,7 +533,7 @@ class PoolVectorEnv(VectorEnv):
     @public_call
     def async_reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None) -> None:
         """Reset every env and make their results the first to come back from :meth:`recv`
-        (EnvPool's ``async_reset``; see `modelicagym.vector.parent.partial_batches`)."""
+        (EnvPool's ``async_reset``; see `modelicagym.vector.dispatch.partial_batches`)."""
         self._send_reset(seed, options)
         entries = self._reset_entries(None)
         self._partial_batches(None).start(entries)
@@ -750,7 +751,7 @@ class PoolVectorEnv(VectorEnv):
 
     def _receive(self, timeout: float | None, doing: str) -> list[Outcome]:
         """The calling process runs its own slice's share of the command sent (if it has a slice),
-        then receives every party's answer (`modelicagym.vector.parent.dispatch`)."""
+        then receives every party's answer (`modelicagym.vector.dispatch.dispatcher`)."""
         self._state = AsyncState.DEFAULT
         self._dispatcher.run_own_slice()
         return self._dispatcher.recv(timeout, doing)
@@ -767,7 +768,7 @@ class PoolVectorEnv(VectorEnv):
 
     def _interrupted(self) -> None:
         """The interrupt policy, for a ``KeyboardInterrupt`` or ``SystemExit`` in any public call
-        (`modelicagym.vector.parent.call_state_checks.public_call`): if a command is being sent (the call state
+        (`modelicagym.vector.checks.public_call`): if a command is being sent (the call state
         says one is pending, or :meth:`_sending` is under way), or was sent and not all its answers
         received (running, or half-collected, partial batches included), the pool is stopped
         (``close()`` is then immediate): such a command cannot be resumed. Before anything was

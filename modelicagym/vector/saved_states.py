@@ -17,7 +17,7 @@ import numpy as np
 
 from modelicagym.errors import ArgumentError, ArgumentTypeError
 
-__all__ = ["VectorState", "check_options_per_env", "split_states"]
+__all__ = ["VectorState", "split_states"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,16 +50,3 @@ def split_states(states: VectorState | Sequence[Any], num_envs: int) -> tuple[li
         raise ArgumentError(f"set_states got {len(env_states)} states for {num_envs} envs")
     return env_states, needs_reset
 
-
-def check_options_per_env(options: dict[str, Any] | None, num_envs: int) -> None:
-    """``reset``'s ``options["options_per_env"]``: one dict (or None) per env, refused before any env sees it."""
-    if options is None or "options_per_env" not in options:
-        return
-    per_env = options["options_per_env"]
-    if not isinstance(per_env, Sequence) or isinstance(per_env, (str, bytes)) or len(per_env) != num_envs:
-        got = f"{len(per_env)} entries" if isinstance(per_env, Sequence) else type(per_env).__name__
-        raise ArgumentError(f"options['options_per_env'] must be a list of {num_envs} dicts (one per env), got {got}")
-    bad = next((k for k, entry in enumerate(per_env) if entry is not None and not isinstance(entry, dict)), None)
-    if bad is not None:
-        raise ArgumentTypeError(f"options['options_per_env'][{bad}] must be a dict or None, "
-                                f"got {type(per_env[bad]).__name__}")

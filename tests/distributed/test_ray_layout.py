@@ -7,7 +7,7 @@ import pytest
 
 from modelicagym.distributed.layout import ActorPlan, plan_actors, split_by_weight
 from modelicagym.errors import ConfigError
-from modelicagym.vector.parent.plan import plan_workers
+from modelicagym.vector.layout.plan import plan_workers
 
 
 def nodes(*cpus, dead=()):

@@ -15,7 +15,7 @@ from ray_cluster import local_ray, ray
 import modelicagym
 from modelicagym.distributed import ActorDiedError, ClusterError, RayVectorEnv, Rollout
 from modelicagym.registry import EnvFactory
-from modelicagym.vector.parent.infos import env_info
+from modelicagym.vector.dispatch.infos import env_info
 
 N = 5
 CARTPOLE = "modelicagym.models.cartpole.env:CartPoleEnv"

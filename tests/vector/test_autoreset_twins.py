@@ -21,7 +21,7 @@ from step_paths import cartpole_fns, probe_env
 from vector_rollouts import assert_same
 
 from modelicagym.native.abi import Flags
-from modelicagym.vector.parent.infos import add_final_infos, merge_infos
+from modelicagym.vector.dispatch.infos import add_final_infos, merge_infos
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Kind

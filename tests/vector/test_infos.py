@@ -1,4 +1,4 @@
-"""The pool's infos are merged by one function of ours (`modelicagym.vector.parent.infos`); they equal
+"""The pool's infos are merged by one function of ours (`modelicagym.vector.dispatch.infos`); they equal
 ``AsyncVectorEnv``'s for the same run, in every autoreset mode: each key's column and its ``_key``
 mask, nested dicts, and ``final_obs`` / ``final_info`` whether an env's step ran in Python, or
 natively with the reset done in C (the pool's bulk merge) or left to Python. `env_info`, the
@@ -20,7 +20,7 @@ from vector_rollouts import assert_same, rollout
 
 import modelicagym
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.parent.infos import add_info, env_info
+from modelicagym.vector.dispatch.infos import add_info, env_info
 
 pytestmark = pytest.mark.timeout(240)
 

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from cpu_pressure import Machine
 
-from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, Costs, PartyTimes, Shape, batch_us, best_shape, sharing
-from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
-from modelicagym.vector.parent.placement import PART_BATCHES, layout_shapes, move_order
-from modelicagym.vector.parent.plan import plan_workers
+from modelicagym.vector.layout.cost_model import SAMPLE_EVERY, Costs, PartyTimes, Shape, batch_us, best_shape, sharing
+from modelicagym.vector.layout.placement import PART_BATCHES, layout_shapes, move_order
+from modelicagym.vector.layout.plan import plan_workers
+from modelicagym.vector.layout.policy import PROBE_FIRST_SECONDS, WINDOW_PARTS, ConsolidationPolicy, LayoutPolicy
 
 #: one env's step, in microseconds: the bundled cart-pole, a medium FMU, a heavy one
 LIGHT, MEDIUM, HEAVY = 3.0, 100.0, 1000.0
@@ -94,7 +94,7 @@ class SimulatedPool:
             self.now[0] += 0.01
             if self.policy.observe(PART_BATCHES, round(PART_BATCHES * caller * 1e3),
                                    round(PART_BATCHES * (batch - caller) * 1e3), shape.home_envs,
-                                   len(self.in_caller), parties=self.parties):
+                                   parties=self.parties):
                 self._place()
                 return True
         return False
@@ -151,7 +151,7 @@ class SimulatedStandIn:
                 self.parties.count()
             self.machine.run(0.01, 0.0)
             if self.policy.observe(PART_BATCHES, 0, round(PART_BATCHES * self.batch(target) * 1e3), 0,
-                                   len(self.env_us), parties=self.parties):
+                                   parties=self.parties):
                 return
 
     def settle(self, windows: int = 40) -> float:

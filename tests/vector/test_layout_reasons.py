@@ -19,12 +19,12 @@ from modelicagym import FMUEnv
 from modelicagym.errors import ConfigError
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 pytestmark = [
     pytest.mark.timeout(120),
     pytest.mark.usefixtures("pool_services"),
-    pytest.mark.skipif(futex_library() is None, reason="the reasons of adaptive layouts need the native library"),
+    pytest.mark.skipif(pool_native_library() is None, reason="the reasons of adaptive layouts need the native library"),
 ]
 
 #: the words of the old catch-all reason, true of none of these cases

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from cpu_pressure import Machine
 
-from modelicagym.vector.parent.machine_watch import QUIET_FOR, READ_EVERY, STALL_SHARE, MachineWatch
+from modelicagym.vector.layout.machine_load import QUIET_FOR, READ_EVERY, STALL_SHARE, MachineWatch
 
 
 def watch_until(watch: MachineWatch, machine: Machine, seconds: float, stall_share: float) -> list[bool]:

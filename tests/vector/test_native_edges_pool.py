@@ -31,7 +31,7 @@ from vector_rollouts import assert_same, flipping, rollout, rollout_recording_la
 
 from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.errors import PoolError
-from modelicagym.vector.parent import placement
+from modelicagym.vector.layout import placement
 from modelicagym.vector.slice.native_slice import batch_path_reason
 from modelicagym.vector.wire.protocol import Kind
 

@@ -19,7 +19,7 @@ from vector_rollouts import assert_native_equals_python, assert_same, flipping, 
 
 from modelicagym.models.pendulum.env import PendulumSwingUpEnv
 from modelicagym.vector import EnvError, PoolVectorEnv
-from modelicagym.vector.parent import placement
+from modelicagym.vector.layout import placement
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.protocol import Kind

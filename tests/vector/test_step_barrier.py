@@ -22,12 +22,12 @@ from vector_rollouts import assert_native_equals_python, assert_same, rollout
 
 from modelicagym.native.abi import COLLECT_DONE, COLLECT_SLOW, MgBarrier, MgWaiter
 from modelicagym.vector import PoolVectorEnv, WorkerDiedError
-from modelicagym.vector.parent.recovery import RESTART_INFO_KEY
-from modelicagym.vector.slice.native_slice import NativeCollector
-from modelicagym.vector.wire.sync import AnswerSignal, FutexSignal, GoSignal, futex_library
+from modelicagym.vector.dispatch.native_collector import NativeCollector
+from modelicagym.vector.dispatch.recovery import RESTART_INFO_KEY
+from modelicagym.vector.wire.sync import AnswerSignal, FutexSignal, GoSignal, pool_native_library
 
 pytestmark = [pytest.mark.timeout(180),
-              pytest.mark.skipif(futex_library() is None, reason="no native library or no futexes here")]
+              pytest.mark.skipif(pool_native_library() is None, reason="no native library or no futexes here")]
 
 #: the page the tests share with their workers: the barrier, then per worker a cache line for each
 #: of its go and done signals, its command, its reply and how many steps it ran
@@ -48,7 +48,7 @@ class Page:
         self.counts = np.frombuffer(self.memory, np.int64, MAX_WORKERS, _COUNTS)
 
     def go(self, k: int) -> GoSignal:
-        return GoSignal(futex_library(), self.address + _SIGNALS + 128 * k, self.address, k)
+        return GoSignal(pool_native_library(), self.address + _SIGNALS + 128 * k, self.address, k)
 
     def done_address(self, k: int) -> int:
         return self.address + _SIGNALS + 128 * k + 64
@@ -57,7 +57,7 @@ class Page:
 def _worker(fd: int, k: int, spin_time: float) -> None:
     """Child process: wait for ``go`` (asleep on the bell when ``spin_time`` is 0), run the command, answer."""
     page = Page(fd)
-    go, done = page.go(k), AnswerSignal(futex_library(), page.done_address(k), page.address)
+    go, done = page.go(k), AnswerSignal(pool_native_library(), page.done_address(k), page.address)
     while True:
         assert go.wait(spin_time, 30.0)
         command = int(page.commands[k])
@@ -94,7 +94,7 @@ def barrier_workers(n: int, spin_time: float, timeout: float = 30.0) -> Iterator
             if child.is_alive():
                 page.commands[k] = _STOP
                 page.go(k).post()
-                assert FutexSignal(futex_library(), page.done_address(k)).wait(0.0, 30.0)
+                assert FutexSignal(pool_native_library(), page.done_address(k)).wait(0.0, 30.0)
             child.join(30)
         os.close(fd)
 
@@ -141,7 +141,8 @@ def test_a_worker_that_dies_mid_step_ends_the_wait_and_the_others_stay_done() ->
         children[1].join(10)
         assert children[1].exitcode == 9
         for k in (0, 2):
-            assert FutexSignal(futex_library(), page.done_address(k)).wait(0.0, 1.0), f"worker {k}'s done was lost"
+            done = FutexSignal(pool_native_library(), page.done_address(k))
+            assert done.wait(0.0, 1.0), f"worker {k}'s done was lost"
         # the next batch, without the dead worker, is counted afresh
         page.commands[1] = _STEP
         collector.stepping[1] = 0
@@ -158,7 +159,7 @@ def test_a_worker_with_a_reply_sends_the_step_to_the_slow_path() -> None:
         assert collector.collect() == COLLECT_SLOW
         page.replies[1] = 0
         for k in (0, 1):  # both answered, and their dones are kept for the slow path
-            assert FutexSignal(futex_library(), page.done_address(k)).wait(0.0, 1.0)
+            assert FutexSignal(pool_native_library(), page.done_address(k)).wait(0.0, 1.0)
 
 
 @pytest.mark.parametrize("num_workers", [1, 3, 5])

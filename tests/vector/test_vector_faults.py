@@ -31,6 +31,7 @@ from modelicagym.vector import (
     WorkerDiedError,
     WorkerTimeoutError,
 )
+from modelicagym.vector.wire.sync import pool_native_library
 
 pytestmark = [pytest.mark.timeout(60), pytest.mark.usefixtures("pool_services")]
 
@@ -96,6 +97,32 @@ def test_exception_in_step_carries_the_original_traceback() -> None:
     error = info.value
     assert isinstance(error.original, ValueError) and error.env_index == 2
     assert "_strike" in error.remote_traceback and "_strike" in str(error.__cause__)
+
+
+class MovableCountEnv(CountEnv):
+    """A :class:`CountEnv` whose reset is deterministic: it can move between processes, so where
+    the calling process may not step it, a worker stands in for it."""
+
+    reset_is_deterministic = True
+
+
+class MovableFaultyEnv(FaultyEnv, MovableCountEnv):
+    """A :class:`FaultyEnv` that can move."""
+
+
+@pytest.mark.skipif(pool_native_library() is None, reason="a worker stands in only for a layout that adapts")
+@pytest.mark.usefixtures("no_leaks")
+def test_an_exception_in_the_stand_in_worker_names_it_as_standing_in_for_the_calling_process() -> None:
+    """Env 3 is in the calling process's slice; its envs are not safe there, so worker 1 stands in
+    for it and steps env 3 when it raises."""
+    fns = [MovableCountEnv] * 3 + [partial(MovableFaultyEnv, "raise")]
+    pool = PoolVectorEnv(fns, cores=2)
+    assert pool.layout.stand_in and pool.layout.envs_in_stand_in == 2, pool.layout
+    with pytest.raises(EnvError) as info:
+        step_until_failure(pool)
+    assert str(info.value).startswith(
+        "env 3 (worker 1, standing in for the calling process) raised ValueError in step: raise at step 2"), info.value
+    assert info.value.env_index == 3 and info.value.worker_index == 1
 
 
 @pytest.mark.usefixtures("no_leaks")

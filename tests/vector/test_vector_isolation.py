@@ -23,8 +23,8 @@ import modelicagym
 from modelicagym.cores import usable_cores
 from modelicagym.models.cartpole import OUTPUTS, cartpole_fmu
 from modelicagym.vector import RESTART_INFO_KEY, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
-from modelicagym.vector.parent.dispatch import CROWDED_COLLECT_SPIN, collect_poll_time, go_poll_time
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.dispatch.dispatcher import CROWDED_COLLECT_SPIN, collect_poll_time, go_poll_time
+from modelicagym.vector.wire.sync import pool_native_library
 
 pytestmark = [pytest.mark.timeout(120), pytest.mark.usefixtures("pool_services")]
 
@@ -101,7 +101,7 @@ def test_the_bundled_models_keep_the_caller_stepping_layout() -> None:
     with modelicagym.make_vec("cartpole", n=4, cores=2) as pool:  # one core would plan no worker to adapt with
         layout = pool.layout
         assert pool.caller_steps and layout.envs_in_caller > 0, layout
-        assert layout.adaptive or futex_library() is None, layout
+        assert layout.adaptive or pool_native_library() is None, layout
     with modelicagym.make_vec("pendulum", n=2) as pool:
         assert pool.caller_steps, pool.layout
 
@@ -163,7 +163,7 @@ print("the pool survived")
 """
 
 
-@pytest.mark.skipif(futex_library() is None, reason="the last word is the native library's")
+@pytest.mark.skipif(pool_native_library() is None, reason="the last word is the native library's")
 @pytest.mark.parametrize("path", ["auto", "python"])
 @pytest.mark.parametrize("quit", list(QUITS))
 def test_an_fmu_ending_the_calling_process_that_opted_in_names_the_env_and_never_exits_0(quit: str, path: str) -> None:
@@ -196,7 +196,7 @@ sys.exit(3)  # the pool still open, no env running
 """
 
 
-@pytest.mark.skipif(futex_library() is None, reason="the last word is the native library's")
+@pytest.mark.skipif(pool_native_library() is None, reason="the last word is the native library's")
 @pytest.mark.parametrize("how", ["exit", "segfault"])
 def test_the_last_word_is_silent_when_the_process_ends_outside_an_envs_code(how: str) -> None:
     script = textwrap.dedent(PASSING_SCRIPT.format(config=quitter_config(), how=how))

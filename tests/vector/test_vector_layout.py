@@ -21,19 +21,19 @@ from vector_rollouts import Flipping, assert_same, flipping, rollout_recording_l
 import modelicagym
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.parent import placement
-from modelicagym.vector.parent.cost_model import SAMPLE_EVERY, PartyTimes
-from modelicagym.vector.parent.dispatch import go_poll_time
-from modelicagym.vector.parent.layout_policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
+from modelicagym.vector.dispatch.dispatcher import go_poll_time
+from modelicagym.vector.layout import placement
+from modelicagym.vector.layout.cost_model import SAMPLE_EVERY, PartyTimes
+from modelicagym.vector.layout.policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
 from modelicagym.vector.pool import DEFAULT_SPIN_TIME
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 #: a stand-in's layouts: one worker of 4 envs and the stand-in with 4 (the stand-in is the home party)
 STAND_IN_SHAPES = placement.layout_shapes([range(4)], 4)
 
 pytestmark = [
     pytest.mark.timeout(180),
-    pytest.mark.skipif(futex_library() is None, reason="the adaptive layout needs the native library"),
+    pytest.mark.skipif(pool_native_library() is None, reason="the adaptive layout needs the native library"),
 ]
 
 
@@ -181,7 +181,7 @@ def test_the_consolidation_policy_keeps_the_faster_layout_and_backs_off() -> Non
         changed = False
         for _ in range(WINDOW_PARTS):
             now[0] += 0.01
-            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 4, 8, settled)
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 4, settled)
         return changed
 
     now[0] += PROBE_FIRST_SECONDS
@@ -209,7 +209,7 @@ def test_a_failed_try_that_took_long_to_undo_delays_the_next_one_in_proportion()
         changed = False
         for _ in range(WINDOW_PARTS):
             now[0] += 0.01
-            changed |= policy.observe(8, 0, int(8 * batch_us * 1e3), 4, 8, settled)
+            changed |= policy.observe(8, 0, int(8 * batch_us * 1e3), 4, settled)
         return changed
 
     now[0] += PROBE_FIRST_SECONDS
@@ -310,7 +310,7 @@ def _windows_of(policy: ConsolidationPolicy, machine: Machine, stall_share: floa
         for _ in range(WINDOW_PARTS):
             machine.run(0.1, stall_share)
             parties = _party_times(worker_us, stand_in_us, policy.target)
-            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, 8, True, parties=parties)
+            changed |= policy.observe(64, 0, int(64 * batch_us * 1e3), 0, True, parties=parties)
         return changed
 
     return window

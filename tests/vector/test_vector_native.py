@@ -17,7 +17,7 @@ from vector_rollouts import assert_native_equals_python, assert_same, rollout
 
 import modelicagym
 from modelicagym.vector import EnvError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
-from modelicagym.vector.parent.recovery import RESTART_INFO_KEY
+from modelicagym.vector.dispatch.recovery import RESTART_INFO_KEY
 
 pytestmark = pytest.mark.timeout(180)
 

@@ -15,11 +15,11 @@ from vector_rollouts import assert_same, rollout
 
 import modelicagym.vector.pool
 from modelicagym.vector import PoolVectorEnv
-from modelicagym.vector.wire.sync import FutexSignal, futex_library
+from modelicagym.vector.wire.sync import FutexSignal, pool_native_library
 
 pytestmark = pytest.mark.timeout(60)
 
-library = futex_library()
+library = pool_native_library()
 needs_futex = pytest.mark.skipif(library is None, reason="no native library or no futexes here")
 
 
@@ -71,7 +71,7 @@ def test_a_futex_wait_times_out_and_a_post_is_kept_for_the_next_wait() -> None:
 
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
 def test_semaphores_when_there_is_no_native_library(monkeypatch: pytest.MonkeyPatch, mode: AutoresetMode) -> None:
-    monkeypatch.setattr(modelicagym.vector.pool, "futex_library", lambda: None)
+    monkeypatch.setattr(modelicagym.vector.pool, "pool_native_library", lambda: None)
     fns = count_fns(4)
     sync = SyncVectorEnv(fns, autoreset_mode=mode)
     with PoolVectorEnv(fns, num_workers=2, autoreset_mode=mode) as pool:

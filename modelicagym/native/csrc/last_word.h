@@ -3,7 +3,7 @@
  * A pool whose calling process steps envs itself (caller_steps=True, num_workers=0) registers the
  * address of the caller's "current env" slot and a label per env (its FMU). While the calling
  * process runs an env's code, mg_caller_slot points at that slot: mg_step_batch sets it for a
- * caller's slice, Python around its own calls into the envs (vector/parent/caller_watch.py). A fatal
+ * caller's slice, Python around its own calls into the envs (vector/dispatch/caller_watch.py). A fatal
  * signal (SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT) or exit() meanwhile prints one line to stderr
  * naming the env and its label before the process ends: the signal then goes on to the handler
  * that was there before (Python's faulthandler, or the default: the process dies of it); exit()

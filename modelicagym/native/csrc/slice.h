@@ -134,7 +134,7 @@ int32_t mg_serve(mg_server *server);
 
 /* The parent's side of a pool step: mg_post_step posts every stepping worker's `go` (their command
  * slots already say STEP); after the calling process stepped its own slice
- * (vector/parent/dispatch.py: Dispatcher.run_own_slice), mg_collect waits for `all_done`, takes every
+ * (vector/dispatch/dispatcher.py: Dispatcher.run_own_slice), mg_collect waits for `all_done`, takes every
  * stepping worker's `done` and checks that none has a reply. It returns MG_COLLECT_DONE when the
  * batch is complete; MG_COLLECT_SLOW when the workers did not all answer within timeout_ns or one
  * has a reply (every `done` consumed here is posted again, so Python's slow path finds it). */
@@ -148,7 +148,7 @@ typedef struct {
     int64_t timeout_ns;
     mg_waiter *waiter; /* the adaptive state of the parent's waits for `all_done` (signal.h) */
     /* out, summed over calls until Python clears them: calls, and time waiting for the workers
-     * (the adaptive layout's measurement, vector/parent/placement.py) */
+     * (the adaptive layout's measurement, vector/layout/placement.py) */
     int64_t calls, wait_ns;
 } mg_collector;
 

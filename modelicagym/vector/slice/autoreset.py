@@ -9,7 +9,7 @@ of Gymnasium's autoreset modes.
 - ``DISABLED``: nothing; the user resets ended envs.
 
 Besides the modes, an env that moved to this process at an episode boundary (``RESET_THEN_STEP``,
-`modelicagym.vector.parent.placement`) is reset silently before its step.
+`modelicagym.vector.layout.placement`) is reset silently before its step.
 
 **Its C twin** is ``step_batch`` in ``modelicagym/native/csrc/slice.c`` (and ``end_steps`` in
 ``csrc/endings.c`` for a slice whose steps end in Python): the native path runs the same rules

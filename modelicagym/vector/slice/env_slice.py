@@ -31,14 +31,15 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.native.abi import RESET_THEN_STEP, Flags
+from modelicagym.vector.checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.env_contract import PoolEnv, StepResult, TimedEnv, safe_in_caller
 from modelicagym.vector.errors import RemoteError
+from modelicagym.vector.reset_options import options_of_env
 from modelicagym.vector.slice.autoreset import Autoreset
 from modelicagym.vector.slice.creation import create_envs
 from modelicagym.vector.slice.native_slice import NativeBatch, batch_path_reason, python_sides
 from modelicagym.vector.slice.slice_edges import SliceEdges
 from modelicagym.vector.slice.slice_endings import SliceEndings, has_python_endings
-from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Command, EnvDescription, Kind, Message, StepPath, same_step_info
 
@@ -70,7 +71,7 @@ def native_reason(envs: list[PoolEnv]) -> str:
 
 def describe_envs(envs: list[PoolEnv], first_env: int, observation_mode: str = "same") -> EnvDescription:
     """What the parent needs to know about the envs; raises if they disagree on their spaces
-    (under ``observation_mode``, see `modelicagym.vector.slice.space_checks`)."""
+    (under ``observation_mode``, see `modelicagym.vector.checks`)."""
     first = envs[0]
     observation_spaces = [env.observation_space for env in envs]
     indices = range(first_env, first_env + len(envs))
@@ -102,7 +103,7 @@ class EnvSlice:
         caller: the calling process runs the slice: a step steps its envs marked in the shared
             ``in_caller`` array (a worker's slice steps those not marked). Resets, calls and
             attributes reach every env of the slice, stepped here or not, so that two copies of
-            an env stay interchangeable (see `modelicagym.vector.parent.placement`).
+            an env stay interchangeable (see `modelicagym.vector.layout.placement`).
     """
 
     def __init__(
@@ -151,11 +152,6 @@ class EnvSlice:
         `create_envs`, whose memory ``share`` they may take; closes them on failure."""
         envs = create_envs(env_fns[indices.start : indices.stop], indices.start, "the calling process", share)
         return cls(envs, indices.start, slot, autoreset_mode, caller=True)
-
-    def env_range(self) -> str:
-        """``"4-7"`` or ``"4"``: the env indices of this slice, for messages."""
-        first, last = self.env_indices[0], self.env_indices[-1]
-        return str(first) if first == last else f"{first}-{last}"
 
     def run(self, code: int, message: Message | None) -> Message | None:
         """Run one command of the protocol (a ``Command`` code, and the message of ``MESSAGE``)."""
@@ -376,11 +372,3 @@ class EnvSlice:
                 return Message(Kind.CALL_ERROR, RemoteError.capture(exc, self.first + offset))
         return None
 
-
-def options_of_env(options: dict[str, Any] | None, offset: int) -> dict[str, Any] | None:
-    """The reset options of the slice's env ``offset``: the shared ones, updated by its own entry
-    of ``"options_per_env"`` (the slice's part of it) when there is one."""
-    if options is None or "options_per_env" not in options:
-        return options
-    shared = {key: value for key, value in options.items() if key != "options_per_env"}
-    return {**shared, **(options["options_per_env"][offset] or {})}

@@ -1,4 +1,4 @@
-"""A slice of a pool's envs stepped in one C call, and a worker's command loop in C.
+"""A slice of a pool's envs stepped in one C call.
 
 `NativeBatch` points ``mg_batch`` (``csrc/slice.h``) at the envs' own ``mg_env`` structs (see
 `modelicagym.env.native_step`) and at the pool's shared arrays, so one ``mg_step_batch`` call steps
@@ -12,10 +12,8 @@ Python's part between them (`modelicagym.vector.slice.slice_endings`, ``csrc/end
 inputs are Python's (``python_inputs``: an overridden ``action_to_inputs``) has them written before
 its C call (`modelicagym.vector.slice.slice_edges`).
 
-`NativeServer` is ``mg_serve``: a worker waits for its next command in C and answers plain native
-steps without returning to Python at all. `NativeCollector` is the parent's side: ``mg_post_step``
-wakes every stepping worker in one call, and after the calling process stepped its own slice
-``mg_collect`` waits for all of them in one call (the step's barrier).
+The processes' waits around it are theirs: a worker's in `modelicagym.vector.worker.native_server`,
+the calling process's in `modelicagym.vector.dispatch.native_collector`.
 """
 
 from __future__ import annotations
@@ -29,17 +27,7 @@ from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
-from modelicagym.native.abi import (
-    AutoresetCode,
-    Flags,
-    MgBatch,
-    MgCollector,
-    MgEnv,
-    MgPart,
-    MgServer,
-    MgWaiter,
-    NativeABIError,
-)
+from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgEnv, MgPart, NativeABIError
 from modelicagym.native.library import load_library
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
 from modelicagym.vector.wire.buffers import SharedBuffers
@@ -48,8 +36,6 @@ from modelicagym.vector.wire.shared_fields import SHARED_FIELDS, SharedField, Va
 __all__ = [
     "SLICE_FIELDS",
     "NativeBatch",
-    "NativeCollector",
-    "NativeServer",
     "batch_path_reason",
     "check_batch_contract",
 ]
@@ -287,110 +273,3 @@ class NativeBatch:
     def to_finish(self) -> np.ndarray:
         """Offsets of the envs Python must finish after the last :meth:`step`."""
         return np.flatnonzero((self.flags & NEEDS_PYTHON) != 0)
-
-
-class NativeServer:
-    """``mg_serve``: a worker's wait for its next command, and its plain native steps, in C.
-
-    Args:
-        batch: the worker's native slice (one with ``python_phases`` steps with Python around
-            its C calls: every command returns to Python).
-        go, done: addresses of the worker's signals in shared memory.
-        barrier: address of the step's barrier (``mg_barrier``) in shared memory.
-        slot: the worker's index (its bit of the barrier's bell).
-        command, reply: the worker's command and reply slots (one-element views).
-        step_code: the command code of a step.
-        spin_ns: the pool's shared poll time (a one-element int64 view of ``SharedBuffers.spin_ns``):
-            nanoseconds to poll at most before sleeping, read at every wait.
-        timeout: seconds to wait before returning `SERVE_TIMEOUT`.
-        waiter: the adaptive state of the worker's waits (its ``go`` signal's).
-    """
-
-    def __init__(
-        self,
-        batch: NativeBatch,
-        go: int,
-        done: int,
-        barrier: int,
-        slot: int,
-        command: np.ndarray,
-        reply: np.ndarray,
-        step_code: int,
-        spin_ns: np.ndarray,
-        timeout: float,
-        waiter: MgWaiter,
-    ) -> None:
-        self.batch = batch
-        self._waiter = waiter
-        self.state = server = MgServer()
-        server.batch = None if batch.python_phases else ctypes.addressof(batch.state)
-        server.go, server.done, server.barrier, server.slot = go, done, barrier, slot
-        server.command, server.reply = command.ctypes.data, reply.ctypes.data
-        server.step_code = step_code
-        server.waiter = ctypes.addressof(waiter)
-        server.spin_ns, server.timeout_ns = spin_ns.ctypes.data, int(timeout * 1e9)
-        self._serve = batch.library.mg_serve
-        self._ref = ctypes.byref(server)
-
-    def next_command(self) -> Any:
-        """Serve steps until a command needs Python: its code, `SERVE_PYTHON_STEP` or `SERVE_TIMEOUT`."""
-        return self._serve(self._ref)
-
-
-class NativeCollector:
-    """The calling process's side of a pool step in C: ``mg_post_step`` wakes every stepping worker,
-    ``mg_collect`` waits until all have answered, each one call whatever the number of workers
-    (the step's barrier, ``csrc/slice.h``).
-
-    Args:
-        go, done: addresses of the workers' ``go`` and ``done`` signals, in worker order.
-        barrier: address of the step's barrier (``mg_barrier``) in shared memory.
-        replies: the workers' reply slots (worker ``k`` at index ``k``).
-        stepping: per worker, uint8: it steps (only those are woken and waited for).
-        spin_ns, timeout: as for :class:`NativeServer`.
-        waiter: the adaptive state of the parent's waits for the workers.
-    """
-
-    def __init__(
-        self,
-        go: list[int],
-        done: list[int],
-        barrier: int,
-        replies: np.ndarray,
-        stepping: np.ndarray,
-        spin_ns: np.ndarray,
-        timeout: float,
-        waiter: MgWaiter,
-    ) -> None:
-        self.library = load_library()
-        self.stepping = stepping
-        self.waiter = waiter
-        self._go = (ctypes.c_void_p * max(len(go), 1))(*go)
-        self._done = (ctypes.c_void_p * max(len(done), 1))(*done)
-        self._replies = replies
-        self.state = collector = MgCollector()
-        collector.n_workers = len(done)
-        collector.go, collector.done = ctypes.addressof(self._go), ctypes.addressof(self._done)
-        collector.barrier = barrier
-        collector.replies = replies.ctypes.data
-        collector.stepping = stepping.ctypes.data
-        collector.spin_ns, collector.timeout_ns = spin_ns.ctypes.data, int(timeout * 1e9)
-        collector.waiter = ctypes.addressof(waiter)
-        self._post, self._collect = self.library.mg_post_step, self.library.mg_collect
-        self._ref = ctypes.byref(collector)
-
-    def post(self) -> None:
-        """Wake every stepping worker for a step (their command slots say ``STEP``)."""
-        self._post(self._ref)
-
-    def collect(self) -> int:
-        """`COLLECT_DONE` or `COLLECT_SLOW` (see ``mg_collect``)."""
-        return self._collect(self._ref)
-
-    def take_times(self) -> tuple[int, int]:
-        """Calls of :meth:`collect` since the last take, and the nanoseconds they spent waiting for
-        the workers; the sums start again from zero."""
-        state = self.state
-        taken = state.calls, state.wait_ns
-        state.calls = state.wait_ns = 0
-        return taken

@@ -138,7 +138,7 @@ class WorkerConfig:
     #: the pool's limits, named in timeout messages (seconds; ``None``: none)
     step_timeout: float | None = None
     startup_timeout: float | None = None
-    #: ``"same"`` or ``"different"`` (`modelicagym.vector.slice.space_checks`)
+    #: ``"same"`` or ``"different"`` (`modelicagym.vector.checks`)
     observation_mode: str = "same"
     #: the pool's envs, created at once by its parties: each may take its part of the memory
     #: the machine has available (`modelicagym.vector.slice.creation`); 0: unchecked

@@ -42,7 +42,7 @@ from multiprocessing.context import BaseContext
 from os import sched_yield
 from time import perf_counter
 
-__all__ = ["AnswerSignal", "FutexSignal", "GoSignal", "SemaphoreSignal", "futex_library", "machine_crowded"]
+__all__ = ["AnswerSignal", "FutexSignal", "GoSignal", "SemaphoreSignal", "pool_native_library"]
 
 logger = logging.getLogger(__name__)
 
@@ -205,8 +205,10 @@ class AnswerSignal(FutexSignal):
 
 
 @functools.cache
-def futex_library() -> ctypes.CDLL | None:
-    """The native library when shared-memory signals can be used here, else ``None`` (said once)."""
+def pool_native_library() -> ctypes.CDLL | None:
+    """The whole native library (``load_library``), for the pool's signals, layout and C loops alike,
+    when shared-memory signals can be used here; else ``None`` (said once): the pool then signals
+    through semaphores and keeps a fixed layout."""
     if not sys.platform.startswith("linux"):
         logger.info("no futexes on %s: the pool signals through semaphores", sys.platform)
         return None
@@ -217,10 +219,3 @@ def futex_library() -> ctypes.CDLL | None:
     except NativeBuildError as error:
         logger.warning("the pool signals through semaphores (slower): %s", error)
         return None
-
-
-def machine_crowded() -> bool:
-    """Whether this process's waits now sleep at once because runnable threads outnumber the
-    cores (``mg_machine_crowded``; ``False`` without the native library)."""
-    library = futex_library()
-    return library is not None and bool(library.mg_machine_crowded())

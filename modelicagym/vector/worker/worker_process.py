@@ -9,8 +9,9 @@ Life of a worker:
 3. loop: wait for ``go``, run the command (step / reset / a message), write results into shared
    memory, answer (count the step's barrier down and post ``done``: ``AnswerSignal``) and send a
    reply on the pipe only if there is one (see ``protocol``).
-   A worker whose envs step natively waits and steps in C (:class:`~modelicagym.vector.slice.native_slice.NativeServer`)
-   and comes back to Python only for what Python must do.
+   A worker whose envs step natively waits and steps in C
+   (:class:`~modelicagym.vector.worker.native_server.NativeServer`) and comes back to Python only for
+   what Python must do.
 
 SIGINT is ignored: on Ctrl-C the parent, not every worker, decides what happens (it stops the pool).
 The worker exits when told to close, or when its parent dies: its command loop notices between
@@ -35,10 +36,10 @@ from modelicagym.native.abi import SERVE_PYTHON_STEP, SERVE_TIMEOUT
 from modelicagym.vector.errors import PoolMemoryError, RemoteError
 from modelicagym.vector.slice.creation import EnvCreator, close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
-from modelicagym.vector.slice.native_slice import NativeServer
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message, Reply, WorkerConfig
-from modelicagym.vector.wire.sync import AnswerSignal, GoSignal, SemaphoreSignal, futex_library
+from modelicagym.vector.wire.sync import AnswerSignal, GoSignal, SemaphoreSignal, pool_native_library
+from modelicagym.vector.worker.native_server import NativeServer
 
 __all__ = ["run_worker"]
 
@@ -135,7 +136,7 @@ class Worker:
             os.close(fd)
         self._envs.attach(self._buffers, needs_reset)
         if self._config.shared_signals:
-            library, buffers, index = futex_library(), self._buffers, self._index
+            library, buffers, index = pool_native_library(), self._buffers, self._index
             self._go = GoSignal(library, buffers.signal_address(index, SharedBuffers.GO), buffers.barrier_address, index)
             self._done = AnswerSignal(library, buffers.signal_address(index, SharedBuffers.DONE), buffers.barrier_address)
             if self._envs.native is not None:

@@ -18,7 +18,7 @@ import numpy as np
 from gymnasium.vector.utils import CloudpickleWrapper, clear_mpi_env_vars
 
 from modelicagym.errors import ConfigError
-from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode
+from modelicagym.vector.errors import PoolError, WorkerDiedError, WorkerTimeoutError, describe_exitcode, env_range
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, STARTUP_STAGES, Message, Reply, WorkerConfig
 from modelicagym.vector.wire.sync import FutexSignal, SemaphoreSignal
 from modelicagym.vector.worker.worker_process import run_worker
@@ -41,7 +41,7 @@ class WaitStatus(enum.Enum):
 
 class WorkerHandle:
     """One worker process running the envs ``env_indices`` (a contiguous range); a
-    `~modelicagym.vector.parent.party.Party` of the pool's commands.
+    `~modelicagym.vector.dispatch.party.Party` of the pool's commands.
 
     The handle outlives its process: :meth:`start` can be called again after :meth:`stop` to
     restart the worker with fresh envs, a fresh pipe and fresh signals.
@@ -60,9 +60,11 @@ class WorkerHandle:
     ) -> None:
         self.index = index
         self.env_indices = env_indices
-        #: the worker stands in for the calling process: it holds a copy of every env and steps
-        #: those the shared ``in_caller`` array marks (`modelicagym.vector.parent.placement`)
-        self.in_caller = stand_in
+        #: a home party: the worker stands in for the calling process; it holds a copy of every env
+        #: and steps those the shared ``in_caller`` array marks (`modelicagym.vector.layout.placement`)
+        self.home = stand_in
+        #: where its envs run, for messages
+        self.where = f"worker {index}, standing in for the calling process" if stand_in else f"worker {index}"
         self._env_fns = CloudpickleWrapper(list(env_fns))
         self.ctx = ctx
         self._config = config
@@ -73,12 +75,7 @@ class WorkerHandle:
 
     def __repr__(self) -> str:
         pid = None if self.process is None else self.process.pid
-        return f"WorkerHandle({self.index}, envs {self.env_range()}, pid={pid})"
-
-    def env_range(self) -> str:
-        """``"4-7"`` or ``"4"``: the env indices of this worker, for messages."""
-        first, last = self.env_indices[0], self.env_indices[-1]
-        return str(first) if first == last else f"{first}-{last}"
+        return f"WorkerHandle({self.index}, envs {env_range(self.env_indices)}, pid={pid})"
 
     def start(self) -> None:
         """Start the worker process; it begins creating its envs at once."""
@@ -89,7 +86,7 @@ class WorkerHandle:
             target=run_worker,
             name=f"modelicagym-pool-worker-{self.index}",
             args=(self.index, self._env_fns, self.env_indices.start, child_conn, self.go, self.done, self._config,
-                  self.in_caller),
+                  self.home),
             daemon=True,
         )
         self.conn = parent_conn
@@ -200,7 +197,7 @@ class WorkerHandle:
         """The error reporting that this worker died while running ``doing`` on ``env_index``."""
         self.process.join(_TERMINATE_GRACE)
         exitcode = self.process.exitcode
-        where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
+        where = f"env {env_index}" if env_index is not None else f"envs {env_range(self.env_indices)}"
         # a worker exits by itself only when told to close: an exit status means the env's code called exit()
         cause = "; code in the env called exit()" if exitcode is not None and exitcode >= 0 else ""
         return WorkerDiedError(
@@ -215,7 +212,7 @@ class WorkerHandle:
         """The error reporting that this worker did not finish ``doing`` in time, with the limit
         and the option that sets it; kills the worker."""
         self.stop()
-        where = f"env {env_index}" if env_index is not None else f"envs {self.env_range()}"
+        where = f"env {env_index}" if env_index is not None else f"envs {env_range(self.env_indices)}"
         option = "startup_timeout" if doing in STARTUP_STAGES else "step_timeout"
         limit = getattr(self._config, option)
         within = "in time" if limit is None else f"within {option}={limit:g} s"

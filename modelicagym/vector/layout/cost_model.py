@@ -11,7 +11,7 @@ its ``k`` stepping workers takes
 where ``home_env`` and ``worker_env`` are one env's step at home and in a worker, and
 ``handover`` is what waking the workers and learning that they are done adds to the workers'
 side (wake-up latency, the barrier, the home party's wait for the last signal). All three are
-measured while the pool runs (`modelicagym.vector.parent.layout_policy`), so they carry what the
+measured while the pool runs (`modelicagym.vector.layout.policy`), so they carry what the
 machine does to them: a light FMU's batch is mostly ``handover``, a heavy one's mostly stepping.
 
 Cores enter where the stepping parties outnumber them: then parties take turns on a core, and

@@ -1,8 +1,8 @@
 """The parties a pool's commands reach: a worker process, or the calling process's own slice.
 
-The dispatcher (:mod:`~modelicagym.vector.parent.dispatch`, for whole and partial batches alike) talks
+The dispatcher (:mod:`~modelicagym.vector.dispatch.dispatcher`, for whole and partial batches alike) talks
 to every party through one protocol, :class:`Party`: post a command, wait until it is done, take
-its answer. A worker (`~modelicagym.vector.parent.worker_handle.WorkerHandle`) gets its command through
+its answer. A worker (`~modelicagym.vector.dispatch.worker_handle.WorkerHandle`) gets its command through
 its shared slot and its ``go`` signal and runs it in its own process; the calling process's slice
 (:class:`CallerParty`) keeps the command until the dispatcher's ``run_own_slice`` runs it, after
 waking the workers and before waiting for them, so the caller works while they do. Either answers
@@ -15,8 +15,8 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from modelicagym.vector.errors import PoolError
-from modelicagym.vector.parent.caller_watch import CallerWatch
+from modelicagym.vector.dispatch.caller_watch import CallerWatch
+from modelicagym.vector.errors import PoolError, env_range
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import Command, Message, Reply
@@ -31,13 +31,11 @@ class Party(Protocol):
     index: int
     #: the contiguous range of env indices it holds
     env_indices: range
-    #: it is the calling process (its envs run here, uninterruptibly)
-    in_caller: bool
-    #: where its envs run, for messages (``None``: ``"worker <index>"``)
-    process: str | None
-
-    def env_range(self) -> str:
-        """``"4-7"`` or ``"4"``: its env indices, for messages."""
+    #: it is a home party: the calling process, or the worker standing in for it; it steps the
+    #: envs the shared ``in_caller`` array marks
+    home: bool
+    #: where its envs run, for messages: ``"worker 2"``, ``"the calling process"``...
+    where: str
 
     def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
         """Give it a command: ``code``, with ``message`` (pickled: ``payload``) for ``MESSAGE``;
@@ -89,25 +87,22 @@ class CallerParty:
     like a worker's. A command never run (the pool closed first) is dropped.
     """
 
-    in_caller = True
-    process = "the calling process"
+    home = True
+    where = "the calling process"
 
     def __init__(self, envs: EnvSlice, buffers: SharedBuffers) -> None:
         self.envs = envs
         self.index = envs.index
         self.env_indices = envs.env_indices
         self._reply_slot = buffers.reply
-        #: names the env that ends this process, if one does (`modelicagym.vector.parent.caller_watch`)
+        #: names the env that ends this process, if one does (`modelicagym.vector.dispatch.caller_watch`)
         self.watch = CallerWatch(buffers.current_env[envs.slot : envs.slot + 1], envs.envs, envs.first,
                                  len(buffers.in_caller))
         self._command: tuple[int, Message | None] | None = None
         self._reply: Message | None = None
 
     def __repr__(self) -> str:
-        return f"CallerParty(envs {self.env_range()})"
-
-    def env_range(self) -> str:
-        return self.envs.env_range()
+        return f"CallerParty(envs {env_range(self.env_indices)})"
 
     def post(self, code: int, message: Message | None, payload: bytes | None, slots: np.ndarray | None) -> None:
         self._command = (code, message)

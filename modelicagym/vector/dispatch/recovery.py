@@ -24,12 +24,12 @@ from typing import NoReturn
 
 from gymnasium.vector import AutoresetMode
 
+from modelicagym.vector.dispatch.dispatcher import Dispatcher
+from modelicagym.vector.dispatch.infos import Entries
+from modelicagym.vector.dispatch.party import PendingCommand
+from modelicagym.vector.dispatch.worker_handle import WorkerHandle
+from modelicagym.vector.dispatch.worker_set import WorkerSet
 from modelicagym.vector.errors import PoolError
-from modelicagym.vector.parent.dispatch import Dispatcher
-from modelicagym.vector.parent.infos import Entries
-from modelicagym.vector.parent.party import PendingCommand
-from modelicagym.vector.parent.worker_handle import WorkerHandle
-from modelicagym.vector.parent.worker_set import WorkerSet
 from modelicagym.vector.wire.protocol import Command
 
 __all__ = ["RESTART_INFO_KEY", "Recovery"]

@@ -18,12 +18,12 @@ from multiprocessing.context import BaseContext
 import gymnasium as gym
 from gymnasium import Space
 
-from modelicagym.vector.parent.worker_handle import WorkerHandle
+from modelicagym.vector.checks import check_action_spaces, check_observation_spaces
+from modelicagym.vector.dispatch.worker_handle import WorkerHandle
 from modelicagym.vector.slice.env_slice import EnvSlice, describe_envs
-from modelicagym.vector.slice.space_checks import check_action_spaces, check_observation_spaces
 from modelicagym.vector.wire.buffers import BufferSpec, SharedBuffers
 from modelicagym.vector.wire.protocol import CREATION, START_UP, EnvDescription, Kind, Message, StepPath, WorkerConfig
-from modelicagym.vector.wire.sync import FutexSignal, GoSignal, futex_library
+from modelicagym.vector.wire.sync import FutexSignal, GoSignal, pool_native_library
 
 __all__ = ["WorkerSet"]
 
@@ -66,7 +66,7 @@ class WorkerSet:
             WorkerHandle(k, indices, env_fns[indices.start : indices.stop], ctx, config)
             for k, indices in enumerate(slices)
         ]
-        if stand_in:  # one more worker, with a copy of every env (`WorkerHandle.in_caller`)
+        if stand_in:  # one more worker, with a copy of every env (`WorkerHandle.home`)
             self.handles.append(WorkerHandle(len(slices), range(len(env_fns)), env_fns, ctx, config, stand_in=True))
         self.num_envs = len(env_fns)
         self._env_fns = env_fns
@@ -195,7 +195,7 @@ class WorkerSet:
 
     def _hand_out_buffers(self, handle: WorkerHandle, deadline: float | None, needs_reset: bool) -> None:
         if self._config.shared_signals:
-            buffers, library = self.buffers, futex_library()
+            buffers, library = self.buffers, pool_native_library()
             buffers.signals[handle.index] = 0  # a restarted worker starts from unposted signals
             handle.go = GoSignal(library, buffers.signal_address(handle.index, SharedBuffers.GO),
                                  buffers.barrier_address, handle.index)

@@ -7,7 +7,7 @@ By default the calling process steps a slice only of envs that are safe there
 one more worker starts, the stand-in, and creates a copy of every env; if they all say they are
 safe, that worker stops and the calling process creates its own; if not, the stand-in keeps them
 and does the caller's part instead: it steps the caller's slice, and on a crowded machine the
-adaptive layout consolidates every env there (`modelicagym.vector.parent.placement`). So an env that does
+adaptive layout consolidates every env there (`modelicagym.vector.layout.placement`). So an env that does
 not say it is safe is never created in the calling process."""
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 
+from modelicagym.vector.dispatch.dispatcher import Dispatcher
+from modelicagym.vector.dispatch.worker_set import WorkerSet
 from modelicagym.vector.env_contract import fn_safe_in_caller
-from modelicagym.vector.parent.dispatch import Dispatcher
-from modelicagym.vector.parent.placement import Placement, place_envs, stand_in_fixed_reason
-from modelicagym.vector.parent.plan import Layout
-from modelicagym.vector.parent.worker_set import WorkerSet
+from modelicagym.vector.layout.placement import Placement, no_stand_in_reason, place_envs, stand_in_fixed_reason
+from modelicagym.vector.layout.plan import Layout
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
 from modelicagym.vector.wire.protocol import EnvDescription, WorkerConfig
@@ -55,7 +55,7 @@ def assemble(
 ) -> PoolParts:
     """Start a worker per slice of the layout, create the caller's slice here (if it is safe
     there, with ``layout.caller_if_safe``: see the module docstring), share memory, place the envs
-    (`modelicagym.vector.parent.placement`) and set up the dispatcher (at most ``max_concurrency`` parties
+    (`modelicagym.vector.layout.placement`) and set up the dispatcher (at most ``max_concurrency`` parties
     running a step or reset at once); on any failure release it all and
     raise."""
     slices, local_slice = list(layout.worker_slices), layout.caller_slice
@@ -75,9 +75,7 @@ def assemble(
                 stand_in_slice, local_slice = local_slice, None
             else:  # its copies would only be reset and called, with resets that may differ: a plain worker
                 workers.drop_last(replacement=local_slice)
-                isolated = (f"every env is in a worker: its envs do not all say they are safe in the calling process "
-                            f"(safe_in_caller; caller_steps=True puts a slice there); no worker stands in for it, as "
-                            f"the layout does not adapt: {fixed}")
+                isolated = no_stand_in_reason(fixed)
                 local_slice = None
         local = None if local_slice is None else EnvSlice.create(
             list(env_fns), local_slice, len(slices), config.autoreset_mode, len(local_slice) / len(env_fns)

@@ -1,6 +1,6 @@
 """How many envs the calling process of an adaptive pool should step: measured, not assumed.
 
-`LayoutPolicy` is the decision half of the adaptive layout (`modelicagym.vector.parent.placement` moves
+`LayoutPolicy` is the decision half of the adaptive layout (`modelicagym.vector.layout.placement` moves
 the envs): it takes in what batches cost, part by part, and says how many of the workers' envs
 the calling process should step. docs/design.md ("The adaptive layout") has the measurements
 behind it.
@@ -9,22 +9,29 @@ behind it.
 from __future__ import annotations
 
 import logging
-import os
 import statistics
 import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from modelicagym.vector.parent.cost_model import Costs, PartyCosts, PartyTimes, Shape, best_shape
-from modelicagym.vector.parent.cost_model import batch_us as batch_us_of
-from modelicagym.vector.parent.machine_watch import PSI_CPU, READ_EVERY, MachineWatch
+from modelicagym.vector.layout.cost_model import Costs, PartyCosts, PartyTimes, Shape, best_shape
+from modelicagym.vector.layout.cost_model import batch_us as batch_us_of
+from modelicagym.vector.layout.machine_load import (
+    IDLE_CORES_TO_PROBE,
+    PSI_CPU,
+    READ_EVERY,
+    TRUST_QUIET_FOR,
+    TRUST_STALL_SHARE,
+    IdleCores,
+    MachineWatch,
+)
 
-__all__ = ["ConsolidationPolicy", "IdleCores", "LayoutPolicy"]
+__all__ = ["ConsolidationPolicy", "LayoutPolicy"]
 
 logger = logging.getLogger(__name__)
 
-#: the policy decides on the median part (of `modelicagym.vector.parent.placement.PART_BATCHES` batches)
+#: the policy decides on the median part (of `modelicagym.vector.layout.placement.PART_BATCHES` batches)
 #: of a window of at least this many parts and seconds (a median, so that one batch that met a
 #: page fault or a preemption cannot decide)
 WINDOW_PARTS = 5
@@ -40,19 +47,11 @@ PROBE_MAX_SECONDS = 30.0
 #: envs of ~1 ms a step and 500-step episodes, 4 s of every try at half speed (a pool of 8 ran at
 #: 0.98x a single env in 5 s rounds, idle, where the spread layout alone does 1.9x)
 TRY_SHARE = 0.05
-#: idle cores (averaged since the last look) that make a probe of the workers worth it
-IDLE_CORES_TO_PROBE = 0.5
-#: seconds of a quiet machine after which a consolidation policy trusts its parties' stepping times
-#: (their wall times: on a crowded machine two workers may share a core and each seem to take twice
-#: its time), and the share of the time some thread may wait for a core on such a machine (the
-#: pool's own hand-overs make ~3%: 8 envs of ~1 ms in two workers; a busy process beside, 30% and more)
-TRUST_QUIET_FOR = 0.3
-TRUST_STALL_SHARE = 0.1
 
 
 class _Policy:
     """What both policies share: the layouts they choose among (``shapes``: per target, the layout
-    it makes as the cost model sees it, `modelicagym.vector.parent.placement.layout_shapes`), the
+    it makes as the cost model sees it, `modelicagym.vector.layout.placement.layout_shapes`), the
     target they are in, the window of parts they measure, and the record of each change."""
 
     #: the home party, as the record of a change names it
@@ -94,9 +93,9 @@ class LayoutPolicy(_Policy):
     ``target`` is that number: 0 is the planned layout (every movable env in its worker),
     ``movable`` is every env in the caller. Over a window of parts it measures, as medians, one
     env's step in the caller (its own slice's time), one env's step in the workers (their own
-    stepping times, `modelicagym.vector.parent.cost_model.PartyTimes`) and the hand-over (what
+    stepping times, `modelicagym.vector.layout.cost_model.PartyTimes`) and the hand-over (what
     the batch took beyond its busiest worker's stepping, when the caller waited for the workers),
-    and asks the cost model (`modelicagym.vector.parent.cost_model`) which target gives the
+    and asks the cost model (`modelicagym.vector.layout.cost_model`) which target gives the
     shortest batch; it moves there when that is faster than the current one by `MARGIN`.
 
     The workers' costs are their own measurements, never derived from the caller's: a caller that
@@ -106,7 +105,7 @@ class LayoutPolicy(_Policy):
     that loses waits twice as long before the next.
 
     Args:
-        shapes: per target, the layout it makes (`modelicagym.vector.parent.placement.layout_shapes`);
+        shapes: per target, the layout it makes (`modelicagym.vector.layout.placement.layout_shapes`);
             ``shapes[0].home_envs`` is
             the caller's own slice.
         cores: the usable cores (`modelicagym.cores.usable_cores`).
@@ -132,12 +131,11 @@ class LayoutPolicy(_Policy):
         super().__init__(shapes, cores, clock)
 
     def observe(
-        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, settled: bool = True,
         parties: PartyTimes | None = None,
     ) -> bool:
         """Account a part of ``batches`` batches: ``local_ns`` stepping ``local_envs`` envs a batch
-        in the caller, then ``wait_ns`` waiting for the workers, ``all_envs`` envs a batch in all,
-        and the workers' sampled stepping times (``parties``); ``True`` when the target changed.
+        in the caller, then ``wait_ns`` waiting for the workers, and the workers' sampled stepping times (``parties``); ``True`` when the target changed.
         Parts measured while envs still move (not ``settled``) are dropped: the model's shapes are
         those of settled layouts."""
         samples = [] if parties is None else parties.take()
@@ -215,11 +213,11 @@ class ConsolidationPolicy(_Policy):
     other workers (spread), and in the spread layout how many of theirs it takes.
 
     Where the calling process may not step a user's envs, a worker stands in for it
-    (`modelicagym.vector.parent.assembly`): it is the home party of the cost model
-    (`modelicagym.vector.parent.cost_model`), and ``target`` counts the workers' envs it steps.
+    (`modelicagym.vector.dispatch.assembly`): it is the home party of the cost model
+    (`modelicagym.vector.layout.cost_model`), and ``target`` counts the workers' envs it steps.
 
     *The spread layout* is chosen by the model, as `LayoutPolicy` chooses: from a window's party
-    costs (`modelicagym.vector.parent.cost_model.PartyTimes`: the stand-in's and the workers'
+    costs (`modelicagym.vector.layout.cost_model.PartyTimes`: the stand-in's and the workers'
     stepping times) it takes the spread target predicted fastest by `MARGIN`, so that a
     synchronous step does not wait on one party while another's core idles. Unlike the calling
     process, the stand-in is a worker like the others: an env costs the same in either, and the
@@ -240,7 +238,7 @@ class ConsolidationPolicy(_Policy):
     ``target``: ``spread`` in the spread layout (0 at first: the planned one) or ``movable``.
 
     Args:
-        shapes: per target, the layout it makes (`modelicagym.vector.parent.placement.layout_shapes`,
+        shapes: per target, the layout it makes (`modelicagym.vector.layout.placement.layout_shapes`,
             the stand-in as the home party).
         cores: the usable cores (`modelicagym.cores.usable_cores`).
         clock: seconds, monotonic (a parameter for tests).
@@ -266,7 +264,7 @@ class ConsolidationPolicy(_Policy):
         super().__init__(shapes, cores, clock)
 
     def observe(
-        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, all_envs: int, settled: bool = True,
+        self, batches: int, local_ns: int, wait_ns: int, local_envs: int, settled: bool = True,
         parties: PartyTimes | None = None,
     ) -> bool:
         """Account a part of ``batches`` batches that took ``local_ns + wait_ns`` in all (the
@@ -325,7 +323,7 @@ class ConsolidationPolicy(_Policy):
     def _spread_model(self, costs: PartyCosts) -> Costs | None:
         """The cost model of the spread layout from a window's party costs (``None`` where a party
         steps nothing). Both parties are workers, so an env costs what it costs wherever it runs:
-        the envs that move (from every worker in turn, `modelicagym.vector.parent.placement.move_order`)
+        the envs that move (from every worker in turn, `modelicagym.vector.layout.placement.move_order`)
         carry the workers' mean cost into the stand-in's measured time, or out of it; the batch's
         worker side is its busiest worker's, at that worker's cost per env. The hand-over is left
         out: every spread target wakes the same parties."""
@@ -363,30 +361,3 @@ class ConsolidationPolicy(_Policy):
         if target == self.movable:
             return "every env in the stand-in worker"
         return "the envs in their workers" if target == 0 else f"{target} of the workers' envs in the stand-in"
-
-
-class IdleCores:
-    """Idle cores of the machine since the last call, averaged (``/proc/stat``; all of them where it
-    cannot be read, so that the policy still probes, as its back-off allows)."""
-
-    def __init__(self, cores: int) -> None:
-        self._cores = cores
-        self._machine_cores = os.cpu_count() or cores
-        self._last = self._read()
-
-    def __call__(self) -> float:
-        now = self._read()
-        last, self._last = self._last, now
-        if now is None or last is None or now[1] <= last[1]:
-            return float(self._cores)
-        return self._machine_cores * (now[0] - last[0]) / (now[1] - last[1])
-
-    def _read(self) -> tuple[int, int] | None:
-        """(idle, total) jiffies of all CPUs."""
-        try:
-            with open("/proc/stat", "rb") as handle:
-                fields = handle.readline().split()[1:]
-        except OSError:
-            return None
-        values = [int(f) for f in fields]
-        return values[3] + values[4], sum(values[:8])

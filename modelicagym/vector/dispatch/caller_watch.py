@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from modelicagym.vector.env_contract import fault_label
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = ["CallerWatch"]
 
@@ -37,7 +37,7 @@ class CallerWatch:
     """
 
     def __init__(self, slot: Any, envs: Sequence[Any], first: int, num_envs: int) -> None:
-        self._library = futex_library()
+        self._library = pool_native_library()
         self._address = slot.ctypes.data
         self._slot = slot  # keeps the memory mapped while registered
         self._current = None

@@ -11,9 +11,9 @@ sent: the shared ``step_mask`` says which of its envs a ``STEP`` steps (on the n
 and a worker still busy when more of its envs are sent gets them as soon as it finishes. Each env
 keeps its own autoreset (``NEXT_STEP``), so its trajectory is the one ``SyncVectorEnv`` gives for
 the same seed and actions, whatever order the envs come back in. The commands go through the
-pool's one dispatcher (``send``, then ``recv_any`` for the first workers done: `modelicagym.vector.parent.dispatch`),
-and a worker that fails stops the pool through its recovery (`modelicagym.vector.parent.recovery`: partial
-batches restart nothing).
+pool's one dispatcher (``send``, then ``recv_any`` for the first workers done:
+`modelicagym.vector.dispatch.dispatcher`), and a worker that fails stops the pool through its recovery
+(`modelicagym.vector.dispatch.recovery`: partial batches restart nothing).
 
 Example::
 
@@ -34,12 +34,12 @@ import numpy as np
 from gymnasium.vector.utils import concatenate, create_empty_array
 
 from modelicagym.errors import ArgumentError
-from modelicagym.vector.parent.action_writer import ActionWriter
-from modelicagym.vector.parent.argument_checks import check_env_ids
-from modelicagym.vector.parent.dispatch import Dispatcher
-from modelicagym.vector.parent.infos import add_info
-from modelicagym.vector.parent.party import Outcome, PendingCommand
-from modelicagym.vector.parent.recovery import Recovery
+from modelicagym.vector.checks import check_env_ids
+from modelicagym.vector.dispatch.action_writer import ActionWriter
+from modelicagym.vector.dispatch.dispatcher import Dispatcher
+from modelicagym.vector.dispatch.infos import add_info
+from modelicagym.vector.dispatch.party import Outcome, PendingCommand
+from modelicagym.vector.dispatch.recovery import Recovery
 from modelicagym.vector.wire.protocol import Command, Kind
 
 __all__ = ["PartialBatches"]

@@ -1,7 +1,7 @@
 """Where each env of a pool is stepped, and the adaptive layout that moves envs at episode boundaries.
 
 A pool that plans its own layout steps the last slice of envs in the calling process and the
-others in workers (`modelicagym.vector.parent.plan`). On an idle machine that is the fastest layout. On a
+others in workers (`modelicagym.vector.layout.plan`). On an idle machine that is the fastest layout. On a
 crowded one (another busy process, a second training beside this one) a worker may not get a core
 when the batch needs it, and a light env's batch then waits tens of microseconds to milliseconds
 for a step that takes one: stepping every env in the calling process, in one C call, is faster.
@@ -22,7 +22,7 @@ is already set); in ``SAME_STEP`` mode the old copy has already reset, so the ne
 silently before its next step (`RESET_THEN_STEP`). ``DISABLED`` moves envs only at resets. Every
 env's trajectory is therefore exactly the one `SyncVectorEnv` gives it, whatever layout runs.
 
-**The policy** (`modelicagym.vector.parent.layout_policy.LayoutPolicy`; docs/design.md, "The cost
+**The policy** (`modelicagym.vector.layout.policy.LayoutPolicy`; docs/design.md, "The cost
 model"): while workers step, the parent measures each batch's time stepping its own slice and then
 waiting for the workers, in C, and the workers time their own stepping. Over a window of batches,
 a cost model predicts the batch time of every target (`layout_shapes`: how many envs the caller
@@ -36,6 +36,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import gymnasium as gym
 import numpy as np
@@ -44,19 +45,56 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
-from modelicagym.vector.parent.cost_model import PartyTimes, Shape
-from modelicagym.vector.parent.layout_policy import ConsolidationPolicy, LayoutPolicy
-from modelicagym.vector.parent.worker_set import WorkerSet
+from modelicagym.vector.layout.cost_model import PartyTimes, Shape
+from modelicagym.vector.layout.policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.slice.creation import close_envs, create_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
 from modelicagym.vector.wire.buffers import SharedBuffers
-from modelicagym.vector.wire.protocol import EnvDescription, WorkerConfig
-from modelicagym.vector.wire.sync import futex_library
+from modelicagym.vector.wire.protocol import EnvDescription, StepPath, WorkerConfig
+from modelicagym.vector.wire.sync import pool_native_library
 
-__all__ = ["LayoutState", "Placement", "layout_shapes", "move_order", "place_envs", "stand_in_fixed_reason"]
+__all__ = [
+    "NOT_SAFE_IN_CALLER",
+    "LayoutState",
+    "Placement",
+    "Workers",
+    "layout_shapes",
+    "move_order",
+    "no_stand_in_reason",
+    "place_envs",
+    "stand_in_fixed_reason",
+]
 
 #: the policy's measurements come in parts of this many batches (summed in C)
 PART_BATCHES = 64
+
+
+class _Held(Protocol):
+    """A worker, as placing envs sees it: the envs it holds."""
+
+    @property
+    def env_indices(self) -> range:
+        """The contiguous range of env indices it holds."""
+
+
+class Workers(Protocol):
+    """What placing envs reads of the pool's workers (`modelicagym.vector.dispatch.worker_set.WorkerSet`,
+    started and connected before the envs are placed)."""
+
+    @property
+    def handles(self) -> Sequence[_Held]:
+        """One per worker, in slot order (a stand-in worker the last)."""
+
+    @property
+    def buffers(self) -> SharedBuffers:
+        """The pool's shared memory."""
+
+    @property
+    def step_paths(self) -> Sequence[StepPath]:
+        """Per env, the path its slice steps on."""
+
+    def unsafe_in_caller(self) -> int | None:
+        """The first env of the first worker whose envs are not all safe in the calling process, or ``None``."""
 
 
 @dataclass(frozen=True)
@@ -81,7 +119,7 @@ class LayoutState:
     #: the measurement behind the last change of target (empty before the first)
     last_decision: str
     #: envs the worker standing in for the calling process steps now (where the calling process may
-    #: not step the envs: `modelicagym.vector.parent.assembly`), of ``num_envs``
+    #: not step the envs: `modelicagym.vector.dispatch.assembly`), of ``num_envs``
     envs_in_stand_in: int = 0
     #: that worker, for messages ("" without one)
     stand_in: str = ""
@@ -105,10 +143,10 @@ class Placement:
         policy: the adaptive layout's policy, or ``None`` (a fixed layout).
         reason: why the layout adapts or why it does not.
         stand_in: the envs marked ``in_caller`` are stepped by one more worker, after those of
-            ``worker_slices``, that holds a copy of every env (`modelicagym.vector.parent.assembly`),
+            ``worker_slices``, that holds a copy of every env (`modelicagym.vector.dispatch.assembly`),
             rather than by the calling process.
         env_ns: for an adaptive layout, the pool's ``timing[:, ENV_NS]``: the parties' stepping
-            times are sampled from it for the policy (`modelicagym.vector.parent.cost_model.PartyTimes`).
+            times are sampled from it for the policy (`modelicagym.vector.layout.cost_model.PartyTimes`).
     """
 
     def __init__(
@@ -191,10 +229,10 @@ class Placement:
         if self._countdown <= 0:
             self._countdown = PART_BATCHES
             times = take_times()
-            policy, envs = self.policy, len(self.in_caller)
+            policy = self.policy
             parties = {} if self._party_times is None else {"parties": self._party_times}
-            if times is not None and policy is not None and policy.observe(*times, self._caller_envs, envs,
-                                                                          self._settled, **parties):
+            if times is not None and policy is not None and policy.observe(*times, self._caller_envs, self._settled,
+                                                                          **parties):
                 self._retarget()
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
@@ -255,7 +293,7 @@ def move_order(worker_slices: list[range]) -> np.ndarray:
 
 def layout_shapes(worker_slices: list[range], home_envs: int) -> list[Shape]:
     """Per target of an adaptive layout (envs of `move_order` in the caller, 0 to all), the layout
-    it makes, as the cost model sees it (`modelicagym.vector.parent.cost_model.Shape`)."""
+    it makes, as the cost model sees it (`modelicagym.vector.layout.cost_model.Shape`)."""
     held = [len(s) for s in worker_slices]
     owner = {env: k for k, s in enumerate(worker_slices) for env in s}
     shapes = [Shape(home_envs, max(held, default=0), sum(n > 0 for n in held))]
@@ -267,7 +305,7 @@ def layout_shapes(worker_slices: list[range], home_envs: int) -> list[Shape]:
 
 def place_envs(
     env_fns: Sequence[Callable[[], gym.Env]],
-    workers: WorkerSet,
+    workers: Workers,
     local: EnvSlice | None,
     config: WorkerConfig,
     adapt_layout: bool | None,
@@ -303,8 +341,7 @@ def place_envs(
             raise
         if reason is not None:
             close_envs(copies)
-    if reason is not None and adapt_layout:
-        raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+    _refuse_adapt_layout(reason, adapt_layout)
     worker_slices = [handle.env_indices for handle in workers.handles]
     policy = env_ns = None
     if reason is None:
@@ -318,47 +355,65 @@ def place_envs(
     return placement, local
 
 
-def _place_with_stand_in(workers: WorkerSet, home: range, config: WorkerConfig, adapt_layout: bool | None) -> Placement:
+def _place_with_stand_in(workers: Workers, home: range, config: WorkerConfig, adapt_layout: bool | None) -> Placement:
     """The placement of a pool whose calling process steps nothing: a worker stands in for it,
     with a copy of every env, and steps ``home``; it takes every env when that is faster (the
     pool made it only for a layout that can adapt: `stand_in_fixed_reason`); with no other worker to
     share them (one core), it steps them all in a fixed layout."""
     worker_slices = [handle.env_indices for handle in workers.handles[:-1]]
-    unsafe = ("every env is in a worker: its envs do not all say they are safe in the calling process "
-              "(safe_in_caller; caller_steps=True puts a slice there); ")
     buffers = workers.buffers
     if not worker_slices:  # one party for one core: nothing to move
-        reason = unsafe + (f"one worker steps them all, the pool's one party for {len(home)} env(s) on "
+        reason = NOT_SAFE_IN_CALLER + (f"one worker steps them all, the pool's one party for {len(home)} env(s) on "
                            f"{config.cores} core(s)")
-        if adapt_layout:
-            raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+        _refuse_adapt_layout(reason, adapt_layout)
         return Placement(buffers.in_caller, buffers.needs_reset, [], home, config.autoreset_mode, None, reason,
                          stand_in=True)
     policy = ConsolidationPolicy(layout_shapes(worker_slices, len(home)), config.cores)
     return Placement(buffers.in_caller, buffers.needs_reset, worker_slices, home, config.autoreset_mode, policy,
-                     unsafe + "they can move to one worker at episode boundaries", stand_in=True,
+                     NOT_SAFE_IN_CALLER + "they can move to one worker at episode boundaries", stand_in=True,
                      env_ns=buffers.timing[:, SharedBuffers.ENV_NS])
+
+
+#: why every env is in a worker where the envs do not all say they are safe in the calling process
+NOT_SAFE_IN_CALLER = ("every env is in a worker: its envs do not all say they are safe in the calling process "
+                      "(safe_in_caller; caller_steps=True puts a slice there); ")
+
+
+def no_stand_in_reason(fixed: str) -> str:
+    """Why every env is in a plain worker, none standing in for the calling process: its envs are not
+    safe there, and a stand-in serves only a layout that adapts, which this one cannot (``fixed``: why)."""
+    return NOT_SAFE_IN_CALLER + f"no worker stands in for it, as the layout does not adapt: {fixed}"
+
+
+def _refuse_adapt_layout(reason: str | None, adapt_layout: bool | None) -> None:
+    """Raise `ConfigError` where ``adapt_layout=True`` asks for a layout that cannot adapt (``reason``: why)."""
+    if reason is not None and adapt_layout:
+        raise ConfigError(f"adapt_layout=True, but the layout cannot adapt: {reason}")
+
+
+def _never_adapts_reason(adapt_layout: bool | None) -> str | None:
+    """Why no layout of this pool adapts, whatever its envs (``None``: one may)."""
+    if adapt_layout is False:
+        return "adapt_layout=False"
+    if pool_native_library() is None:
+        return "no native library: the pool signals through semaphores"
+    return None
 
 
 def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None) -> str | None:
     """Why a layout with a stand-in worker whose envs ``description`` describes could not adapt
     (``None``: it can)."""
-    if adapt_layout is False:
-        return "adapt_layout=False"
-    if futex_library() is None:
-        return "no native library: the pool signals through semaphores"
-    return description.movable_reason
+    return _never_adapts_reason(adapt_layout) or description.movable_reason
 
 
-def _fixed_layout_reason(workers: WorkerSet, local: EnvSlice, adapt_layout: bool | None) -> str | None:
+def _fixed_layout_reason(workers: Workers, local: EnvSlice, adapt_layout: bool | None) -> str | None:
     """Why the layout of a pool whose calling process steps ``local`` cannot adapt (``None``: it
     can), before any copy is made."""
     if not workers.handles:
         return "num_workers=0: every env is in the calling process"
-    if adapt_layout is False:
-        return "adapt_layout=False"
-    if futex_library() is None:
-        return "no native library: the pool signals through semaphores"
+    never = _never_adapts_reason(adapt_layout)
+    if never is not None:
+        return never
     unsafe = workers.unsafe_in_caller()
     if unsafe is not None:
         return (f"env {unsafe} does not say it is safe in the calling process (safe_in_caller), so no copy of it "

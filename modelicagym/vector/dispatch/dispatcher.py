@@ -2,7 +2,7 @@
 
 A :class:`Dispatcher` is the calling process's side of the protocol (see
 :mod:`~modelicagym.vector.wire.protocol`). Its primitives are EnvPool's: :meth:`~Dispatcher.send`
-posts commands to some parties (:mod:`~modelicagym.vector.parent.party`: the worker processes, and the
+posts commands to some parties (:mod:`~modelicagym.vector.dispatch.party`: the worker processes, and the
 calling process's own slice when ``caller_steps``) and returns at once; :meth:`~Dispatcher.recv`
 waits for every party sent to, :meth:`~Dispatcher.recv_any` for the first ones done (partial
 batches). A whole-batch step is ``send_step`` + :meth:`~Dispatcher.run_own_slice` + ``recv``, a
@@ -14,7 +14,7 @@ its envs one after the other, so at most that many envs do): the others' command
 and posted as the first ones' answers come in.
 
 It knows which parties it is waiting for, but nothing of the Gymnasium API or of what a failure
-means for the pool: those are the pool's and :mod:`~modelicagym.vector.parent.recovery`'s business.
+means for the pool: those are the pool's and :mod:`~modelicagym.vector.dispatch.recovery`'s business.
 """
 
 from __future__ import annotations
@@ -27,16 +27,17 @@ from typing import Any
 import numpy as np
 
 from modelicagym.native.abi import COLLECT_DONE, MgWaiter
-from modelicagym.vector.parent.deadline import Deadline
-from modelicagym.vector.parent.machine_watch import MachineWatch
-from modelicagym.vector.parent.party import CallerParty, Outcome, Party, PendingCommand
-from modelicagym.vector.parent.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.dispatch.deadline import Deadline
+from modelicagym.vector.dispatch.native_collector import NativeCollector
+from modelicagym.vector.dispatch.party import CallerParty, Outcome, Party, PendingCommand
+from modelicagym.vector.dispatch.worker_handle import WaitStatus, WorkerHandle
+from modelicagym.vector.layout.machine_load import MachineWatch, machine_crowded
+from modelicagym.vector.reset_options import options_for
 from modelicagym.vector.slice.creation import close_envs
 from modelicagym.vector.slice.env_slice import EnvSlice
-from modelicagym.vector.slice.native_slice import NativeCollector
 from modelicagym.vector.wire.buffers import SharedBuffers
 from modelicagym.vector.wire.protocol import LIVENESS_INTERVAL, Command, Kind, Message
-from modelicagym.vector.wire.sync import FutexSignal, machine_crowded
+from modelicagym.vector.wire.sync import FutexSignal
 
 __all__ = ["Dispatcher"]
 
@@ -59,7 +60,7 @@ class Dispatcher:
             :mod:`~modelicagym.vector.wire.sync`; `go_poll_time` for the workers' waits and
             `collect_poll_time` for the calling process's).
         step_timeout: default timeout of a ``recv``; ``None`` waits as long as the workers live.
-        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.parent.placement`);
+        stepping: per worker, uint8: it steps at least one env (`modelicagym.vector.layout.placement`);
             a step wakes only those. Call :meth:`stepping_changed` after it changes.
         max_concurrency: at most this many parties run a step or reset at once (``None``: all).
         cores: the usable cores the pool plans for (`modelicagym.cores.usable_cores`).
@@ -95,7 +96,7 @@ class Dispatcher:
         #: the calling process's slice as a party, or ``None``
         self.caller = None if local is None else CallerParty(local, buffers)
         #: with a stand-in worker (every env isolated), its polling waits for a quiet machine
-        self._machine = MachineWatch() if any(handle.in_caller for handle in handles) else None
+        self._machine = MachineWatch() if any(handle.home for handle in handles) else None
         self._machine_quiet = False
         #: every party in slot order: the workers, then the calling process
         self._parties: list[Party] = [*handles, self.caller] if self.caller is not None else list(handles)
@@ -140,7 +141,7 @@ class Dispatcher:
     def stepping_changed(self) -> None:
         """Take in which workers step envs now (``stepping``): a step wakes only those (and the
         calling process, which always takes part)."""
-        self._stepping_parties = [party for party in self._parties if party.in_caller or self.stepping[party.index]]
+        self._stepping_parties = [party for party in self._parties if party.home or self.stepping[party.index]]
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
         #: a step wakes at least one worker
         self._workers_step = any(party is not self.caller for party in self._stepping_parties)
@@ -148,7 +149,7 @@ class Dispatcher:
 
     def watch_machine(self) -> None:
         """Let an isolated pool's workers poll only on a quiet machine
-        (`~modelicagym.vector.parent.machine_watch`); cheap enough to call after every step."""
+        (`~modelicagym.vector.layout.machine_load`); cheap enough to call after every step."""
         if self._machine is not None and self._machine.quiet() != self._machine_quiet:
             self._machine_quiet = not self._machine_quiet
             self._set_go_spin()
@@ -284,7 +285,7 @@ class Dispatcher:
             if command.message is not None and id(command.message) not in payloads:
                 payloads[id(command.message)] = bytes(ForkingPickler.dumps(command.message))
         if self.max_concurrency is not None:  # the calling process's own command first: it is never held
-            commands = sorted(commands, key=lambda command: not command.party.in_caller)
+            commands = sorted(commands, key=lambda command: not command.party.home)
         if not slots_hold_code:
             self._slots_say_step = False
         self._step_sent = False
@@ -427,7 +428,7 @@ class Dispatcher:
         party = command.party
         running = time.monotonic() - self._posted_at[party.index]
         overran = self.step_timeout is not None and running > self.step_timeout
-        if not overran and (running <= LIVENESS_INTERVAL or party.process.is_alive()):
+        if not overran and (running <= LIVENESS_INTERVAL or party.is_alive()):
             return None
         if party.poll_done(0.0, 0.0):
             return self._read(command, doing)
@@ -439,7 +440,7 @@ class Dispatcher:
         ``OBSERVATIONS`` reply is stored (its infos left as the message)."""
         party = command.party
         if message is not None and message.kind is Kind.ERROR:
-            failure = message.data.to_env_error(party.index, doing, party.process if party.in_caller else None)
+            failure = message.data.to_env_error(party.index, doing, party.where)
             message = None
         elif message is not None and message.kind is Kind.OBSERVATIONS:
             message = self._take_observations(message)
@@ -467,9 +468,9 @@ class Dispatcher:
                 remote = message.data
                 original = None if named else remote.original()
                 raise original if original is not None else remote.to_env_error(
-                    party.index, doing, party.process if party.in_caller else None)
+                    party.index, doing, party.where)
             for index, value in zip(party.env_indices, message.data):
-                if bool(in_caller[index]) == party.in_caller:
+                if bool(in_caller[index]) == party.home:
                     results[index] = value
         return [results[index] for index in sorted(results)]
 
@@ -479,14 +480,6 @@ def _runs_envs(command: PendingCommand) -> bool:
     if command.code == Command.MESSAGE:
         return command.message.kind in _ENV_RUNNING_KINDS
     return command.code in _ENV_RUNNING_CODES
-
-
-def options_for(options: dict[str, Any] | None, indices: range) -> dict[str, Any] | None:
-    """A party's part of reset ``options``: its envs' entries of ``"options_per_env"`` (one dict per
-    env of the pool), so no party is sent the others' (they may hold large states)."""
-    if options is None or "options_per_env" not in options:
-        return options
-    return {**options, "options_per_env": options["options_per_env"][indices.start : indices.stop]}
 
 
 #: the longest the calling process polls for workers that fill the cores (seconds; see `collect_poll_time`)
