@@ -51,6 +51,9 @@ _IMPLEMENTATIONS = {"CoSimulation": "cs", "ModelExchange": "me", "Any": None, No
 #: the kinds of a system's connector (SSP 1.0 section 5.3.2)
 CONNECTOR_KINDS = ("input", "output", "inout", "parameter", "calculatedParameter", "structuralParameter",
                    "constant", "local")
+#: the kinds of connector whose value enters its system from outside (an output's, a calculated parameter's, leaves)
+_INWARD = ("input", "parameter", "structuralParameter", "constant")
+_OUTWARD = ("output", "calculatedParameter")
 #: the attributes the standard gives the elements read here (besides id and description, and any
 #: attribute of another namespace): one it does not know is a defect of the file, refused
 _ATTRIBUTES = {
@@ -228,10 +231,14 @@ class _Reader:
                 raise self.error(child, "not supported (only components and systems are)")
         self.bind(element, prefix, depth)
         for connection in map(self.known, element.iterfind("ssd:Connections/ssd:Connection", NS)):
-            start = self.end(connection, "start", prefix, elements)
-            end = self.end(connection, "end", prefix, elements)
-            self.edges.append(_Edge(start, end, self.transformation(connection),
-                                    f"{SSD_NAME}, line {connection.sourceline}"))
+            (start, start_gives), (end, end_gives) = (self.end(connection, side, prefix, elements)
+                                                      for side in ("start", "end"))
+            where = f"{SSD_NAME}, line {connection.sourceline}"
+            if (start_gives is False or end_gives is True) and start_gives is not True and end_gives is not False:
+                # written end to start, as OMSimulator may write it: the connectors' kinds say which way it flows
+                logger.debug("%s: %s: %s -> %s flows the other way", self.where, where, start, end)
+                start, end = end, start
+            self.edges.append(_Edge(start, end, self.transformation(connection), where))
 
     def component(self, element: Any, name: str, depth: int) -> None:
         source = self.required(element, "source")
@@ -244,8 +251,10 @@ class _Reader:
         self.components[name] = {"fmu": location, "mode": mode} if mode else location
         self.bind(element, f"{name}.", depth)
 
-    def end(self, connection: Any, side: str, prefix: str, elements: dict[str, str]) -> str:
-        """The full name of a connection's ``side`` end: a component's variable or a system's connector."""
+    def end(self, connection: Any, side: str, prefix: str, elements: dict[str, str]) -> tuple[str, bool | None]:
+        """The full name of a connection's ``side`` end (a component's variable or a system's
+        connector) and whether the value comes from there (True) or goes there (False), where the
+        kind of a system's connector says it (None: a component's variable, an inout connector)."""
         element, connector = connection.get(f"{side}Element"), self.required(connection, f"{side}Connector")
         system = f" {prefix[:-1]!r}" if prefix else ""
         if not element:
@@ -254,15 +263,17 @@ class _Reader:
                 own = [c[len(prefix):] for c in self.connectors if c.startswith(prefix) and "." not in c[len(prefix):]]
                 raise self.error(connection, f"{side}Connector {connector!r} is no connector of the system{system}"
                                              f"{_close(connector, own)}")
-            return name
+            return name, _gives(self.connectors[name], inside=True)
         if element not in elements:
             raise self.error(connection, f"{side}Element {element!r} is no element of the system{system}"
                                          f"{_close(element, elements)}")
         name = f"{prefix}{element}.{connector}"
-        if elements[element] == "System" and name not in self.connectors:
+        if elements[element] != "System":
+            return name, None
+        if name not in self.connectors:
             raise self.error(connection, f"{side}Connector {connector!r} is no connector of the system "
                                          f"{prefix + element!r}")
-        return name
+        return name, _gives(self.connectors[name], inside=False)
 
     def bind(self, element: Any, scope: str, depth: int) -> None:
         """Record the values of ``element``'s bindings, named ``scope`` + prefix + name, mappings applied."""
@@ -300,7 +311,13 @@ class _Reader:
                     raise self.error(reference, "has neither a source nor an inline ssm:ParameterMapping")
             for entry in document.iterfind("ssm:MappingEntry", NS):
                 self.known(entry, file)
-                source, target = self.required(entry, "source", file), self.required(entry, "target", file)
+                target = self.required(entry, "target", file)
+                if entry.get("source") == "":
+                    # a template's row (OMSimulator exports every parameter so, to be filled in): maps nothing
+                    logger.debug("%s: %s, line %s: %s is mapped from no source", self.where, file,
+                                 entry.sourceline, target)
+                    continue
+                source = self.required(entry, "source", file)
                 mapping.setdefault(source, []).append((target, self.transformation(entry, file)))
         return mapping
 
@@ -417,6 +434,16 @@ def _set_unit(units: dict[str, Unit], name: str, unit: Unit | None) -> None:
         units.pop(name, None)
     else:
         units[name] = unit
+
+
+def _gives(kind: str, inside: bool) -> bool | None:
+    """Whether a system's connector of ``kind`` is where a connection's value comes from, seen from
+    ``inside`` its system or from outside it (None: either way, an inout or local connector)."""
+    if kind in _INWARD:
+        return inside
+    if kind in _OUTWARD:
+        return not inside
+    return None
 
 
 def _compose(first: Conversion | None, then: Conversion | None) -> Conversion | None:

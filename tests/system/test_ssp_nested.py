@@ -285,3 +285,33 @@ def test_an_input_connector_can_be_held_as_a_fixed_input(gain, tmp_path):
     np.testing.assert_array_equal(env.reset(seed=0)[0], [3.0, 0.0])
     np.testing.assert_array_equal(env.step(np.array([4.0]))[0], [3.0, 4.0])
     env.close()
+
+
+def test_connections_written_end_to_start_flow_as_the_connectors_kinds_say(gain, tmp_path):
+    # OMSimulator's acvs_compositeModel: inside the sub-system 'valve', 'valve_model.pA -> .p1' and
+    # 'valve_model.pB -> .p1' into its input connector p1, and outside 'valve.p1 -> fuel.valve_p1'
+    # from an output: p1 takes fuel's output to both inputs, it is not fed twice
+    valve = system("valve", [component("a", "gain"), component("b", "gain")],
+                   [connect("a.u", ".p1"), connect("b.u", ".p1", factor=2.0), connect(".q", "a.y")],
+                   connectors(p1="input", q="output"))
+    top = system("top", [valve, component("fuel", "gain")],
+                 [connect("valve.p1", "fuel.y"), connect("fuel.u", ".u"), connect(".y", "valve.q")],
+                 connectors(u="input", y="output"), bindings({"fuel.k": 3.0, "valve.a.k": 5.0}))
+    folder = write_ssp_folder(tmp_path / "reversed", top, {"gain": gain})
+    described = open_system(folder)
+    assert sorted(link.label for link in described.links) == ["fuel.y -> valve.a.u", "fuel.y -> valve.b.u"]
+    env = FMUEnv(fmu=folder, inputs=["u"], outputs=["valve.a.u", "valve.b.u", "y"], time_step=0.1)
+    env.reset(seed=0)
+    np.testing.assert_array_equal(env.step(np.array([2.0]))[0], [6.0, 12.0, 30.0])
+    env.close()
+
+
+def test_a_mapping_templates_rows_without_a_source_map_nothing(gain, tmp_path):
+    # OMSimulator's embrace: ECS_HW.ssm lists every parameter as '<MappingEntry source="" target="...">'
+    # beside the set's own names, which bind as they are
+    top = system("top", [component("a", "gain"), component("b", "gain")],
+                 parameters=bindings(source="resources/k.ssv", ssm="resources/k.ssm"))
+    folder = write_ssp_folder(tmp_path / "template", top, {"gain": gain}, {
+        "resources/k.ssv": parameter_set({"a.k": 4.0, "k_b": 1.5}),
+        "resources/k.ssm": mapping(("", "a.k"), ("", "b.b"), ("k_b", "b.k"))})
+    assert open_system(folder).parameter_values == {"a.k": 4.0, "b.k": 1.5}
