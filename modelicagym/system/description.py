@@ -11,6 +11,7 @@ connections, the order Gauss-Seidel steps in and the loops of direct feedthrough
 
 from __future__ import annotations
 
+import logging
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
@@ -27,6 +28,8 @@ from modelicagym.system.graph import ConnectionSpec, Link, check_connections, co
 from modelicagym.system.loops import Loop, check_breaks_hold, find_loops, named_breaks
 from modelicagym.system.ssp import SystemConnector, SystemSpec, read_ssp
 from modelicagym.system.units import Conversion, Unit, conversion, declared_unit
+
+logger = logging.getLogger(__name__)
 
 #: the master algorithms: how the components' inputs are updated within a communication step
 MASTERS = ("gauss-seidel", "jacobi")
@@ -51,6 +54,7 @@ class SystemDescription:
         check_breaks_hold(self.loop_breaks, self.order, self.name)
         self._fed = {(link.target, link.target_variable): link for link in self.links}
         self.start_time = spec.start_time
+        self.stop_time = spec.stop_time
         #: the SSP system's own inputs and outputs (`SystemConnector`), those that reach a component
         self.connectors: dict[str, SystemConnector] = self._usable_connectors(spec)
         self._through = {target for c in self.connectors.values() if c.kind == "input" for target, _ in c.targets}
@@ -105,10 +109,19 @@ class SystemDescription:
         return source, conversion or Conversion()
 
     def _in_own_unit(self, name: str, value: Any, unit: Unit | None) -> Any:
-        """``value`` of parameter ``name``, given in ``unit``, in the unit its variable declares."""
+        """``value`` of parameter ``name``, given in ``unit``, in the unit its variable declares. A
+        unit defined nowhere (neither the parameter set nor the FMU gives its base units, as in a
+        product database's ``[m]``) cannot convert: the value is taken as it is, and reported."""
         variable = self.settable_variable(name)
         component = self.components[self.split(name)[0]]
-        convert = conversion(unit, declared_unit(variable.unit, component.units), f"{self.name}: parameter {name!r}")
+        declared = declared_unit(variable.unit, component.units)
+        if unit is not None and unit.exponents is None and declared is not None and unit.name != declared.name:
+            note = (f"parameter {name!r}: its value's unit {unit.name!r} is defined nowhere (not in its parameter "
+                    f"set, not in the FMU): the value is taken in the variable's unit {declared.name!r}")
+            logger.warning("%s: %s", self.name, note)
+            self.notes.append(note)
+            return value
+        convert = conversion(unit, declared, f"{self.name}: parameter {name!r}")
         return value if convert.identity else convert.scale * value + convert.shift
 
     def __repr__(self) -> str:
@@ -160,11 +173,13 @@ class SystemDescription:
 
     @property
     def default_experiment(self) -> DefaultExperiment:
-        """The SSP's start time, and the first FMU's step size (the env's default time step)."""
+        """The SSP's start and stop time, and the first FMU's step size (the env's default time
+        step); the first FMU's start and stop time where the SSP declares none."""
         first = next((c.description for c in self.components.values() if c.description is not None), None)
         declared = first.default_experiment if first is not None else DefaultExperiment()
         start = declared.start_time if self.start_time is None else self.start_time
-        return DefaultExperiment(start, declared.stop_time, declared.step_size, declared.tolerance)
+        stop = declared.stop_time if self.stop_time is None else self.stop_time
+        return DefaultExperiment(start, stop, declared.step_size, declared.tolerance)
 
     def once_per_process(self, mode: str | None = None) -> bool:
         """Whether some FMU of the system may be instantiated only once per process."""

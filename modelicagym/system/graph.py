@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from modelicagym.errors import ConfigError
 from modelicagym.fmu.errors import VariableError
@@ -25,6 +25,9 @@ class ConnectionSpec:
     source: str
     target: str
     transformation: Conversion | None = None
+    #: whether the variables' causalities say which way it flows (an SSP's connection, which tools
+    #: write either way round): an input at the start and an output at the end then flows from the output
+    either_way: bool = False
 
     @property
     def label(self) -> str:
@@ -85,6 +88,9 @@ def check_connections(components: Mapping[str, Component], connections: Sequence
             into = target.variable(target_name, "input", target.inputs)
         except VariableError as error:
             raise VariableError(f"{where}: {error}") from None
+        if connection.either_way and out.is_input and into.is_output:
+            connection = replace(connection, source=connection.target, target=connection.source)
+            source, source_name, out, target, target_name, into = target, target_name, into, source, source_name, out
         if not out.is_output:
             raise ConfigError(f"{where}: {connection.source!r} is not an output (causality {out.causality!r}); "
                               f"outputs of {source.name}: {', '.join(v.name for v in source.outputs) or 'none'}")

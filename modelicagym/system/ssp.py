@@ -92,6 +92,8 @@ class SystemSpec:
     connections: list[ConnectionSpec]
     parameters: dict[str, Any] = field(default_factory=dict)
     start_time: float | None = None
+    #: the stop time its default experiment declares (None: none)
+    stop_time: float | None = None
     #: the unit a parameter set gives a value in, where it gives one (converted to the variable's)
     parameter_units: dict[str, Unit] = field(default_factory=dict)
     #: the connections Gauss-Seidel reads from the previous step, as the config names them (`modelicagym.system.loops`)
@@ -125,6 +127,8 @@ def read_ssp(path: str | Path) -> SystemSpec:
     experiment = ssd.find("ssd:DefaultExperiment", NS)
     if experiment is not None and experiment.get("startTime") is not None:
         spec.start_time = reader.number(experiment, "startTime", SSD_NAME)
+    if experiment is not None and experiment.get("stopTime") is not None:
+        spec.stop_time = reader.number(experiment, "stopTime", SSD_NAME)
     return spec
 
 
@@ -395,14 +399,14 @@ class _Reader:
             elif start in self.connectors:
                 logger.debug("%s: %s: nothing feeds %s: %s stays unconnected", self.where, edge.where, start, edge.end)
             else:
-                connections.append(ConnectionSpec(start, edge.end, transformation))
+                connections.append(ConnectionSpec(start, edge.end, transformation, either_way=True))
         for connector in connectors.values():
             source = self.source(connector.name)
             if source[0] != connector.name and source[0] not in self.connectors:
                 connector.source = source
         notes: list[str] = []
         parameters, units = self.parameters(connectors, notes)
-        return SystemSpec(name, self.components, connections, parameters, None, units, connectors=connectors,
+        return SystemSpec(name, self.components, connections, parameters, parameter_units=units, connectors=connectors,
                           notes=notes)
 
     def parameters(self, connectors: dict[str, SystemConnector],
@@ -410,7 +414,13 @@ class _Reader:
         """Every binding's value by the component variable it sets, the higher level's winning."""
         values: dict[str, Any] = {}
         units: dict[str, Unit] = {}
-        for binding in sorted(self.bindings, key=lambda b: -b.depth):  # stable: a level's later binding wins
+        elsewhere: dict[str, list[str]] = {}  # a set's file -> its parameters that name no element of the system
+        # a value through a connection from a system's connector holds whatever is bound to the
+        # variable itself: those bindings go last; within each kind, the higher level's, then the later, win
+        for binding in sorted(self.bindings, key=lambda b: (b.name in self.connectors, -b.depth)):
+            if binding.name not in self.connectors and not any(binding.name.startswith(f"{c}.") for c in self.components):
+                elsewhere.setdefault(binding.where.split(", line ")[0], []).append(binding.name)
+                continue
             if binding.name not in self.connectors:
                 values[binding.name] = binding.value
                 _set_unit(units, binding.name, binding.unit)
@@ -426,6 +436,13 @@ class _Reader:
                 values[target] = binding.value if transformation is None else \
                     transformation.scale * binding.value + transformation.shift
                 _set_unit(units, target, binding.unit if transformation is None else None)
+        for file, names in elsewhere.items():
+            # a set written for more than this system (a product database's export, as embrace's): the rest is not ours
+            note = (f"{len(names)} parameter{'s' if len(names) > 1 else ''} of {file} name no component or connector "
+                    f"of the system ({', '.join(map(repr, names[:3]))}{', ...' if len(names) > 3 else ''}): "
+                    f"{'they have' if len(names) > 1 else 'it has'} no effect")
+            logger.warning("%s: %s", self.where, note)
+            notes.append(note)
         return values, units
 
 

@@ -315,3 +315,71 @@ def test_a_mapping_templates_rows_without_a_source_map_nothing(gain, tmp_path):
         "resources/k.ssv": parameter_set({"a.k": 4.0, "k_b": 1.5}),
         "resources/k.ssm": mapping(("", "a.k"), ("", "b.b"), ("k_b", "b.k"))})
     assert open_system(folder).parameter_values == {"a.k": 4.0, "b.k": 1.5}
+
+
+def test_a_value_through_a_parameter_connectors_connection_wins_over_the_variables_own_binding(gain, tmp_path):
+    # OMSimulator's import_export_parameters1: one set binds k_cref = 30 (connected to addP.k1) and,
+    # later, addP.k1 = 10; its script prints addP.k1 = 30 after initialization. So also when the
+    # variable's own binding is at a higher level than the connector's
+    inner = system("sub", [component("g", "gain")], [connect(".p", "g.k")], connectors(p="parameter"),
+                   bindings({"p": 3.0}))
+    top = system("top", [inner, component("a", "gain")], [connect(".k_cref", "a.k")],
+                 connectors(k_cref="parameter"), bindings({"k_cref": 30.0, "a.k": 10.0, "sub.g.k": 7.0}))
+    described = open_system(write_ssp_folder(tmp_path / "wins", top, {"gain": gain}))
+    assert described.parameter_values == {"a.k": 30.0, "sub.g.k": 3.0}
+
+
+def test_the_ssps_default_experiment_gives_the_systems_start_and_stop_time(gain, tmp_path):
+    # OMSimulator's import_export_parameters: stopTime="4.0" in the SSD, the FMUs' own 1.0
+    top = system("top", [component("g", "gain")])
+    folder = write_ssp_folder(tmp_path / "experiment", top, {"gain": gain})
+    ssd = folder / "SystemStructure.ssd"
+    ssd.write_text(ssd.read_text().replace(
+        "</ssd:SystemStructureDescription>",
+        '<ssd:DefaultExperiment startTime="0.5" stopTime="2.5"/></ssd:SystemStructureDescription>'))
+    experiment = open_system(folder).default_experiment
+    assert (experiment.start_time, experiment.stop_time) == (0.5, 2.5)
+    run = simulate(folder, outputs=["g.y"], time_step=0.5)
+    assert list(run["time"]) == [0.5, 1.0, 1.5, 2.0, 2.5]
+
+
+def test_a_connection_between_components_written_end_to_start_flows_from_the_output(gain, tmp_path):
+    # OMSimulator's acvs_compositeModel: 'valve_model.pLmax -> interface_model.pLmax.in.y', an input to an output
+    top = system("top", [component("a", "gain"), component("b", "gain")], [connect("b.u", "a.y", factor=2.0)],
+                 parameters=bindings({"a.k": 1.5, "a.u": 4.0}))
+    described = open_system(write_ssp_folder(tmp_path / "reversed", top, {"gain": gain}))
+    (link,) = described.links
+    assert link.label == "a.y -> b.u" and link.conversion.scale == 2.0
+    run = simulate(write_ssp_folder(tmp_path / "run", top, {"gain": gain}), 0.1, outputs=["b.u"], time_step=0.1)
+    assert run["b.u"][-1] == 2.0 * 1.5 * 4.0
+    with pytest.raises(ConfigError, match=r"connection b\.u -> a\.y: 'b\.u' is not an output"):  # a config is read as written
+        open_system(fmus={"a": str(gain), "b": str(gain)}, connections=["b.u -> a.y"])
+
+
+def test_a_parameter_set_written_for_more_than_the_system_sets_what_is_in_it(gain, tmp_path, caplog):
+    # OMSimulator's embrace: a product database's set of 165 parameters, two mapped onto the system
+    top = system("top", [component("a", "gain")], parameters=bindings(source="resources/k.ssv", ssm="resources/k.ssm"))
+    folder = write_ssp_folder(tmp_path / "database", top, {"gain": gain}, {
+        "resources/k.ssv": parameter_set({"product.pipe.length": 2.5, "product.pipe.radius": 0.1, "a.b": 1.0,
+                                          "product": 3.0}),
+        "resources/k.ssm": mapping(("product.pipe.length", "a.k"))})
+    with caplog.at_level(logging.WARNING, logger="modelicagym.system.ssp"):
+        described = open_system(folder)
+    assert described.parameter_values == {"a.k": 2.5, "a.b": 1.0}
+    assert described.notes == [("2 parameters of resources/k.ssv name no component or connector of the system "
+                                "('product.pipe.radius', 'product'): they have no effect")]
+    assert "'product.pipe.radius'" in caplog.text
+
+
+def test_a_parameter_value_in_a_unit_defined_nowhere_is_taken_in_the_variables_unit(family_fmu, tmp_path, caplog):
+    # OMSimulator's embrace: unit="[m]" for a variable in m, with no ssv:Units to say what [m] is
+    consumer = family_fmu("consumer", 2)
+    top = system("top", [component("c", "consumer")], parameters=bindings(source="resources/k.ssv"))
+    ssv = parameter_set({"c.Q_gain": 250.0}).replace('<ssv:Real value="250.0"/>', '<ssv:Real value="250.0" unit="[W]"/>')
+    with caplog.at_level(logging.WARNING, logger="modelicagym.system.description"):
+        described = open_system(write_ssp_folder(tmp_path / "unit", top, {"consumer": consumer},
+                                                 {"resources/k.ssv": ssv}))
+    assert described.parameter_values == {"c.Q_gain": 250.0}
+    assert described.notes == [("parameter 'c.Q_gain': its value's unit '[W]' is defined nowhere (not in its "
+                                "parameter set, not in the FMU): the value is taken in the variable's unit 'W'")]
+    assert "defined nowhere" in caplog.text
