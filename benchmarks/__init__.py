@@ -36,4 +36,6 @@ BENCHMARKS = (
     ("barrier", "benchmarks.barrier", "an empty step's synchronisation, by number of workers"),
     ("runner", "benchmarks.runner", "the paper study's training loop against the bare pool, part by part"),
     ("solver-accuracy", "benchmarks.solver_accuracy", "the cart-pole's internal step: error against cost"),
+    ("omsimulator-suite", "benchmarks.omsimulator_suite",
+     "OMSimulator's test-suite systems: which load and run, and the values its scripts print (--suite)"),
 )
