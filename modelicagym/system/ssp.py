@@ -102,6 +102,9 @@ class SystemSpec:
     connectors: dict[str, SystemConnector] = field(default_factory=dict)
     #: what was read but has no effect (a parameter that feeds nothing), one line each
     notes: list[str] = field(default_factory=list)
+    #: the value of each system connector the parameter sets reach, at any depth, by its full name:
+    #: its own binding's, or what a connector bound at a higher level feeds it (as a variable's)
+    connector_values: dict[str, Any] = field(default_factory=dict)
 
 
 def is_ssp(path: str | Path) -> bool:
@@ -161,6 +164,7 @@ class _Reader:
         self.connectors: dict[str, str] = {}  # a system's connector, by its full name -> its kind
         self.edges: list[_Edge] = []
         self.bindings: list[_Binding] = []
+        self.connector_values: dict[str, Any] = {}
 
     # -- reading ---------------------------------------------------------------------------------
 
@@ -373,15 +377,18 @@ class _Reader:
             seen.add(name)
         return name, transformation
 
-    def targets(self, name: str, seen: frozenset[str] = frozenset()) -> list[tuple[str, Conversion | None]]:
-        """The component variables connector ``name`` feeds, through systems' connectors."""
+    def targets(self, name: str, seen: frozenset[str] = frozenset(),
+                through: bool = False) -> list[tuple[str, Conversion | None]]:
+        """The component variables connector ``name`` feeds, through systems' connectors (and,
+        ``through``, those connectors too)."""
         found = []
         for edge in self.edges:
             if edge.start != name or edge.end in seen:
                 continue
             if edge.end in self.connectors:
+                found += [(edge.end, edge.transformation)] if through else []
                 found += [(target, _compose(edge.transformation, transformation))
-                          for target, transformation in self.targets(edge.end, seen | {name})]
+                          for target, transformation in self.targets(edge.end, seen | {name}, through)]
             else:
                 found.append((edge.end, edge.transformation))
         return found
@@ -407,7 +414,12 @@ class _Reader:
         notes: list[str] = []
         parameters, units = self.parameters(connectors, notes)
         return SystemSpec(name, self.components, connections, parameters, parameter_units=units, connectors=connectors,
-                          notes=notes)
+                          notes=notes, connector_values=self.connector_values)
+
+    @cached_property
+    def prefixes(self) -> tuple[str, ...]:
+        """``component.`` of every component: how a variable's full name starts."""
+        return tuple(f"{name}." for name in self.components)
 
     def parameters(self, connectors: dict[str, SystemConnector],
                    notes: list[str]) -> tuple[dict[str, Any], dict[str, Unit]]:
@@ -418,7 +430,7 @@ class _Reader:
         # a value through a connection from a system's connector holds whatever is bound to the
         # variable itself: those bindings go last; within each kind, the higher level's, then the later, win
         for binding in sorted(self.bindings, key=lambda b: (b.name in self.connectors, -b.depth)):
-            if binding.name not in self.connectors and not any(binding.name.startswith(f"{c}.") for c in self.components):
+            if binding.name not in self.connectors and not any(map(binding.name.startswith, self.prefixes)):
                 elsewhere.setdefault(binding.where.split(", line ")[0], []).append(binding.name)
                 continue
             if binding.name not in self.connectors:
@@ -427,15 +439,20 @@ class _Reader:
                 continue
             if binding.name in connectors:
                 connectors[binding.name].value = binding.value
-            targets = self.targets(binding.name)
-            if not targets:
+            self.connector_values[binding.name] = binding.value
+            targets = self.targets(binding.name, through=True)
+            if all(target in self.connectors for target, _ in targets):
                 note = f"parameter {binding.name!r} ({binding.where}) feeds no component: it has no effect"
                 logger.warning("%s: %s", self.where, note)
                 notes.append(note)
             for target, transformation in targets:
-                values[target] = binding.value if transformation is None else \
+                value = binding.value if transformation is None else \
                     transformation.scale * binding.value + transformation.shift
-                _set_unit(units, target, binding.unit if transformation is None else None)
+                if target in self.connectors:
+                    self.connector_values[target] = value
+                else:
+                    values[target] = value
+                    _set_unit(units, target, binding.unit if transformation is None else None)
         for file, names in elsewhere.items():
             # a set written for more than this system (a product database's export, as embrace's): the rest is not ours
             note = (f"{len(names)} parameter{'s' if len(names) > 1 else ''} of {file} name no component or connector "

@@ -17,6 +17,7 @@ from modelicagym.errors import ConfigError, DataError
 from modelicagym.info import describe_fmu, suggest
 from modelicagym.simulation import simulate
 from modelicagym.system import open_system
+from modelicagym.system.ssp import read_ssp
 
 
 @pytest.fixture
@@ -352,7 +353,8 @@ def test_a_connection_between_components_written_end_to_start_flows_from_the_out
     assert link.label == "a.y -> b.u" and link.conversion.scale == 2.0
     run = simulate(write_ssp_folder(tmp_path / "run", top, {"gain": gain}), 0.1, outputs=["b.u"], time_step=0.1)
     assert run["b.u"][-1] == 2.0 * 1.5 * 4.0
-    with pytest.raises(ConfigError, match=r"connection b\.u -> a\.y: 'b\.u' is not an output"):  # a config is read as written
+    # a config's connection is read as written
+    with pytest.raises(ConfigError, match=r"connection b\.u -> a\.y: 'b\.u' is not an output"):
         open_system(fmus={"a": str(gain), "b": str(gain)}, connections=["b.u -> a.y"])
 
 
@@ -375,7 +377,8 @@ def test_a_parameter_value_in_a_unit_defined_nowhere_is_taken_in_the_variables_u
     # OMSimulator's embrace: unit="[m]" for a variable in m, with no ssv:Units to say what [m] is
     consumer = family_fmu("consumer", 2)
     top = system("top", [component("c", "consumer")], parameters=bindings(source="resources/k.ssv"))
-    ssv = parameter_set({"c.Q_gain": 250.0}).replace('<ssv:Real value="250.0"/>', '<ssv:Real value="250.0" unit="[W]"/>')
+    ssv = parameter_set({"c.Q_gain": 250.0}).replace('<ssv:Real value="250.0"/>',
+                                                      '<ssv:Real value="250.0" unit="[W]"/>')
     with caplog.at_level(logging.WARNING, logger="modelicagym.system.description"):
         described = open_system(write_ssp_folder(tmp_path / "unit", top, {"consumer": consumer},
                                                  {"resources/k.ssv": ssv}))
@@ -383,3 +386,14 @@ def test_a_parameter_value_in_a_unit_defined_nowhere_is_taken_in_the_variables_u
     assert described.notes == [("parameter 'c.Q_gain': its value's unit '[W]' is defined nowhere (not in its "
                                 "parameter set, not in the FMU): the value is taken in the variable's unit 'W'")]
     assert "defined nowhere" in caplog.text
+
+
+def test_the_reader_gives_every_system_connectors_value_the_higher_binding_winning(tmp_path):
+    # OMSimulator's import_hierarchical_ssv_sources and importParameterMapping: systems of connectors alone,
+    # whose scripts print each connector's value
+    inner = system("S1", [], [], connectors(q="parameter", r="parameter", free="parameter"),
+                   bindings({"q": 3.0, "r": 1.0}))
+    top = system("top", [inner], [connect(".p", "S1.q", factor=2.0)], connectors(p="parameter"),
+                 bindings({"p": 5.0, "S1.r": 7.0}))
+    spec = read_ssp(write_ssp_folder(tmp_path / "connectors", top, {}))
+    assert spec.connector_values == {"p": 5.0, "S1.q": 10.0, "S1.r": 7.0}
