@@ -94,34 +94,37 @@ def check_system(path: Path, scratch: Path) -> Outcome:
     if refusal is not None:
         outcome.why = f"not refused; OMSimulator refuses it ({refusal[1]})"
         return outcome
+    scripts = [s for s in SCRIPTS if s.system == outcome.system]
+    outcome.scripts += [script.script for script in scripts]
     if not spec.components:
-        outcome.why = "no component: nothing to run (its scripts read only the system's own connectors)"
+        outcome.why = "no component, nothing to run: its connectors' values as the SSP reader gives them"
+        for script in scripts:
+            values = read_ssp(edited_copy(path, script.edits, scratch)).connector_values
+            compare(outcome, script, values, values)
         return outcome
     missing = missing_binaries(spec.components)
     if missing:
         outcome.why = "skipped: " + "; ".join(missing)
         return outcome
-    scripts = [s for s in SCRIPTS if s.system == outcome.system]
     if not scripts and outcome.system in RUNS:
         script, stop_time, time_step = RUNS[outcome.system]
         scripts = [Script(script, outcome.system, stop_time=stop_time, time_step=time_step)]
+        outcome.scripts.append(script)
     notes = []
     for script in scripts or [Script("(none)", outcome.system, stop_time=0.0)]:
-        outcome.scripts.append(script.script)
-        notes += run_script(path, script, outcome, scratch)
+        notes += run_script(edited_copy(path, script.edits, scratch), script, outcome)
     outcome.why = "; ".join(dict.fromkeys(notes))
     return outcome
 
 
-def run_script(path: Path, script: Script, outcome: Outcome, scratch: Path) -> list[str]:
-    """Run ``script`` on the system at ``path`` into ``outcome``; the notes on how it ran."""
+def run_script(path: Path, script: Script, outcome: Outcome) -> list[str]:
+    """Run ``script`` on the system at ``path`` and compare into ``outcome``; the notes on how it ran."""
     from modelicagym.errors import ModelicaGymError
     from modelicagym.fmu.errors import FMUValidationError
     from modelicagym.simulation import simulate
     from modelicagym.system import open_system
+    from modelicagym.system.ssp import read_ssp
 
-    if script.edits:
-        path = edited_copy(path, script.edits, scratch / script.system)
     notes, validate = [], True
     try:
         try:
@@ -135,40 +138,46 @@ def run_script(path: Path, script: Script, outcome: Outcome, scratch: Path) -> l
         outcome.stated += script.stated
         return [f"does not load: {error}"]
     outcome.loads = outcome.loads is not False
-    outcome.stated += script.stated
-    names = []
-    for name in {**script.start, **script.end}:
-        why = not_observable(description, name)
-        if why:
-            outcome.not_given.append(f"{name}: {why}")
-        else:
-            names.append(name)
+    stated = {**script.start, **script.end}
+    observed = [name for name in stated if name not in script.own and not not_observable(description, name)]
     config = {"fmu": str(path), "validate": validate, "parameters": script.parameters, "time_step": script.time_step}
     stop = 0.0 if script.stop_time is None and not script.end else script.stop_time
     try:
-        run = simulate(config, stop, inputs=script.inputs, outputs=names or None)
+        run = simulate(config, stop, inputs=script.inputs, outputs=observed or None)
     except (ModelicaGymError, FileNotFoundError) as error:
         outcome.runs = False
+        outcome.stated += script.stated
         return [*notes, f"does not run: {error}"]
     outcome.runs = outcome.runs is not False
-    for row, stated in ((run[0], script.start), (run[-1], script.end)):
-        for name, value in stated.items():
-            if name not in names:
-                continue
-            ours = float(row[name])
-            if math.isclose(ours, value, rel_tol=RELATIVE_TOLERANCE, abs_tol=1e-12):
-                outcome.matched += 1
-            else:
-                outcome.mismatches.append(f"{name} at t={row['time']:g}: {ours!r}, OMSimulator {value!r}")
+    connectors = read_ssp(path).connector_values
+    compare(outcome, script, {**connectors, **{name: run[0][name] for name in observed}},
+            {**connectors, **{name: run[-1][name] for name in observed}}, description)
     return notes
 
 
+def compare(outcome: Outcome, script: Script, start: dict[str, Any], end: dict[str, Any],
+            description: Any = None) -> None:
+    """Count ``script``'s values against ours after initialization (``start``) and after the run
+    (``end``): a variable's from the run, a system connector's from the SSP reader."""
+    outcome.stated += script.stated
+    for ours, stated, when in ((start, script.start, "after initialization"), (end, script.end, "after the run")):
+        for name, value in stated.items():
+            if name in script.own:
+                outcome.not_given.append(f"{name}: the script sets it itself")
+            elif name not in ours:
+                outcome.not_given.append(f"{name}: {not_observable(description, name) or 'no value'}")
+            elif math.isclose(float(ours[name]), value, rel_tol=RELATIVE_TOLERANCE, abs_tol=1e-12):
+                outcome.matched += 1
+            else:
+                outcome.mismatches.append(f"{name} {when}: {float(ours[name])!r}, OMSimulator {value!r}")
+
+
 def not_observable(description: Any, name: str) -> str:
-    """Why modelicagym gives no value of ``name`` in a run ("": it does)."""
+    """Why a run of ``description`` records no value of ``name`` ("": it does)."""
     from modelicagym.errors import ModelicaGymError
 
-    if name not in description.variables:
-        return "no variable of the system (a system's parameter, or a connector that feeds nothing)"
+    if description is None or name not in description.variables:
+        return "no value bound to this connector of the system (OMSimulator reads 0.0)"
     try:
         description.observable_variable(name)
     except ModelicaGymError as error:
@@ -176,8 +185,12 @@ def not_observable(description: Any, name: str) -> str:
     return ""
 
 
-def edited_copy(path: Path, edits: tuple[tuple[str, str], ...], folder: Path) -> Path:
-    """A copy of the system folder ``path`` whose SSD has ``edits`` made (a script's own edits)."""
+def edited_copy(path: Path, edits: tuple[tuple[str, str], ...], scratch: Path) -> Path:
+    """A copy of the system folder ``path`` under ``scratch`` whose SSD has ``edits`` made (a
+    script's own edits); ``path`` itself where there are none."""
+    if not edits:
+        return path
+    folder = scratch / f"{path.name}-{len(list(scratch.iterdir()))}"
     shutil.copytree(path, folder)
     ssd = folder / "SystemStructure.ssd"
     text = ssd.read_text()

@@ -49,7 +49,8 @@ def test_a_suite_of_our_own_systems_is_tabled_loaded_skipped_and_refused(family_
     assert list(outcomes) == ["invalidSSD", "ours", "windows"]
     assert (outcomes["ours"]["loads"], outcomes["ours"]["runs"]) == (True, True)
     assert outcomes["windows"]["loads"] is None
-    assert outcomes["windows"]["why"] == "skipped: a: gain.fmu has binaries for win64; b: gain.fmu has binaries for win64"
+    assert outcomes["windows"]["why"] == ("skipped: a: gain.fmu has binaries for win64; "
+                                          "b: gain.fmu has binaries for win64")
     assert outcomes["invalidSSD"]["why"].startswith("refused, not for its defect: ")
     assert "kind 'sideways' is none of input" in outcomes["invalidSSD"]["why"]
     assert (result["systems"], result["with_linux_fmus"], result["load"], result["run"]) == (3, 1, 1, 1)
