@@ -63,8 +63,13 @@ class SystemDescription:
         #: the values the SSP's parameter sets give (in their variables' units), applied under the
         #: env's own at every reset
         self.parameter_values: dict[str, Any] = {}
-        self.parameter_values = {name: self._in_own_unit(name, value, spec.parameter_units.get(name))
-                                 for name, value in spec.parameters.items()}
+        for name, value in spec.parameters.items():
+            link = self.fed_by(name)
+            if link is None:
+                self.parameter_values[name] = self._in_own_unit(name, value, spec.parameter_units.get(name))
+            else:  # a start value, as tools export one for every input: the connection sets it
+                self._note(f"parameter {name!r}: the connection {link.label} feeds it: the value the SSP binds to it "
+                           f"has no effect")
         for derived in ("variables", "inputs", "outputs", "parameters"):  # checking the values read them before
             self.__dict__.pop(derived, None)
 
@@ -116,13 +121,16 @@ class SystemDescription:
         component = self.components[self.split(name)[0]]
         declared = declared_unit(variable.unit, component.units)
         if unit is not None and unit.exponents is None and declared is not None and unit.name != declared.name:
-            note = (f"parameter {name!r}: its value's unit {unit.name!r} is defined nowhere (not in its parameter "
-                    f"set, not in the FMU): the value is taken in the variable's unit {declared.name!r}")
-            logger.warning("%s: %s", self.name, note)
-            self.notes.append(note)
+            self._note(f"parameter {name!r}: its value's unit {unit.name!r} is defined nowhere (not in its "
+                       f"parameter set, not in the FMU): the value is taken in the variable's unit {declared.name!r}")
             return value
         convert = conversion(unit, declared, f"{self.name}: parameter {name!r}")
         return value if convert.identity else convert.scale * value + convert.shift
+
+    def _note(self, note: str) -> None:
+        """Report what the SSP declares without effect (`notes`, and a warning)."""
+        logger.warning("%s: %s", self.name, note)
+        self.notes.append(note)
 
     def __repr__(self) -> str:
         return f"SystemDescription({self.name!r}, components={list(self.components)})"

@@ -397,3 +397,17 @@ def test_the_reader_gives_every_system_connectors_value_the_higher_binding_winni
                  bindings({"p": 5.0, "S1.r": 7.0}))
     spec = read_ssp(write_ssp_folder(tmp_path / "connectors", top, {}))
     assert spec.connector_values == {"p": 5.0, "S1.q": 10.0, "S1.r": 7.0}
+
+
+def test_a_value_bound_to_a_connected_input_gives_way_to_the_connection(gain, tmp_path, caplog):
+    # OMSimulator's replaceSubmodel4: root.ssv binds B.u1, which A.dummy feeds (tools export every input's start)
+    top = system("top", [component("a", "gain"), component("b", "gain")], [connect("a.y", "b.u")],
+                 parameters=bindings({"b.u": 3.0, "a.u": 2.0, "a.k": 1.5}))
+    folder = write_ssp_folder(tmp_path / "fed", top, {"gain": gain})
+    with caplog.at_level(logging.WARNING, logger="modelicagym.system.description"):
+        described = open_system(folder)
+    assert described.parameter_values == {"a.u": 2.0, "a.k": 1.5}
+    assert described.notes == ["parameter 'b.u': the connection a.y -> b.u feeds it: the value the SSP binds to it "
+                               "has no effect"]
+    assert "the connection a.y -> b.u feeds it" in caplog.text
+    assert simulate(folder, 0.1, outputs=["b.u"], time_step=0.1)["b.u"][-1] == 3.0  # 1.5 * 2, not the bound 3
