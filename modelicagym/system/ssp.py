@@ -15,7 +15,15 @@ Parameter bindings apply at every level; where several give the same variable a 
 of the higher level (the enclosing system) wins over a lower level's (a sub-system's, a
 component's own), the rule OMSimulator follows (its test suite expects the system's value); within one level the
 later binding wins. A value given to a connector (OMSimulator's system parameters) goes to every
-component variable the connector feeds; one that feeds nothing is reported (`SystemSpec.notes`).
+component variable the connector feeds, and wins over a value bound to the variable itself (the
+connection sets it); one that feeds nothing is reported (`SystemSpec.notes`), and so are the
+parameters of a set that name nothing in the system (a product database's export holds more).
+Every connector's value is kept (`SystemSpec.connector_values`). A mapping row with an empty source
+(OMSimulator's templates) maps nothing.
+
+Tools write a connection either way round: where the kinds of the system connectors at its ends
+say the value flows from end to start, it is read so, and a connection between components is
+marked to be turned round where its start is an input and its end an output (`ConnectionSpec.either_way`).
 
 A defect of the SSD, an SSV or an SSM is a `DataError` naming the file, the element and its line.
 """
@@ -423,7 +431,8 @@ class _Reader:
 
     def parameters(self, connectors: dict[str, SystemConnector],
                    notes: list[str]) -> tuple[dict[str, Any], dict[str, Unit]]:
-        """Every binding's value by the component variable it sets, the higher level's winning."""
+        """Every binding's value by the component variable it sets (see the module docstring for
+        which wins), and every connector's value into `connector_values`."""
         values: dict[str, Any] = {}
         units: dict[str, Unit] = {}
         elsewhere: dict[str, list[str]] = {}  # a set's file -> its parameters that name no element of the system
