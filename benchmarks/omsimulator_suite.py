@@ -73,15 +73,16 @@ def missing_binaries(components: dict[str, Any]) -> list[str]:
     return missing
 
 
-def check_system(path: Path, scratch: Path) -> Outcome:
-    """Read, open, run and compare one system (see the module docstring)."""
+def check_system(path: Path, scratch: Path, archive: bool = False) -> Outcome:
+    """Read, open, run and compare one system (see the module docstring); ``archive``: each as an
+    ``.ssp`` zipped from its folder."""
     from modelicagym.errors import DataError
     from modelicagym.system.ssp import read_ssp
 
     outcome = Outcome(path.stem if path.suffix == ".ssp" else path.name)
     refusal = REFUSALS.get(outcome.system)
     try:
-        spec = read_ssp(path)
+        spec = read_ssp(prepared(path, (), scratch, archive))
     except DataError as error:
         if refusal is None:
             outcome.why = f"refused: {error}"
@@ -99,7 +100,7 @@ def check_system(path: Path, scratch: Path) -> Outcome:
     if not spec.components:
         outcome.why = "no component, nothing to run: its connectors' values as the SSP reader gives them"
         for script in scripts:
-            values = read_ssp(edited_copy(path, script.edits, scratch)).connector_values
+            values = read_ssp(prepared(path, script.edits, scratch, archive)).connector_values
             compare(outcome, script, values, values)
         return outcome
     missing = missing_binaries(spec.components)
@@ -112,7 +113,7 @@ def check_system(path: Path, scratch: Path) -> Outcome:
         outcome.scripts.append(script)
     notes = []
     for script in scripts or [Script("(none)", outcome.system, stop_time=0.0)]:
-        notes += run_script(edited_copy(path, script.edits, scratch), script, outcome)
+        notes += run_script(prepared(path, script.edits, scratch, archive), script, outcome)
     outcome.why = "; ".join(dict.fromkeys(notes))
     return outcome
 
@@ -185,10 +186,11 @@ def not_observable(description: Any, name: str) -> str:
     return ""
 
 
-def edited_copy(path: Path, edits: tuple[tuple[str, str], ...], scratch: Path) -> Path:
-    """A copy of the system folder ``path`` under ``scratch`` whose SSD has ``edits`` made (a
-    script's own edits); ``path`` itself where there are none."""
-    if not edits:
+def prepared(path: Path, edits: tuple[tuple[str, str], ...], scratch: Path, archive: bool) -> Path:
+    """The system at ``path`` as a script runs it: a copy under ``scratch`` whose SSD has ``edits``
+    made (a script's own edits), zipped into an ``.ssp`` where ``archive`` (as a user's archive);
+    ``path`` itself where neither is asked for or ``path`` is an archive already."""
+    if path.suffix == ".ssp" or not (edits or archive):
         return path
     folder = scratch / f"{path.name}-{len(list(scratch.iterdir()))}"
     shutil.copytree(path, folder)
@@ -199,18 +201,24 @@ def edited_copy(path: Path, edits: tuple[tuple[str, str], ...], scratch: Path) -
             raise ValueError(f"{path}: SystemStructure.ssd holds no {old!r} to edit")
         text = text.replace(old, new)
     ssd.write_text(text)
-    return folder
+    if not archive:
+        return folder
+    ssp = folder.with_suffix(".ssp")
+    with zipfile.ZipFile(ssp, "w", zipfile.ZIP_DEFLATED) as zipped:
+        for file in sorted(folder.rglob("*")):
+            zipped.write(file, file.relative_to(folder).as_posix())
+    return ssp
 
 
-def acceptance(suite: Path) -> dict[str, Any]:
-    """Every system's `Outcome` and the totals."""
+def acceptance(suite: Path, archive: bool = False) -> dict[str, Any]:
+    """Every system's `Outcome` and the totals; ``archive``: each system run as an ``.ssp``."""
     if not (suite / "tests" / "resources").is_dir():
         raise FileNotFoundError(f"{suite} is not OMSimulator's testsuite/ folder: it has no tests/resources/")
     with tempfile.TemporaryDirectory(prefix="modelicagym-omsimulator-") as scratch:
-        outcomes = [check_system(path, Path(scratch)) for path in find_systems(suite)]
+        outcomes = [check_system(path, Path(scratch), archive) for path in find_systems(suite)]
     runnable = [o for o in outcomes if o.loads is not None]
     return {
-        "suite": str(suite), "machine": platform.platform(),
+        "suite": str(suite), "machine": platform.platform(), "as_archives": archive,
         "systems": len(outcomes), "with_linux_fmus": len(runnable),
         "load": sum(bool(o.loads) for o in runnable), "run": sum(bool(o.runs) for o in runnable),
         "values_stated": sum(o.stated for o in outcomes), "values_matched": sum(o.matched for o in outcomes),
@@ -241,11 +249,13 @@ def report(result: dict[str, Any]) -> str:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--suite", required=True, type=Path,
                         help="OMSimulator's testsuite/ folder (its tests/resources/ holds the systems)")
+    parser.add_argument("--as-ssp", action="store_true",
+                        help="zip each system folder into an .ssp (in a temporary folder) and run that")
     parser.add_argument("--json", default="bench-results/omsimulator_suite.json", help="where to write the JSON")
 
 
 def run(args: argparse.Namespace) -> int:
-    result = acceptance(args.suite.expanduser())
+    result = acceptance(args.suite.expanduser(), args.as_ssp)
     print(report(result))
     print(f"\nwrote {write_json(args.json, result)}")
     return 0
