@@ -31,6 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", help="the CSV to write (default: <target name>-run.csv)")
     parser.add_argument("--plot", metavar="PNG", help="also draw the variables over time into this PNG (needs the "
                                                       "plots extra: pip install 'modelicagym[plots]')")
+    parser.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
 
 
 def _values(settings: list[str], option: str) -> dict[str, float]:
@@ -47,11 +48,18 @@ def _values(settings: list[str], option: str) -> dict[str, float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from modelicagym.simulation import plot, simulate, write_csv
+    from modelicagym.fmu.errors import FMUValidationError, InvalidFMUError
+    from modelicagym.simulation import model_config, plot, simulate, write_csv
 
-    trajectory = simulate(args.target, args.stop_time, inputs=_values(args.held, "--input"), table=args.inputs,
-                          outputs=args.outputs, parameters=_values(args.parameter, "--parameter"),
-                          time_step=args.time_step)
+    target = {**model_config(args.target), "validate": False} if args.no_validate else args.target
+    try:
+        trajectory = simulate(target, args.stop_time, inputs=_values(args.held, "--input"), table=args.inputs,
+                              outputs=args.outputs, parameters=_values(args.parameter, "--parameter"),
+                              time_step=args.time_step)
+    except FMUValidationError as error:
+        if not error.skippable:
+            raise
+        raise InvalidFMUError(f"{error.summary}; to go on anyway: add --no-validate") from None
     out = write_csv(trajectory, args.out or f"{Path(args.target).stem}-run.csv")
     times = trajectory["time"]
     print(f"{len(trajectory)} rows from t={times[0]:g} to t={times[-1]:g}, {len(trajectory.dtype.names) - 1} "

@@ -107,6 +107,22 @@ def test_a_table_column_that_drives_no_input_is_named(family_fmu, tmp_path):
         simulate(family_fmu("inertia", 3), 0.1, table=table)
 
 
+def test_an_fmu_that_fails_validation_runs_with_no_validate(family_fmu, tmp_path, capsys):
+    # OMSimulator's embrace: its ECS_SW FMU has an Enumeration of continuous variability
+    from fmu_family import rewrite
+
+    variable = '<ScalarVariable name="u"'
+    broken = rewrite(family_fmu("gain", 2), tmp_path / "Gain.fmu",
+                     edit_description=lambda text: text.replace(variable, variable + ' bogus="1"'))
+    command = ["simulate", str(broken), "--stop-time", "0.1", "--time-step", "0.1", "--input", "u=2",
+               "--out", str(tmp_path / "run.csv")]
+    assert main(command) == 1
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "fails validation (variables concerned: u)" in line and line.endswith("; to go on anyway: add --no-validate")
+    assert main([*command, "--no-validate"]) == 0
+    assert (tmp_path / "run.csv").read_text().splitlines()[-1].startswith("0.1,")
+
+
 def test_the_help_fits_a_screen(monkeypatch):
     text = help_text(build_parser(), "simulate", monkeypatch=monkeypatch)
     assert len(text.splitlines()) <= SCREEN and "--inputs TABLE.csv" in text, text
