@@ -6,8 +6,10 @@ finds every system there (a folder holding ``SystemStructure.ssd``, as the suite
 unpacked, or an ``.ssp``) and for each: reads it (the invalid ones must be refused for the defect
 OMSimulator names), skips it where an FMU it names is missing or has no Linux binary (saying
 which), opens it and runs it as the scripts do (`modelicagym.simulate`), and compares the values the
-scripts print (`benchmarks.omsimulator_cases`). A value on a system connector that modelicagym
-offers no variable for (a parameter connector: its value goes to what it feeds) is "not given".
+scripts print (`benchmarks.omsimulator_cases`): a variable's from the run, a system connector's (a
+parameter connector, or a system of connectors alone, which has nothing to run) from the SSP
+reader. A value the script sets itself, or that no parameter set gives, is "not given".
+``--as-ssp`` zips each system folder into an ``.ssp`` first, as a user's archive.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ class Outcome:
     runs: bool | None = None
     matched: int = 0
     stated: int = 0
-    #: the stated values modelicagym has no variable for in a run, each with why
+    #: the stated values not compared, each with why
     not_given: list[str] = field(default_factory=list)
     mismatches: list[str] = field(default_factory=list)
     why: str = ""
