@@ -122,7 +122,8 @@ class SystemDescription:
         declared = declared_unit(variable.unit, component.units)
         if unit is not None and unit.exponents is None and declared is not None and unit.name != declared.name:
             self._note(f"parameter {name!r}: its value's unit {unit.name!r} is defined nowhere (not in its "
-                       f"parameter set, not in the FMU): the value is taken in the variable's unit {declared.name!r}")
+                       f"parameter set, not in the FMU): the unit is ignored, the value taken in the variable's "
+                       f"unit {declared.name!r}")
             return value
         convert = conversion(unit, declared, f"{self.name}: parameter {name!r}")
         return value if convert.identity else convert.scale * value + convert.shift

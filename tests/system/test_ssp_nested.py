@@ -384,7 +384,8 @@ def test_a_parameter_value_in_a_unit_defined_nowhere_is_taken_in_the_variables_u
                                                  {"resources/k.ssv": ssv}))
     assert described.parameter_values == {"c.Q_gain": 250.0}
     assert described.notes == [("parameter 'c.Q_gain': its value's unit '[W]' is defined nowhere (not in its "
-                                "parameter set, not in the FMU): the value is taken in the variable's unit 'W'")]
+                                "parameter set, not in the FMU): the unit is ignored, the value taken in the "
+                                "variable's unit 'W'")]
     assert "defined nowhere" in caplog.text
 
 
@@ -407,7 +408,7 @@ def test_a_value_bound_to_a_connected_input_gives_way_to_the_connection(gain, tm
     with caplog.at_level(logging.WARNING, logger="modelicagym.system.description"):
         described = open_system(folder)
     assert described.parameter_values == {"a.u": 2.0, "a.k": 1.5}
-    assert described.notes == ["parameter 'b.u': the connection a.y -> b.u feeds it: the value the SSP binds to it "
-                               "has no effect"]
+    assert described.notes == [("parameter 'b.u': the connection a.y -> b.u feeds it: the value the SSP binds "
+                                "to it has no effect")]
     assert "the connection a.y -> b.u feeds it" in caplog.text
     assert simulate(folder, 0.1, outputs=["b.u"], time_step=0.1)["b.u"][-1] == 3.0  # 1.5 * 2, not the bound 3
