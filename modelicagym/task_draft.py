@@ -1,0 +1,205 @@
+"""``modelicagym info MODEL --task FILE``: a task file that trains as written, for an FMU or a
+system whose config ``info`` can suggest, with no edit by hand.
+
+``info`` knows what a model declares, not what its user wants from it; a task file needs a
+reward. `draft_task` writes the task a control engineer would try first on a new plant, from
+what the model does, measured:
+
+* **what to act on**: ``info``'s config (`modelicagym.info.suggest`); its action bounds must be
+  known (a placeholder, None, is refused here: a task that trains on a made-up range would not say so);
+* **the time step and the episode**: the first action stepped from its start to the end of its
+  range (`modelicagym.step_response`): a tenth of the fastest settling time, twice the slowest;
+* **what to track**: of the outputs that settle after that step (not within its first step: those
+  only echo the action), the one whose change stays most of its largest excursion (a speed that
+  rises to a new value, rather than a current that jumps and falls back);
+* **the setpoint**: drawn at every reset between the values the tracked output settles at with the
+  action held at its low and at its high bound (``setpoints`` with `uniform`), so every setpoint is
+  reachable; the policy sees the setpoint, the error and the error's integral (``observe``);
+* **the reward**: minus the error's magnitude over that range, each step: minus the return over
+  ``max_episode_steps`` is the mean error as a fraction of the range;
+* **a baseline** to beat: the steady-state action that the two held runs give for the setpoint
+  (linear between them) plus a PI on the error, its gains from the step (``Kp = 1 / K``,
+  ``Ki = 1 / (K tau)``: the plant's gain K, its time constant tau a quarter of the settling time).
+
+The file says all of this in its comments; every number in it can be edited afterwards.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from modelicagym.env import FMUEnv
+from modelicagym.errors import ConfigError
+from modelicagym.fmu import UnsupportedFeatureError
+from modelicagym.info import format_config, suggest
+from modelicagym.step_response import StepResponse, step_response, timing
+from modelicagym.system import open_model
+
+__all__ = ["TaskDraft", "draft_task", "write_task"]
+
+#: what the drafted task's policy sees after the outputs, in this order
+OBSERVE = ["setpoint", "error", "error_integral"]
+
+
+@dataclass(frozen=True)
+class TaskDraft:
+    """A drafted task file: its text, and what it chose, in words (one line each)."""
+
+    text: str
+    tracked: str
+    lines: list[str]
+
+
+def _tracked(response: StepResponse) -> int:
+    """The column of the output to track (see the module docstring); a `ConfigError` when none settles."""
+    scores = []
+    for k, output in enumerate(response.outputs):
+        if output.behaviour == "settles" and output.settling_time:
+            peak = float(np.max(np.abs(response.responses[:, k])))
+            scores.append((abs(output.change) / peak, output.settling_time, k))
+    if not scores:
+        raise ConfigError(f"no output settles after a step of {response.input} from {response.start_value:g} to "
+                          f"{response.step_value:g}, so there is no setpoint to draft a task around: write the "
+                          "task file's reward yourself (`modelicagym try MODEL --step INPUT` shows what each does)")
+    return max(scores)[2]
+
+
+def _held(config: dict[str, Any], action: np.ndarray, column: int) -> float:
+    """The value output ``column`` reaches at the end of an episode with ``action`` held."""
+    env = FMUEnv(config)
+    try:
+        env.reset(seed=0)
+        for _ in range(config["max_episode_steps"]):
+            observation, _, terminated, _, info = env.step(action)
+            if "fmu_error" in info or terminated:
+                raise ConfigError(f"{env.description.name}: with the action held at {action.tolist()}, the episode "
+                                  f"stopped at t = {env.time:g} s: {info.get('fmu_error') or 'it terminated'}")
+        return float(observation[column])
+    finally:
+        env.close()
+
+
+def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], validate: bool = True) -> TaskDraft:
+    """The task file for ``model`` (an FMU or an SSP system) to be written at ``task`` (its ``fmu``
+    relative to that file's folder): see the module docstring."""
+    description = open_model(model, validate=validate)
+    suggestion = suggest(description, validate)
+    if suggestion.config is None:
+        raise UnsupportedFeatureError(suggestion.refusal)
+    if suggestion.placeholders:
+        raise ConfigError(f"{description.name}: nothing says the range of {', '.join(suggestion.placeholders)}, so a "
+                          "task cannot be drafted that trains as written: paste the config `modelicagym info` "
+                          "prints into a task file and give their action_bounds")
+    config = dict(suggestion.config)
+    config["fmu"] = str(Path(model).resolve())
+    acted = config["inputs"][0]
+    response = step_response(config, acted)
+    column = _tracked(response)
+    tracked, unit = response.outputs[column].name, response.outputs[column].unit
+    config["time_step"], config["max_episode_steps"] = timing([response])  # type: ignore[misc]
+    settling = response.outputs[column].settling_time
+    env = FMUEnv(config)
+    space = env.action_space  # the actions' bounds, as the env gives them
+    env.close()
+    low, high, start = space.low.astype(float), space.high.astype(float), _starts(description, config, space)
+    at_low, at_high = start.copy(), start.copy()
+    at_low[0], at_high[0] = low[0], high[0]
+    y_low, y_high = _held(config, at_low, column), _held(config, at_high, column)
+    if y_low == y_high:
+        raise ConfigError(f"{description.name}: {tracked} ends at {y_low:g} with {acted} held at either bound: "
+                          "there is no range of setpoints to draft a task around")
+    gain = (y_high - y_low) / float(high[0] - low[0])
+    tau = settling / 4.0
+    config["fmu"] = os.path.relpath(config["fmu"], Path(task).resolve().parent)
+    text = _text(suggestion, config, tracked, unit, (y_low, y_high), (float(low[0]), float(high[0])), start, gain, tau,
+                 Path(model).name, Path(task).name)
+    setpoints = f"{min(y_low, y_high):.6g}..{max(y_low, y_high):.6g}{' ' + unit if unit else ''}"
+    lines = [(f"{tracked} follows a setpoint drawn at every reset in {setpoints}, acted on through {acted} "
+              f"({low[0]:g}..{high[0]:g})"),
+             (f"time_step {config['time_step']:g} s, {config['max_episode_steps']} steps an episode (from {tracked}'s "
+              f"settling in {settling:.3g} s after a step of {acted})"),
+             ("reward: minus the error over the setpoints' range, each step; baseline: the steady-state action plus "
+              f"a PI (plant gain {gain:.4g}, time constant {tau:.3g} s)")]
+    return TaskDraft(text, tracked, lines)
+
+
+def _starts(description: Any, config: dict[str, Any], space: Any) -> np.ndarray:
+    """Each action's start value (the model's, or the SSP's), clipped into its bounds."""
+    values = [float(description.variable(name).start or 0.0) for name in config["inputs"]]
+    return np.clip(np.array(values), space.low, space.high)
+
+
+def _text(suggestion: Any, config: dict[str, Any], tracked: str, unit: str, ends: tuple[float, float],
+          bounds: tuple[float, float], start: np.ndarray, gain: float, tau: float, model: str, task: str) -> str:
+    """The task file's Python."""
+    suggestion = type(suggestion)(config, None, suggestion.notes, suggestion.inferred, suggestion.held)
+    body = format_config(suggestion)[2:-1]  # without the import and the env made from it
+    n = len(config["outputs"])
+    (y_low, y_high), (u_low, u_high) = ends, bounds
+    unit_text = f" {unit}" if unit else ""
+    return "\n".join([
+        f'"""The task `modelicagym info {model} --task {task}` drafted: {tracked} follows a setpoint.',
+        "",
+        f"The config is the one `modelicagym info {model}` prints, its time step and episode length from a step",
+        f"of {config['inputs'][0]} (`modelicagym try {model} --step {config['inputs'][0]}`). A setpoint is drawn",
+        f"at every reset between the values {tracked} settles at with the action held at its bounds; the reward",
+        "is minus the error over that range, each step; the baseline is the steady-state action for the setpoint",
+        "plus a PI on the error. Edit any of it: it is a task file as any other (docs: Train on your own FMU).",
+        '"""',
+        "",
+        "import numpy as np",
+        "",
+        "from modelicagym.env import uniform",
+        "",
+        *body,
+        "",
+        f"LOW, HIGH = {y_low!r}, {y_high!r}  # {tracked}{unit_text}, the action held at {u_low!r} and at {u_high!r}",
+        f"config['setpoints'] = {{{tracked!r}: uniform(min(LOW, HIGH), max(LOW, HIGH))}}",
+        f"config['observe'] = {OBSERVE!r}  # seen after the {n} outputs, in this order",
+        "config['action_out_of_bounds'] = 'clip'",
+        f"SETPOINT, ERROR, INTEGRAL = {n}, {n + 1}, {n + 2}  # their columns in an observation (error: output - setpoint)",
+        "",
+        "",
+        "def reward(envs, observations, actions, terminated):  # row k: one env's step",
+        "    return -np.abs(observations[:, ERROR]) / abs(HIGH - LOW)",
+        "",
+        "",
+        "config['batch_reward'] = reward",
+        "",
+        f"GAIN, TAU = {gain!r}, {tau!r}  # {tracked}'s change per unit of the action, its time constant (s)",
+        f"BOUNDS = ({u_low!r}, {u_high!r})",
+        f"HELD = {start[1:].tolist()!r}  # the other actions, held at their start values" if len(start) > 1 else "HELD = []",
+        "",
+        "",
+        "class baseline:",
+        "    \"\"\"The steady-state action for the setpoint (linear between the held runs) plus a PI on the error; the",
+        "    integral holds while the action is at a bound (no windup).\"\"\"",
+        "",
+        "    def reset(self):",
+        "        self.integral = 0.0",
+        "",
+        "    def act(self, observation):",
+        "        setpoint, error = observation[SETPOINT], -observation[ERROR]  # setpoint - output",
+        "        steady = BOUNDS[0] + (setpoint - LOW) / GAIN",
+        "        unclipped = steady + (error + self.integral / TAU) / GAIN",
+        "        action = float(np.clip(unclipped, *BOUNDS))",
+        "        if action == unclipped:",
+        "            self.integral += error * config['time_step']",
+        "        return np.array([action, *HELD])",
+        "",
+    ])
+
+
+def write_task(model: str | os.PathLike[str], task: str | os.PathLike[str], validate: bool = True) -> TaskDraft:
+    """Draft the task for ``model`` (`draft_task`) and write it at ``task``, refusing to replace a file."""
+    path = Path(task)
+    if path.exists():
+        raise ConfigError(f"{path} exists: choose another name for the task file, or remove it")
+    draft = draft_task(model, path, validate)
+    path.write_text(draft.text, encoding="utf-8")
+    return draft
