@@ -69,19 +69,26 @@ def _tracked(response: StepResponse) -> int:
     return max(scores)[2]
 
 
-def _held(config: dict[str, Any], action: np.ndarray, column: int) -> float:
-    """The value output ``column`` reaches at the end of an episode with ``action`` held."""
-    env = FMUEnv(config)
+def _held(config: dict[str, Any], action: np.ndarray, name: str) -> float:
+    """The value output ``name`` reaches at the end of an episode with ``action`` held."""
+    env = FMUEnv(config, render_mode="rgb_array")
     try:
         env.reset(seed=0)
         for _ in range(config["max_episode_steps"]):
-            observation, _, terminated, _, info = env.step(action)
+            *_, terminated, _, info = env.step(action)
             if "fmu_error" in info or terminated:
                 raise ConfigError(f"{env.description.name}: with the action held at {action.tolist()}, the episode "
                                   f"stopped at t = {env.time:g} s: {info.get('fmu_error') or 'it terminated'}")
-        return float(observation[column])
+        chart = env.strip_chart
+        return float(chart.values[-1, [s.name for s in chart.series].index(name)])
     finally:
         env.close()
+
+
+def _float_outputs(description: Any, config: dict[str, Any]) -> list[str]:
+    """The config's outputs of a float type: an observation of floats alone is one array (a Box),
+    which the drafted reward reads by column and SAC takes."""
+    return [name for name in config["outputs"] if description.variables[name].kind == "float"]
 
 
 def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], validate: bool = True) -> TaskDraft:
@@ -97,6 +104,9 @@ def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], vali
                           "prints into a task file and give their action_bounds")
     config = dict(suggestion.config)
     config["fmu"] = str(Path(model).resolve())
+    config["outputs"] = _float_outputs(description, config)
+    if not config["outputs"]:
+        raise ConfigError(f"{description.name}: none of its outputs is a float: there is nothing to track")
     acted = config["inputs"][0]
     response = step_response(config, acted)
     column = _tracked(response)
@@ -109,7 +119,7 @@ def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], vali
     low, high, start = space.low.astype(float), space.high.astype(float), _starts(description, config, space)
     at_low, at_high = start.copy(), start.copy()
     at_low[0], at_high[0] = low[0], high[0]
-    y_low, y_high = _held(config, at_low, column), _held(config, at_high, column)
+    y_low, y_high = _held(config, at_low, tracked), _held(config, at_high, tracked)
     if y_low == y_high:
         raise ConfigError(f"{description.name}: {tracked} ends at {y_low:g} with {acted} held at either bound: "
                           "there is no range of setpoints to draft a task around")
@@ -130,7 +140,7 @@ def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], vali
 
 def _starts(description: Any, config: dict[str, Any], space: Any) -> np.ndarray:
     """Each action's start value (the model's, or the SSP's), clipped into its bounds."""
-    values = [float(description.variable(name).start or 0.0) for name in config["inputs"]]
+    values = [float(description.variables[name].start or 0.0) for name in config["inputs"]]
     return np.clip(np.array(values), space.low, space.high)
 
 

@@ -40,10 +40,12 @@ def bench(family_fmu, tmp_path):
     return make
 
 
-def _episode_returns(env: FMUEnv, act, seeds) -> list[float]:
+def _episode_returns(env: FMUEnv, act, seeds, start=lambda: None) -> list[float]:
+    """Each episode's return, ``act(observation)`` choosing the actions (``start()`` after each reset)."""
     returns = []
     for seed in seeds:
         observation, _ = env.reset(seed=seed)
+        start()
         total, done = 0.0, False
         while not done:
             observation, reward, terminated, truncated, info = env.step(act(observation))
@@ -101,7 +103,7 @@ def test_info_task_drafts_a_task_that_runs_as_written_and_whose_baseline_beats_r
     setpoint = config["setpoints"]["p"]
     assert (setpoint.low, setpoint.high) == pytest.approx((AMBIENT / 2, AMBIENT * 1.5), rel=1e-3)
     seeds = range(3)
-    planned = _episode_returns(env, read.baseline.act, seeds)
+    planned = _episode_returns(env, read.baseline.act, seeds, read.baseline.reset)
     env.action_space.seed(0)
     random = _episode_returns(env, lambda _: env.action_space.sample(), seeds)
     env.close()
@@ -131,7 +133,7 @@ def test_omsimulators_dc_motor_goes_from_info_to_a_task_with_no_edit(tmp_path, c
     read = read_task_file(task)
     assert read.config["inputs"] == ["stimuli_model.Voltage_step.height"]
     env = FMUEnv(read.config)
-    planned = _episode_returns(env, read.baseline.act, range(3))
+    planned = _episode_returns(env, read.baseline.act, range(3), read.baseline.reset)
     env.action_space.seed(0)
     random = _episode_returns(env, lambda _: env.action_space.sample(), range(3))
     env.close()
