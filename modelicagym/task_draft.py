@@ -27,7 +27,7 @@ The file says all of this in its comments; every number in it can be edited afte
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,10 +35,10 @@ import numpy as np
 
 from modelicagym.env import FMUEnv
 from modelicagym.errors import ConfigError
-from modelicagym.fmu import UnsupportedFeatureError
-from modelicagym.info import format_config, suggest
+from modelicagym.fmu import FMUDescription, UnsupportedFeatureError
+from modelicagym.info import Suggestion, format_config, suggest
 from modelicagym.step_response import StepResponse, step_response, timing
-from modelicagym.system import open_model
+from modelicagym.system import SystemDescription, open_model
 
 __all__ = ["TaskDraft", "draft_task", "write_task"]
 
@@ -85,10 +85,59 @@ def _held(config: dict[str, Any], action: np.ndarray, name: str) -> float:
         env.close()
 
 
-def _float_outputs(description: Any, config: dict[str, Any]) -> list[str]:
+def _float_outputs(description: FMUDescription | SystemDescription, config: dict[str, Any]) -> list[str]:
     """The config's outputs of a float type: an observation of floats alone is one array (a Box),
     which the drafted reward reads by column and SAC takes."""
     return [name for name in config["outputs"] if description.variables[name].kind == "float"]
+
+
+@dataclass(frozen=True)
+class _Measured:
+    """What the runs of `_measure` found: the output to track, how it responds, how far the action
+    moves it."""
+
+    tracked: str
+    unit: str
+    settling: float  # s, after a step of the first action
+    ends: tuple[float, float]  # the tracked output at the end of an episode, the action held at each bound
+    bounds: tuple[float, float]  # the first action's
+    held: list[float]  # the other actions, at their start values
+
+    @property
+    def gain(self) -> float:
+        """The tracked output's change per unit of the action, between the held runs."""
+        return (self.ends[1] - self.ends[0]) / (self.bounds[1] - self.bounds[0])
+
+    @property
+    def tau(self) -> float:
+        """The time constant of a first-order lag settling (2%) as the output does."""
+        return self.settling / 4.0
+
+
+def _measure(description: FMUDescription | SystemDescription, config: dict[str, Any]) -> _Measured:
+    """Step the first action, choose the output to track, set ``config``'s time step and episode
+    length from the step, and run the action held at each bound (see the module docstring)."""
+    acted = config["inputs"][0]
+    response = step_response(config, acted)
+    column = _tracked(response)
+    output = response.outputs[column]
+    config["time_step"], config["max_episode_steps"] = timing([response])  # type: ignore[misc]
+    env = FMUEnv(config)
+    space = env.action_space  # the actions' bounds, as the env gives them
+    env.close()
+    starts = np.clip([float(description.variables[name].start or 0.0) for name in config["inputs"]],
+                     space.low, space.high)
+    bounds = (float(space.low[0]), float(space.high[0]))
+    ends = []
+    for bound in bounds:
+        action = starts.copy()
+        action[0] = bound
+        ends.append(_held(config, action, output.name))
+    if ends[0] == ends[1]:
+        raise ConfigError(f"{description.name}: {output.name} ends at {ends[0]:g} with {acted} held at either bound: "
+                          "there is no range of setpoints to draft a task around")
+    return _Measured(output.name, output.unit, float(output.settling_time), (ends[0], ends[1]), bounds,
+                     starts[1:].tolist())
 
 
 def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], validate: bool = True) -> TaskDraft:
@@ -102,64 +151,39 @@ def draft_task(model: str | os.PathLike[str], task: str | os.PathLike[str], vali
         raise ConfigError(f"{description.name}: nothing says the range of {', '.join(suggestion.placeholders)}, so a "
                           "task cannot be drafted that trains as written: paste the config `modelicagym info` "
                           "prints into a task file and give their action_bounds")
-    config = dict(suggestion.config)
-    config["fmu"] = str(Path(model).resolve())
+    config = {**suggestion.config, "fmu": str(Path(model).resolve())}
     config["outputs"] = _float_outputs(description, config)
     if not config["outputs"]:
         raise ConfigError(f"{description.name}: none of its outputs is a float: there is nothing to track")
-    acted = config["inputs"][0]
-    response = step_response(config, acted)
-    column = _tracked(response)
-    tracked, unit = response.outputs[column].name, response.outputs[column].unit
-    config["time_step"], config["max_episode_steps"] = timing([response])  # type: ignore[misc]
-    settling = response.outputs[column].settling_time
-    env = FMUEnv(config)
-    space = env.action_space  # the actions' bounds, as the env gives them
-    env.close()
-    low, high, start = space.low.astype(float), space.high.astype(float), _starts(description, config, space)
-    at_low, at_high = start.copy(), start.copy()
-    at_low[0], at_high[0] = low[0], high[0]
-    y_low, y_high = _held(config, at_low, tracked), _held(config, at_high, tracked)
-    if y_low == y_high:
-        raise ConfigError(f"{description.name}: {tracked} ends at {y_low:g} with {acted} held at either bound: "
-                          "there is no range of setpoints to draft a task around")
-    gain = (y_high - y_low) / float(high[0] - low[0])
-    tau = settling / 4.0
+    measured = _measure(description, config)
     config["fmu"] = os.path.relpath(config["fmu"], Path(task).resolve().parent)
-    text = _text(suggestion, config, tracked, unit, (y_low, y_high), (float(low[0]), float(high[0])), start, gain, tau,
-                 Path(model).name, Path(task).name)
-    setpoints = f"{min(y_low, y_high):.6g}..{max(y_low, y_high):.6g}{' ' + unit if unit else ''}"
-    lines = [(f"{tracked} follows a setpoint drawn at every reset in {setpoints}, acted on through {acted} "
-              f"({low[0]:g}..{high[0]:g})"),
-             (f"time_step {config['time_step']:g} s, {config['max_episode_steps']} steps an episode (from {tracked}'s "
-              f"settling in {settling:.3g} s after a step of {acted})"),
+    drafted = replace(suggestion, config=config)
+    m, acted = measured, config["inputs"][0]
+    unit = f" {m.unit}" if m.unit else ""
+    lines = [(f"{m.tracked} follows a setpoint drawn at every reset in {min(m.ends):.6g}..{max(m.ends):.6g}{unit}, "
+              f"acted on through {acted} ({m.bounds[0]:g}..{m.bounds[1]:g})"),
+             (f"time_step {config['time_step']:g} s, {config['max_episode_steps']} steps an episode (from "
+              f"{m.tracked}'s settling in {m.settling:.3g} s after a step of {acted})"),
              ("reward: minus the error over the setpoints' range, each step; baseline: the steady-state action plus "
-              f"a PI (plant gain {gain:.4g}, time constant {tau:.3g} s)")]
-    return TaskDraft(text, tracked, lines)
+              f"a PI (plant gain {m.gain:.4g}, time constant {m.tau:.3g} s)")]
+    return TaskDraft(_text(drafted, measured, Path(model).name, Path(task).name), m.tracked, lines)
 
 
-def _starts(description: Any, config: dict[str, Any], space: Any) -> np.ndarray:
-    """Each action's start value (the model's, or the SSP's), clipped into its bounds."""
-    values = [float(description.variables[name].start or 0.0) for name in config["inputs"]]
-    return np.clip(np.array(values), space.low, space.high)
-
-
-def _text(suggestion: Any, config: dict[str, Any], tracked: str, unit: str, ends: tuple[float, float],
-          bounds: tuple[float, float], start: np.ndarray, gain: float, tau: float, model: str, task: str) -> str:
-    """The task file's Python."""
-    suggestion = type(suggestion)(config, None, suggestion.notes, suggestion.inferred, suggestion.held)
+def _text(suggestion: Suggestion, m: _Measured, model: str, task: str) -> str:
+    """The task file's Python: ``suggestion``'s config, then the task `_measure` found."""
+    config = suggestion.config
     body = format_config(suggestion)[2:-1]  # without the import and the env made from it
     n = len(config["outputs"])
-    (y_low, y_high), (u_low, u_high) = ends, bounds
-    unit_text = f" {unit}" if unit else ""
+    tracked, (y_low, y_high), (u_low, u_high), acted = m.tracked, m.ends, m.bounds, config["inputs"][0]
+    unit_text = f" {m.unit}" if m.unit else ""
     return "\n".join([
         f'"""The task `modelicagym info {model} --task {task}` drafted: {tracked} follows a setpoint.',
         "",
-        f"The config is the one `modelicagym info {model}` prints, its time step and episode length from a step",
-        f"of {config['inputs'][0]} (`modelicagym try {model} --step {config['inputs'][0]}`). A setpoint is drawn",
-        f"at every reset between the values {tracked} settles at with the action held at its bounds; the reward",
-        "is minus the error over that range, each step; the baseline is the steady-state action for the setpoint",
-        "plus a PI on the error. Edit any of it: it is a task file as any other (docs: Train on your own FMU).",
+        f"The config is the one `modelicagym info {model}` prints (its float outputs); its time step and episode",
+        f"length come from a step of {acted} (`modelicagym try {model} --step {acted}`).",
+        f"A setpoint is drawn at every reset between the values {tracked} settles at with the action held at its",
+        "bounds; the reward is minus the error over that range, each step; the baseline is the steady-state action",
+        "for the setpoint plus a PI on the error. Edit any of it: it is a task file as any other.",
         '"""',
         "",
         "import numpy as np",
@@ -181,9 +205,9 @@ def _text(suggestion: Any, config: dict[str, Any], tracked: str, unit: str, ends
         "",
         "config['batch_reward'] = reward",
         "",
-        f"GAIN, TAU = {gain!r}, {tau!r}  # {tracked}'s change per unit of the action, its time constant (s)",
+        f"GAIN, TAU = {m.gain!r}, {m.tau!r}  # {tracked}'s change per unit of the action, its time constant (s)",
         f"BOUNDS = ({u_low!r}, {u_high!r})",
-        f"HELD = {start[1:].tolist()!r}  # the other actions, held at their start values" if len(start) > 1 else "HELD = []",
+        f"HELD = {m.held!r}  # the other actions, held at their start values" if m.held else "HELD = []",
         "",
         "",
         "class baseline:",
