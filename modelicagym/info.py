@@ -9,6 +9,9 @@ the FMU gives no clue of is filled in:
   between steps). With `MANY_INPUTS` inputs or more, those without a unit (commands, most likely)
   are the actions and those with one (a pressure, a temperature: the conditions the model runs in,
   most likely) go into ``fixed_inputs``, held at their start values; the report says which went where;
+* a system's (`SystemDescription`): the actions are its own input connectors, else its components'
+  inputs nothing feeds, else (a test bench whose stimuli drive everything) the levels of the signals
+  its sources feed (`_source_levels`); the observations are its own output connectors where it has some;
 * observations: the outputs; without outputs, the continuous states, else the local variables;
 * parameters at their start values, except FMI 3.0 structural parameters (settable only in
   configuration mode: they stay at their start values unless the user adds them);
