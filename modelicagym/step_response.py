@@ -146,7 +146,7 @@ def _run_config(config: Mapping[str, Any], name: str, horizon: float) -> dict[st
     parameters = dict(config.get("parameters") or {})
     for other in config.get("inputs") or ():
         if other != name:
-            variable = description.variable(other)
+            variable = description.variables[other]
             (fixed if variable.is_input else parameters)[other] = variable.start
     run = {k: v for k, v in config.items() if k not in _DROPPED}
     return {**run, "inputs": [name], "fixed_inputs": fixed, "parameters": parameters, "time_step": horizon / POINTS,

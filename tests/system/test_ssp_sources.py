@@ -138,3 +138,16 @@ def test_omsimulators_dc_motor_goes_from_info_to_a_task_with_no_edit(tmp_path, c
     random = _episode_returns(env, lambda _: env.action_space.sample(), range(3))
     env.close()
     assert np.mean(planned) > np.mean(random)
+
+
+def test_try_step_holds_a_systems_other_input_connectors(family_fmu, tmp_path):
+    top = system("top", [component("a", "gain"), component("b", "gain")],
+                 [connect(".u", "a.u", factor=2.0), connect(".v", "b.u"), connect("a.y", ".y"), connect("b.y", ".z")],
+                 connectors(u="input", v="input", y="output", z="output"), bindings({"v": 3.0}))
+    folder = write_ssp_folder(tmp_path / "two", top, {"gain": family_fmu("gain", 2)})
+    config = suggest(open_system(folder)).config
+    assert config["inputs"] == ["u", "v"] and config["outputs"] == ["y", "z"]
+    response = step_response(config, "u", 1.5)
+    y, z = response.outputs
+    assert (y.change, y.settling_time) == (3.0, 0.0)  # 2 u, within the first step
+    assert not z.responds  # v held at the SSP's 3 in both runs
