@@ -41,6 +41,12 @@ def _info(args: argparse.Namespace) -> int:
     from modelicagym.info import describe_fmu
 
     print(describe_fmu(args.fmu, validate=not args.no_validate))
+    if args.task:
+        from modelicagym.task_draft import write_task
+
+        draft = write_task(args.fmu, args.task, validate=not args.no_validate)
+        print(f"\nwrote {args.task}, a task that trains as written (edit any of it):")
+        print("\n".join(f"  - {line}" for line in draft.lines))
     return 0
 
 
@@ -145,6 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
     info = commands.add_parser("info", help="describe an FMU and print an FMUEnv config for it")
     info.add_argument("fmu", help="path of the .fmu file")
     info.add_argument("--no-validate", action="store_true", help="skip schema validation of modelDescription.xml")
+    info.add_argument("--task", metavar="FILE", help="also write a task file that trains as written: the config, a "
+                                                     "setpoint to track, a reward and a baseline, from what the model "
+                                                     "does after a step of its first action")
     info.set_defaults(func=_info)
 
     try_ = commands.add_parser("try", help="run a config with random actions and plot what the FMU does")

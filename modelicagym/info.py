@@ -9,6 +9,9 @@ the FMU gives no clue of is filled in:
   between steps). With `MANY_INPUTS` inputs or more, those without a unit (commands, most likely)
   are the actions and those with one (a pressure, a temperature: the conditions the model runs in,
   most likely) go into ``fixed_inputs``, held at their start values; the report says which went where;
+* a system's (`SystemDescription`): the actions are its own input connectors, else its components'
+  inputs nothing feeds, else (a test bench whose stimuli drive everything) the levels of the signals
+  its sources feed (`_source_levels`); the observations are its own output connectors where it has some;
 * observations: the outputs; without outputs, the continuous states, else the local variables;
 * parameters at their start values, except FMI 3.0 structural parameters (settable only in
   configuration mode: they stay at their start values unless the user adds them);
@@ -121,14 +124,44 @@ def _names(variables: Iterable[Variable]) -> str:
     return ", ".join(v.name for v in variables)
 
 
+def _source_levels(d: SystemDescription) -> list[Variable]:
+    """What drives a system without inputs: its sources, components with no input of their own whose
+    outputs feed the others (a test bench's stimuli: a voltage step, a constant load). For each
+    signal a source feeds, its level: the source's tunable float parameter in that signal's unit
+    with the largest magnitude the SSP gives it (a step's height, not its offset or start time)."""
+    levels: dict[str, Variable] = {}
+    for link in d.links:
+        source = d.components[link.source]
+        if source.description is None or _usable(source.inputs):
+            continue
+        unit = source.variables[link.source_variable].unit or ""
+        candidates = [d.variables[f"{source.name}.{v.name}"] for v in source.description.parameters
+                      if v.is_tunable_parameter and v.kind == "float" and (v.unit or "") == unit]
+        candidates = [v for v in candidates if _scalar(v.start) is not None]
+        if candidates:
+            level = max(candidates, key=lambda v: abs(v.start))
+            levels.setdefault(level.name, level)
+    return list(levels.values())
+
+
 def _actions(d: FMUDescription | SystemDescription) -> tuple[list[Variable], str | None]:
     """The variables to act on, and a note when they are not the inputs. A system's are its inputs:
     the SSP's own input connectors where it declares some, else its components' inputs nothing
-    feeds; never its components' tunable parameters (a system has dozens; name those you mean)."""
+    feeds; never all its components' tunable parameters (a system has dozens; name those you mean).
+    A system with no input at all acts on the levels of the signals its sources feed (`_source_levels`)."""
     inputs = _usable(d.inputs)
     if isinstance(d, SystemDescription):
         own = [v for v in inputs if v.name in d.connectors]
-        return own or inputs, None
+        if own or inputs:
+            return own or inputs, None
+        levels = _source_levels(d)
+        if not levels:
+            return [], None
+        sources = sorted({d.split(v.name)[0] for v in levels})
+        return levels, (f"no inputs: {', '.join(sources)} (no inputs of {'its' if len(sources) == 1 else 'their'} "
+                        f"own) {'feeds' if len(sources) == 1 else 'feed'} the others, so the actions are the levels "
+                        f"of the signals: {_names(levels)} (a tunable parameter in the unit of the signal it sets, "
+                        "the largest in magnitude); name other tunable parameters in 'inputs' to act on them instead")
     if inputs:
         return inputs, None
     tunable = _usable(v for v in d.parameters if v.is_tunable_parameter)
@@ -138,9 +171,16 @@ def _actions(d: FMUDescription | SystemDescription) -> tuple[list[Variable], str
     return [], None
 
 
-def _observations(d: FMUDescription) -> tuple[list[Variable], str | None]:
-    """The variables to observe, and a note when they are not the outputs."""
+def _observations(d: FMUDescription | SystemDescription) -> tuple[list[Variable], str | None]:
+    """The variables to observe, and a note when they are not the outputs. A system's are its own
+    output connectors where the SSP declares some (what its author chose to show), else every
+    component's outputs."""
     outputs = _usable(d.outputs)
+    if isinstance(d, SystemDescription):
+        own = [v for v in outputs if v.name in d.connectors]
+        if own and len(own) < len(outputs):
+            return own, (f"observing the system's own outputs ({_names(own)}); its components' outputs "
+                         f"({len(outputs) - len(own)} more) can be added to 'outputs'")
     if outputs:
         return outputs, None
     states = _usable(d.state_variables)
@@ -176,7 +216,7 @@ def _split_inputs(actions: list[Variable]) -> tuple[list[Variable], list[Variabl
         "every episode")
 
 
-def _as_declared(v: Variable, d: FMUDescription | SystemDescription) -> tuple[Variable, FMUDescription]:
+def as_declared(v: Variable, d: FMUDescription | SystemDescription) -> tuple[Variable, FMUDescription]:
     """``v`` as the FMU declaring it names it, and that FMU's description (a system's variable is
     its component's)."""
     if isinstance(d, SystemDescription):
@@ -342,9 +382,9 @@ def suggest(description: FMUDescription, validate: bool = True) -> Suggestion:
     acted = {v.name for v in actions}
     if system:  # an action that is a system's input sets what it feeds
         acted |= {target for name in list(acted) for target, _ in d.feeds(name)}
-    inferred = {v.name: infer_bounds(*_as_declared(v, d)) for v in actions
+    inferred = {v.name: infer_bounds(*as_declared(v, d)) for v in actions
                 if v.kind == "float" and (v.min is None or v.max is None)}
-    fixed = {v.name: _held_value(*_as_declared(v, d)) for v in held}
+    fixed = {v.name: _held_value(*as_declared(v, d)) for v in held}
     step = d.default_experiment.step_size
     parameters = {v.name: v.start for v in d.parameters
                   if v.start is not None and v.kind not in _NOT_IN_SPACES and v.causality != "structuralParameter"}

@@ -42,11 +42,12 @@ from modelicagym.disk import atomic_write
 from modelicagym.env import FMUEnv
 from modelicagym.env.strip_chart import MAX_PANELS, require_matplotlib
 from modelicagym.errors import ConfigError
-from modelicagym.fmu import open_fmu
-from modelicagym.info import infer_bounds
+from modelicagym.fmu import FMUDescription
+from modelicagym.info import as_declared, infer_bounds
+from modelicagym.system import SystemDescription, open_model
 
 __all__ = ["BEHAVIOURS", "MAX_GROWTHS", "OutputResponse", "StepResponse", "parse_step", "plot_step_responses",
-           "step_plot_paths", "step_response", "suggest_timing"]
+           "step_plot_paths", "step_response", "suggest_timing", "timing"]
 
 #: the horizon grows tenfold at most this many times while an output has not settled
 MAX_GROWTHS = 6
@@ -131,28 +132,37 @@ def parse_step(text: str) -> tuple[str, float | None]:
         raise ConfigError(f"--step expects INPUT or INPUT=VALUE (a number), got {text!r}") from None
 
 
+def _model(config: Mapping[str, Any]) -> FMUDescription | SystemDescription:
+    """What ``config`` runs: its FMU, or its system (an SSP, or ``fmus`` and ``connections``)."""
+    return open_model(config.get("fmu"), fmus=config.get("fmus"), connections=config.get("connections") or (),
+                      loop_breaks=config.get("loop_breaks") or (), validate=config.get("validate", True))
+
+
 def _run_config(config: Mapping[str, Any], name: str, horizon: float) -> dict[str, Any]:
-    """``config`` acting on input ``name`` alone for ``POINTS`` steps over ``horizon`` seconds, the
-    action's other inputs held at their start values."""
-    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    """``config`` acting on ``name`` alone for ``POINTS`` steps over ``horizon`` seconds, the
+    action's other inputs (and tunable parameters) held at their start values."""
+    description = _model(config)
     fixed = {k: v for k, v in (config.get("fixed_inputs") or {}).items() if k != name}
+    parameters = dict(config.get("parameters") or {})
     for other in config.get("inputs") or ():
         if other != name:
-            fixed[other] = description.variable(other).start
+            variable = description.variables[other]
+            (fixed if variable.is_input else parameters)[other] = variable.start
     run = {k: v for k, v in config.items() if k not in _DROPPED}
-    return {**run, "inputs": [name], "fixed_inputs": fixed, "time_step": horizon / POINTS,
+    return {**run, "inputs": [name], "fixed_inputs": fixed, "parameters": parameters, "time_step": horizon / POINTS,
             "max_episode_steps": POINTS}
 
 
 def _values(config: Mapping[str, Any], name: str, value: float | None, seed: int) -> tuple[float, float]:
     """The start value of input ``name`` and the value to step it to (``value``, else the end of its
     range farther from its start: the config's action bounds, its declared ones or info's)."""
-    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    description = _model(config)
     variable = description.variables.get(name)
-    if variable is None or not variable.is_input:
+    if variable is None or not (variable.is_input or variable.is_tunable_parameter):
         description.variable(name, description.inputs, "input")  # an unknown name: close matches
-        raise ConfigError(f"{description.name}: --step {name}: not an input (causality {variable.causality!r}); "
-                          f"inputs: {', '.join(v.name for v in description.inputs)}")
+        raise ConfigError(f"{description.name}: --step {name}: not an input or a tunable parameter (causality "
+                          f"{variable.causality!r}, variability {variable.variability!r}); inputs: "
+                          f"{', '.join(v.name for v in description.inputs)}")
     held = (config.get("fixed_inputs") or {}).get(name, variable.start)
     start = float(held(np.random.default_rng(seed)) if callable(held) else held)
     if value is not None:
@@ -161,7 +171,7 @@ def _values(config: Mapping[str, Any], name: str, value: float | None, seed: int
     if bounds is None and variable.min is not None and variable.max is not None:
         bounds = (variable.min, variable.max)
     if bounds is None and variable.kind == "float":
-        inferred = infer_bounds(variable, description)
+        inferred = infer_bounds(*as_declared(variable, description))
         bounds = None if inferred.placeholder else (inferred.low, inferred.high)
     if bounds is None:
         raise ConfigError(f"{description.name}: nothing says the range of {name!r}: give the value to step it to "
@@ -257,7 +267,7 @@ def step_response(config: Mapping[str, Any], name: str, value: float | None = No
     settled within its first step, while the points are coarser than a tenth of the config's time
     step), so a fast output is not timed on a slow one's grid."""
     start, target = _values(config, name, value, seed)
-    description = open_fmu(config["fmu"], validate=config.get("validate", True))
+    description = _model(config)
     time_step = float(config.get("time_step") or description.default_experiment.step_size or 0.1)
     horizon = time_step * float(config.get("max_episode_steps") or 100)
     ramps: dict[int, float] | None = None  # the ramp rates of the run before, to check they hold
@@ -292,6 +302,16 @@ def _nice(value: float) -> float:
     return max(m for m in (1.0, 2.0, 5.0) if m * power <= value * (1 + 1e-9)) * power
 
 
+def timing(responses: Sequence[StepResponse]) -> tuple[float, int] | None:
+    """``(time_step, max_episode_steps)``: a tenth of the fastest settling time (rounded down to 1, 2
+    or 5 times a power of ten) and twice the slowest, from the outputs that settle; None when none does."""
+    settled = [o.settling_time for r in responses for o in r.outputs if o.settling_time]
+    if not settled:
+        return None
+    time_step = _nice(min(settled) / 10)
+    return time_step, math.ceil(2 * max(settled) / time_step)
+
+
 def suggest_timing(responses: Sequence[StepResponse]) -> str | None:
     """One line: a time step (a tenth of the fastest settling time, rounded down to 1, 2 or 5
     times a power of ten) and an episode length (twice the slowest), from the settled outputs;
@@ -300,8 +320,7 @@ def suggest_timing(responses: Sequence[StepResponse]) -> str | None:
     if not settled:
         return None
     (fastest, fast_name), (slowest, slow_name) = min(settled), max(settled)
-    time_step = _nice(fastest / 10)
-    steps = math.ceil(2 * slowest / time_step)
+    time_step, steps = timing(responses)  # type: ignore[misc]
     line = (f"suggested: time_step {time_step:g} s (a tenth of the fastest settling, {fast_name}'s {fastest:.3g} s), "
             f"max_episode_steps {steps} ({2 * slowest:.3g} s: twice the slowest, {slow_name}'s {slowest:.3g} s)")
     if steps > LONG_EPISODE:

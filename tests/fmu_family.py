@@ -152,6 +152,9 @@ VARIANTS: dict[str, Variant] = {
     "gain": Variant(FMUS_DIR / "gain"),
     "pcontrol": Variant(SAMPLES_DIR / "pcontrol", fmi_versions=(2,)),
     "feedplant": Variant(SAMPLES_DIR / "feedplant", fmi_versions=(3,)),
+    # a source without inputs whose tunable parameters set its signals, as a test bench's stimulus FMU
+    # (OMSimulator's DC motor): a system it drives has nothing else to act on (tests/system/test_ssp_sources.py)
+    "stimulus": Variant(FMUS_DIR / "stimulus", fmi_versions=(2,)),
 }
 
 

@@ -79,7 +79,7 @@ def test_the_command_says_which_range_it_assumed_for_the_step(family_fmu, tmp_pa
 
 @pytest.mark.parametrize("step, error, message", [
     ("T_ambient", VariableError, "T_amb"),
-    ("UA", ConfigError, "--step UA: not an input \\(causality 'parameter'\\)"),
+    ("UA", ConfigError, "--step UA: not an input or a tunable parameter \\(causality 'parameter', variability 'fixed'\\)"),
     ("valve=open", ConfigError, "--step expects INPUT or INPUT=VALUE \\(a number\\), got 'valve=open'"),
 ])
 def test_a_bad_step_is_one_line(family_fmu, tmp_path, capsys, step, error, message):

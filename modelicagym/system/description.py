@@ -212,7 +212,10 @@ class SystemDescription:
         return component, component.variable(local, role, own)
 
     def variable(self, name: str, candidates: list[Variable] | None = None, role: str = "variable") -> Variable:
-        """The variable ``component.variable``; an error with close matches when there is none."""
+        """The variable ``component.variable``, or the system's own connector ``name``; an error with
+        close matches when there is none."""
+        if name in self.connectors:
+            return self.variables[name]
         self._local(name, role, candidates or [])
         return self.variables[name]
 

@@ -240,9 +240,10 @@ def test_info_offers_the_systems_own_inputs_at_the_ssps_values(gain, tmp_path):
     assert config["inputs"] == ["u"]  # not the gains' tunable k and b
     assert config["action_bounds"] == {"u": (1.0, 3.0)}  # around the SSP's 2, not the FMU's start 0
     assert config["parameters"] == {"a.k": 10.0, "a.b": 0.0, "b.k": 0.5, "b.b": 0.0}
+    assert config["outputs"] == ["y"]  # the system's own output, not its gains' too
     env = FMUEnv(**config)
-    np.testing.assert_array_equal(env.reset(seed=0)[0], [20.0, 10.0, 10.0])
-    np.testing.assert_array_equal(env.step(np.array([3.0]))[0], [30.0, 15.0, 15.0])
+    np.testing.assert_array_equal(env.reset(seed=0)[0], [10.0])
+    np.testing.assert_array_equal(env.step(np.array([3.0]))[0], [15.0])
     env.close()
 
 
