@@ -27,6 +27,7 @@ BENCHMARKS = {
     "init-once": (["--n", "2", "--init-seconds", "0.01", "--repeats", "1"], {"cores", "results"}),
     "balance": (["--n", "4", "--settings", "skewed", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "barrier": (["--workers", "1", "3", "--steps", "50", "--repeats", "1"], {"usable_cores", "results", "conditions"}),
+    "systems": (["--systems", "drive", "--rounds", "1", "--seconds", "0.05", "--warm", "0.05"], {"cores", "results"}),
 }
 
 
