@@ -194,7 +194,7 @@ class FMUEnv(gym.Env):
         #: as a phrase; None when C does the step up to its endings
         self.python_edges: str | None = None
         self._python_observation = False
-        self._value_checked: tuple[tuple[int, ...], str] | None = None
+        self._value_checked: tuple[tuple[int, ...], tuple[np.dtype, ...]] | None = None
         self._c_whole_step = False
         reason = python_path_reason(self, FMUEnv)
         if reason is None:
@@ -207,10 +207,13 @@ class FMUEnv(gym.Env):
                                       python_observation=self._python_observation)
             self.python_edges = python_edges(inputs_reason, observation_reason)
             self.step_path = "native"
-            #: the arrays whose values C checks (`NativeStep.value_checked`), unless they are clipped first
+            #: the arrays whose values C checks (`NativeStep.value_checked`), unless they are clipped
+            #: first, and the native step of one (`NativeStep.array_step`)
             self._value_checked = self._native.value_checked if self._clip is None else None
+            self._step_array = None if self._value_checked is None else self._native.array_step()
             #: C makes the whole step: the observation, the reward and the ending
             self._c_whole_step = endings is None and not self._python_observation
+            self._native_observation, self._native_reward = self._native.observation, self._native.reward_cell
             components = getattr(self.fmu, "components", None)
             self.step_path_reason = native_path_reason(inputs_reason, observation_reason,
                                                        [] if endings is None else endings.parts,
@@ -323,18 +326,20 @@ class FMUEnv(gym.Env):
                 instead (NaN and a wrong shape are still refused).
         """
         native, checked = self._native, self._value_checked
-        # an array C checks the values of (bounds, finite) goes to C as it is; any other action is checked here
-        if checked is None or type(action) is not np.ndarray or action.shape != checked[0] \
-                or action.dtype.char not in checked[1]:
+        # an array whose values C checks (bounds, finite) goes to C as it is; any other action is checked here
+        if checked is not None and type(action) is np.ndarray and action.dtype in checked[1] \
+                and action.shape == checked[0]:
+            flags = self._step_array(action)
+        else:
             if self._clip is None:
                 self._check_action(action)
             else:
                 action = self._clip(action)
             if native is None:
                 return self._python_step(action)
-        flags = native.step(action)
+            flags = native.step(action)
         if not flags and self._c_whole_step:
-            return native.observation(), native.reward, False, False, {}
+            return self._native_observation(), self._native_reward.value, False, False, {}
         if flags & Flags.BAD_ACTION:  # C stepped nothing
             self._refuse(action)
         if flags & Flags.FMU_ERROR:

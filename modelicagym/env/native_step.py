@@ -213,6 +213,8 @@ def native_path_reason(inputs_reason: str | None, observation_reason: str | None
 
 #: the array spaces whose actions' values C checks itself (`NativeStep.value_checked`)
 _VALUE_CHECKED_SPACES = (spaces.Box, spaces.MultiDiscrete, spaces.MultiBinary)
+#: the dtypes a float Box's action row (float64) holds exactly, its own first
+_FLOATS = (np.dtype(np.float64), np.dtype(np.float32), np.dtype(np.float16))
 
 
 def _unchecked(library: ctypes.CDLL, name: str) -> Any:
@@ -291,13 +293,13 @@ class NativeStep:
             "bound_high": np.array([high for _, _, high in bounds], dtype=np.float64),
         }
         self._discrete = config.action_table is not None and not python_inputs
-        #: ``(shape, dtype characters)`` of the numpy arrays whose values C checks against the
+        #: ``(shape, dtypes)`` of the numpy arrays whose values C checks against the
         #: action space as `check_action` would (bounds, finite: ``mg_env_step`` refuses a value
         #: outside with ``Flags.BAD_ACTION``, writing nothing): arrays of the action row's own dtype,
         #: or of any float dtype the row holds exactly (a float Box's), so that the values C sees are
         #: the action's. The env checks only their shape and dtype before :meth:`step`. None: every
         #: action goes through the env's `check_action` first.
-        self.value_checked: tuple[tuple[int, ...], str] | None = None
+        self.value_checked: tuple[tuple[int, ...], tuple[np.dtype, ...]] | None = None
         #: the input values are Python's: then C moves no action and checks no action bounds
         self.python_inputs = python_inputs
         #: model exchange with Python's inputs: the solver's restart rule, as the Python path applies it
@@ -337,7 +339,8 @@ class NativeStep:
         state.positive_reward, state.negative_reward = env.positive_reward, env.negative_reward
         state.max_episode_steps = -1 if env.max_episode_steps is None else env.max_episode_steps
         state.clock = ctypes.pointer(fmu.clock)
-        self._reward = ctypes.c_double(0.0)
+        #: the C double each step writes its reward into (:attr:`reward` reads it)
+        self.reward_cell = self._reward = ctypes.c_double(0.0)
         # resets only Python can do: parameters drawn per episode, or a start state drawn from a list
         tracking = getattr(env, "tracking", None)
         self._random_parameters = (any(callable(value) for value in config.reset_values.values())
@@ -366,7 +369,7 @@ class NativeStep:
         self._single = self._views[0][1] if parts[0][0] is None else None
         space = parts[0][1]
         if self._single is not None and type(space) in _VALUE_CHECKED_SPACES:
-            exact = "efd" if type(space) is spaces.Box and space.dtype.kind == "f" else space.dtype.char
+            exact = _FLOATS if type(space) is spaces.Box and space.dtype.kind == "f" else (np.dtype(space.dtype),)
             self.value_checked = (space.shape, exact)
         self.action_layout = None if self._single is not None else [
             (name, int(offsets[k]), sizes[k] * dtypes[k].itemsize, dtypes[k]) for k, (name, _) in enumerate(parts)]
@@ -432,6 +435,17 @@ class NativeStep:
             for name, view in self._views:
                 view[...] = action[name]
         return self._step(self._state_ref, self._action_ref, self._reward_ref)
+
+    def array_step(self) -> Callable[[np.ndarray], int]:
+        """:meth:`step` for an array `value_checked` describes, as a closure over the struct and
+        the action row (the single env's fast path: no attribute look-ups, no branches)."""
+        row, step, state, action, reward = self._single, self._step, self._state_ref, self._action_ref, self._reward_ref
+
+        def step_array(values: np.ndarray) -> int:
+            row[...] = values
+            return step(state, action, reward)
+
+        return step_array
 
     def write_inputs(self, action: Any) -> None:
         """Write ``action_to_inputs(action)`` (a checked action) into the instance's input buffers,
