@@ -15,9 +15,10 @@ only), which both tools read:
 Candidates, interleaved in every round (``--rounds`` of ``--seconds`` each):
 
 * ``one env``: `FMUEnv` on the archive, ``env.step(action)`` in a loop (actions sampled up front);
-* ``Ecos step(1)``: Ecos's ``EcosSimulation.step(1)`` alone, no input set, nothing read;
-* ``Ecos set/step/get``: what an env's step does, in Ecos's Python API: ``set_real`` of the action,
+* ``Ecos set/step/get``: the same in Ecos's Python API: ``set_real`` of the same actions,
   ``step(1)``, ``get_real`` of each observed output;
+* ``one env, held``: ``env.step`` with the action held at 0 (the FMUs' solvers see no new input);
+* ``Ecos step(1)``: Ecos's ``EcosSimulation.step(1)`` alone, its inputs held at their start values;
 * ``pool n=8``, ``pool n=2``: ``modelicagym.make_vec(config, n)`` with its default layout, warmed
   ``--warm`` seconds first so that its adaptive layout has made its first try.
 
@@ -59,7 +60,8 @@ logger = logging.getLogger(__name__)
 POOL_SIZES = (8, 2)
 #: the envs' episodes, in steps: a pool moves envs between its processes at episode boundaries only
 EPISODE_STEPS = 500
-#: Ecos's values, as many as the env's actions sampled up front (`pool_gain.SINGLE_ACTIONS`)
+#: steps between two readings of the clock in the held env's and Ecos's loops, and Ecos's values
+#: (as many as the env's actions sampled up front: `pool_gain.SINGLE_ACTIONS`)
 ECOS_VALUES = 50
 
 
@@ -232,6 +234,34 @@ def _ecos_run(simulation: Any, system: System, values: list[float], io: bool) ->
     return run
 
 
+def _ecos_simulation(ecos: Any, system: System, ssp: Path, stack: ExitStack) -> Any:
+    """Ecos's simulation of the archive, initialized, freed when ``stack`` closes."""
+    simulation = ecos(step_size=system.time_step, ssp_path=str(ssp))
+    stack.callback(simulation.free)
+    simulation.init()
+    return simulation
+
+
+def _held_run(env: modelicagym.FMUEnv) -> Callable[[float], float]:
+    """One env stepped for ``seconds`` with its action held at 0 (clipped into the space's
+    bounds), reset when an episode ends: steps per second."""
+    space = env.action_space
+    action = np.clip(np.zeros(space.shape, space.dtype), space.low, space.high).astype(space.dtype)
+    env.reset(seed=0)
+
+    def run(seconds: float) -> float:
+        steps, started = 0, time.perf_counter()
+        while time.perf_counter() - started < seconds:
+            for _ in range(ECOS_VALUES):
+                _, _, terminated, truncated, _ = env.step(action)
+                if terminated or truncated:
+                    env.reset()
+            steps += ECOS_VALUES
+        return steps / (time.perf_counter() - started)
+
+    return run
+
+
 def measure(system: System, ssp: Path, ecos: Any, rounds: int, seconds: float, warm: float) -> dict[str, Any]:
     """Every candidate's steps per second over interleaved rounds, after the pools' warm-up."""
     config = system.config(ssp)
@@ -245,27 +275,35 @@ def measure(system: System, ssp: Path, ecos: Any, rounds: int, seconds: float, w
         runs["one env"] = single_run(env)
         step_path = env.step_path_reason
         if ecos is not None:
+            env.action_space.seed(1)
             values = [float(np.asarray(env.action_space.sample()).item()) for _ in range(ECOS_VALUES)]
-            for label, io in (("Ecos step(1)", False), ("Ecos set/step/get", True)):
-                simulation = ecos(step_size=system.time_step, ssp_path=str(ssp))
-                stack.callback(simulation.free)
-                simulation.init()
-                runs[label] = _ecos_run(simulation, system, values, io)
+            runs["Ecos set/step/get"] = _ecos_run(_ecos_simulation(ecos, system, ssp, stack), system, values, True)
+        held = stack.enter_context(modelicagym.FMUEnv(dict(config)))
+        runs["one env, held"] = _held_run(held)
+        if ecos is not None:
+            runs["Ecos step(1)"] = _ecos_run(_ecos_simulation(ecos, system, ssp, stack), system, values, False)
         for n, envs in pools.items():
             runs[f"pool n={n}"] = pool_run(envs)
             runs[f"pool n={n}"](warm)
         rates: dict[str, list[float]] = {label: [] for label in runs}
+        cpu_rates: dict[str, list[float]] = {label: [] for label in runs if not label.startswith("pool")}
         for _ in range(rounds):
             for label, run in runs.items():
+                wall, cpu = time.perf_counter(), time.process_time()
                 rates[label].append(run(seconds))
+                wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                if label in cpu_rates:  # steps per second of this process's CPU time (all its threads)
+                    cpu_rates[label].append(rates[label][-1] * wall / cpu)
         layouts = {f"pool n={n}": str(envs.layout) for n, envs in pools.items()}
     medians = {label: median(values) for label, values in rates.items()}
     ratios = {f"pool n={n} / one env": [p / s for p, s in zip(rates[f"pool n={n}"], rates["one env"])]
               for n in POOL_SIZES}
     if ecos is not None:
-        ratios["one env / Ecos step(1)"] = [s / e for s, e in zip(rates["one env"], rates["Ecos step(1)"])]
+        for ours, theirs in (("one env", "Ecos set/step/get"), ("one env, held", "Ecos step(1)")):
+            ratios[f"{ours} / {theirs}"] = [s / e for s, e in zip(rates[ours], rates[theirs])]
+            ratios[f"{ours} / {theirs}, CPU"] = [s / e for s, e in zip(cpu_rates[ours], cpu_rates[theirs])]
     return {"system": system.name, "label": system.label, "config": config, "step_path": step_path,
-            "steps_per_second": rates, "medians": medians, "ratios": ratios,
+            "steps_per_second": rates, "steps_per_cpu_second": cpu_rates, "medians": medians, "ratios": ratios,
             "ratio_medians": {k: median(v) for k, v in ratios.items()}, "layouts": layouts}
 
 
@@ -278,16 +316,20 @@ def _ratio(values: list[float]) -> str:
     return f"{median(values):.2f}x ({min(values):.2f}-{max(values):.2f})"
 
 
-def report(results: list[dict[str, Any]], ecos: bool) -> str:
+def report(results: list[dict[str, Any]]) -> str:
     """The rates table, the ratios table and each pool's layout at the end."""
-    labels = ["one env"] + (["Ecos step(1)", "Ecos set/step/get"] if ecos else []) + [f"pool n={n}" for n in POOL_SIZES]
+    labels = list(results[0]["steps_per_second"])
     rates = format_table(["system"] + labels, [[r["label"]] + [_rate(r["steps_per_second"][k]) for k in labels]
                                                 for r in results])
+    single = list(results[0]["steps_per_cpu_second"])
+    cpu = format_table(["system"] + single, [[r["label"]] + [_rate(r["steps_per_cpu_second"][k]) for k in single]
+                                             for r in results])
     names = list(results[0]["ratios"])
     ratios = format_table(["system"] + names, [[r["label"]] + [_ratio(r["ratios"][k]) for k in names] for r in results])
     layouts = "\n".join(f"  {r['label']}, {k}: {v}" for r in results for k, v in r["layouts"].items())
-    return (f"env steps per second, median (range of the rounds):\n{rates}\n\nratios, median (range):\n{ratios}\n\n"
-            f"the pools' layout at the end:\n{layouts}")
+    return (f"env steps per second, median (range of the rounds):\n{rates}\n\n"
+            f"steps per second of the process's CPU time (its share of a busy machine left out):\n{cpu}\n\n"
+            f"ratios, median (range):\n{ratios}\n\nthe pools' layout at the end:\n{layouts}")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -324,7 +366,7 @@ def run(args: argparse.Namespace) -> int:
             except ConfigError as error:
                 raise ConfigError(f"systems: {system.name}: {error}") from error
     line, data = conditions(load_before, args.rounds, args.seconds)
-    print(report(results, ecos is not None))
+    print(report(results))
     print(f"\n{line}; each pool warmed {args.warm} s first" + (f"; Ecos {ecos_version}" if ecos else ""))
     data = {**data, "ecos": ecos_version if ecos else None, "rounds": args.rounds, "seconds": args.seconds,
             "warm": args.warm, "results": results}
