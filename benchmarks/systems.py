@@ -14,10 +14,13 @@ only), which both tools read:
 
 Candidates, interleaved in every round (``--rounds`` of ``--seconds`` each):
 
-* ``one env``: `FMUEnv` on the archive, ``env.step(action)`` in a loop (actions sampled up front);
+* ``one env``: `FMUEnv` on the archive, ``env.step(action)`` in a loop (actions sampled up front),
+  in episodes of `EPISODE_STEPS`, as the pools run;
+* ``one env, run on``: the same with no episode end, as Ecos runs (an FMU's solver may cost less
+  once the system settles), against
 * ``Ecos set/step/get``: the same in Ecos's Python API: ``set_real`` of the same actions,
   ``step(1)``, ``get_real`` of each observed output;
-* ``one env, held``: ``env.step`` with the action held at 0 (the FMUs' solvers see no new input);
+* ``one env, held``: ``env.step`` run on with the action held at 0 (no new input), against
 * ``Ecos step(1)``: Ecos's ``EcosSimulation.step(1)`` alone, its inputs held at their start values;
 * ``pool n=8``, ``pool n=2``: ``modelicagym.make_vec(config, n)`` with its default layout, warmed
   ``--warm`` seconds first so that its adaptive layout has made its first try.
@@ -88,10 +91,10 @@ class System:
     outputs: tuple[str, ...]
     time_step: float = 0.001
 
-    def config(self, ssp: Path) -> dict[str, Any]:
-        """The env's config over the archive."""
+    def config(self, ssp: Path, episodes: bool = True) -> dict[str, Any]:
+        """The env's config over the archive, in episodes of `EPISODE_STEPS` or run on."""
         return {"fmu": str(ssp), "inputs": [self.action], "outputs": list(self.outputs), "time_step": self.time_step,
-                "max_episode_steps": EPISODE_STEPS}
+                "max_episode_steps": EPISODE_STEPS if episodes else None}
 
 
 def _connector(name: str, kind: str) -> str:
@@ -244,7 +247,7 @@ def _ecos_simulation(ecos: Any, system: System, ssp: Path, stack: ExitStack) -> 
 
 def _held_run(env: modelicagym.FMUEnv) -> Callable[[float], float]:
     """One env stepped for ``seconds`` with its action held at 0 (clipped into the space's
-    bounds), reset when an episode ends: steps per second."""
+    bounds), reset if an episode ends: steps per second."""
     space = env.action_space
     action = np.clip(np.zeros(space.shape, space.dtype), space.low, space.high).astype(space.dtype)
     env.reset(seed=0)
@@ -274,11 +277,12 @@ def measure(system: System, ssp: Path, ecos: Any, rounds: int, seconds: float, w
         env = stack.enter_context(modelicagym.FMUEnv(dict(config)))
         runs["one env"] = single_run(env)
         step_path = env.step_path_reason
-        if ecos is not None:
-            env.action_space.seed(1)
+        if ecos is not None:  # like against like: neither ends an episode
+            runs["one env, run on"] = single_run(stack.enter_context(modelicagym.FMUEnv(system.config(ssp, False))))
+            env.action_space.seed(0)
             values = [float(np.asarray(env.action_space.sample()).item()) for _ in range(ECOS_VALUES)]
             runs["Ecos set/step/get"] = _ecos_run(_ecos_simulation(ecos, system, ssp, stack), system, values, True)
-        held = stack.enter_context(modelicagym.FMUEnv(dict(config)))
+        held = stack.enter_context(modelicagym.FMUEnv(system.config(ssp, False)))
         runs["one env, held"] = _held_run(held)
         if ecos is not None:
             runs["Ecos step(1)"] = _ecos_run(_ecos_simulation(ecos, system, ssp, stack), system, values, False)
@@ -299,7 +303,7 @@ def measure(system: System, ssp: Path, ecos: Any, rounds: int, seconds: float, w
     ratios = {f"pool n={n} / one env": [p / s for p, s in zip(rates[f"pool n={n}"], rates["one env"])]
               for n in POOL_SIZES}
     if ecos is not None:
-        for ours, theirs in (("one env", "Ecos set/step/get"), ("one env, held", "Ecos step(1)")):
+        for ours, theirs in (("one env, run on", "Ecos set/step/get"), ("one env, held", "Ecos step(1)")):
             ratios[f"{ours} / {theirs}"] = [s / e for s, e in zip(rates[ours], rates[theirs])]
             ratios[f"{ours} / {theirs}, CPU"] = [s / e for s, e in zip(cpu_rates[ours], cpu_rates[theirs])]
     return {"system": system.name, "label": system.label, "config": config, "step_path": step_path,
