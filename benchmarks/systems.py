@@ -1,7 +1,6 @@
 """A system's step: one env, the Ecos co-simulation engine from Python, and the default pool, side by side.
 
-Each system is written as one SSP 1.0 archive (in a temporary folder: the FMUs are copied there
-only), which both tools read:
+Each system is written as one SSP 1.0 archive (in a temporary folder), which both tools read:
 
 * ``drive``: our motor (FMI 2.0) driving our shaft (FMI 3.0), its speed fed back, both in
   co-simulation (the sample system's FMUs, built from ``modelicagym/samples``); the action is the
@@ -15,9 +14,8 @@ only), which both tools read:
 Candidates, interleaved in every round (``--rounds`` of ``--seconds`` each):
 
 * ``one env``: `FMUEnv` on the archive, ``env.step(action)`` in a loop (actions sampled up front),
-  in episodes of `EPISODE_STEPS`, as the pools run;
-* ``one env, run on``: the same with no episode end, as Ecos runs (an FMU's solver may cost less
-  once the system settles), against
+  in 500-step episodes, as the pools run;
+* ``one env, run on``: the same with no episode end, as Ecos runs, against
 * ``Ecos set/step/get``: the same in Ecos's Python API: ``set_real`` of the same actions,
   ``step(1)``, ``get_real`` of each observed output;
 * ``one env, held``: ``env.step`` run on with the action held at 0 (no new input), against
