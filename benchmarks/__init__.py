@@ -28,6 +28,8 @@ BENCHMARKS = (
     ("partial-batches", "benchmarks.partial_batches", "send/recv (EnvPool's partial batches) against the barrier step"),
     ("balance", "benchmarks.balance", "the layout balanced by cost, for envs whose cost varies with their state"),
     ("pool-gain", "benchmarks.pool_gain", "the default pool against one env, per FMU, with the bar each must meet"),
+    ("systems", "benchmarks.systems",
+     "a system's step: one env against Ecos from Python, and the default pool at n=8 and n=2"),
     ("once-per-process", "benchmarks.once_per_process",
      "once per process: copies of its binary against one env a worker"),
     ("init-once", "benchmarks.init_once", 'a pool\'s start, each env initializing against init="once"'),

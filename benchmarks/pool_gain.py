@@ -136,7 +136,7 @@ def default_n(once_per_process: bool) -> int:
     return 2 if once_per_process else 8
 
 
-def _single_run(env: modelicagym.FMUEnv) -> Callable[[float], float]:
+def single_run(env: modelicagym.FMUEnv) -> Callable[[float], float]:
     """One env in a loop for ``seconds``: env steps per second."""
     env.reset(seed=0)
     env.action_space.seed(0)
@@ -155,7 +155,7 @@ def _single_run(env: modelicagym.FMUEnv) -> Callable[[float], float]:
     return run
 
 
-def _pool_run(envs: gym.vector.VectorEnv) -> Callable[[float], float]:
+def pool_run(envs: gym.vector.VectorEnv) -> Callable[[float], float]:
     """The pool stepped for ``seconds`` (its own autoreset): env steps per second."""
     envs.reset(seed=0)
     envs.action_space.seed(0)
@@ -189,7 +189,7 @@ def measure(config: Mapping[str, Any], n: int, rounds: int, seconds: float, warm
         envs = _make_vec(config, n, env_class)  # before the single env, as a user makes them
         stack.callback(envs.close)
         env = stack.enter_context(env_class(dict(config)))
-        single, pool = _single_run(env), _pool_run(envs)
+        single, pool = single_run(env), pool_run(envs)
         pool(warm)
         single(min(SINGLE_WARM, warm))
         single_rates, pool_rates = [], []

@@ -48,7 +48,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from modelicagym.action_checks import action_checker, action_clipper
+from modelicagym.action_checks import action_checker, action_clipper, describe_action
 from modelicagym.env.config import FMUEnvConfig
 from modelicagym.env.config_checks import check_action_bound_names, check_fixed_input_names, check_parameter
 from modelicagym.env.endings import (
@@ -73,7 +73,7 @@ from modelicagym.env.saved_state import EnvState, generator_state, restored_gene
 from modelicagym.env.spaces import Observer, space_for, write_values
 from modelicagym.env.strip_chart import Series, StripChart, require_matplotlib
 from modelicagym.env.tracking import Tracking
-from modelicagym.errors import ArgumentError, ArgumentTypeError, ConfigError
+from modelicagym.errors import ActionError, ArgumentError, ArgumentTypeError, ConfigError
 from modelicagym.fmu import FMUCallError, FMUError
 from modelicagym.fmu.logs import RateLimitedLog
 from modelicagym.native.abi import Flags
@@ -194,6 +194,8 @@ class FMUEnv(gym.Env):
         #: as a phrase; None when C does the step up to its endings
         self.python_edges: str | None = None
         self._python_observation = False
+        self._value_checked: tuple[tuple[int, ...], tuple[np.dtype, ...]] | None = None
+        self._c_whole_step = False
         reason = python_path_reason(self, FMUEnv)
         if reason is None:
             inputs_reason = python_inputs_reason(self, FMUEnv)
@@ -205,6 +207,13 @@ class FMUEnv(gym.Env):
                                       python_observation=self._python_observation)
             self.python_edges = python_edges(inputs_reason, observation_reason)
             self.step_path = "native"
+            #: the arrays whose values C checks (`NativeStep.value_checked`), unless they are clipped
+            #: first, and the native step of one (`NativeStep.array_step`)
+            self._value_checked = self._native.value_checked if self._clip is None else None
+            self._step_array = None if self._value_checked is None else self._native.array_step()
+            #: C makes the whole step: the observation, the reward and the ending
+            self._c_whole_step = endings is None and not self._python_observation
+            self._native_observation, self._native_reward = self._native.observation, self._native.reward_cell
             components = getattr(self.fmu, "components", None)
             self.step_path_reason = native_path_reason(inputs_reason, observation_reason,
                                                        [] if endings is None else endings.parts,
@@ -316,26 +325,39 @@ class FMUEnv(gym.Env):
                 ``action_out_of_bounds="clip"`` a Box action outside its bounds is clipped into them
                 instead (NaN and a wrong shape are still refused).
         """
-        if self._clip is None:
-            self._check_action(action)
+        native, checked = self._native, self._value_checked
+        # an array whose values C checks (bounds, finite) goes to C as it is; any other action is checked here
+        if checked is not None and type(action) is np.ndarray and action.dtype in checked[1] \
+                and action.shape == checked[0]:
+            flags = self._step_array(action)
         else:
-            action = self._clip(action)
-        native = self._native
-        if native is not None:
+            if self._clip is None:
+                self._check_action(action)
+            else:
+                action = self._clip(action)
+            if native is None:
+                return self._python_step(action)
             flags = native.step(action)
-            if flags & Flags.FMU_ERROR:
-                return self.fmu_failure(native.error())
-            terminated, truncated, info = Flags.ending(flags)
-            endings = self.native_endings
-            observation = self.observation() if self._python_observation else native.observation()
-            if endings is None:
-                return observation, native.reward, terminated, truncated, info
-            # C stepped the FMU; the ending is Python's, as below
-            if endings.termination:
-                terminated = self.is_terminal(observation)
-                if flags & Flags.MODEL_ENDED:
-                    terminated = True
-            return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
+        if not flags and self._c_whole_step:
+            return self._native_observation(), self._native_reward.value, False, False, {}
+        if flags & Flags.BAD_ACTION:  # C stepped nothing
+            self._refuse(action)
+        if flags & Flags.FMU_ERROR:
+            return self.fmu_failure(native.error())
+        terminated, truncated, info = Flags.ending(flags)
+        endings = self.native_endings
+        observation = self.observation() if self._python_observation else native.observation()
+        if endings is None:
+            return observation, native.reward, terminated, truncated, info
+        # C stepped the FMU; the ending is Python's, as on the Python path
+        if endings.termination:
+            terminated = self.is_terminal(observation)
+            if flags & Flags.MODEL_ENDED:
+                terminated = True
+        return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
+
+    def _python_step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """`step` on the Python path, for a checked action."""
         if self.tracking is not None:
             self.tracking.before_step(action)
         write_values(self.fmu.inputs, self.action_to_inputs(action))
@@ -352,6 +374,12 @@ class FMUEnv(gym.Env):
             info["fmu_terminated"] = True
         truncated = self.max_episode_steps is not None and self.elapsed_steps >= self.max_episode_steps
         return observation, self.compute_reward(observation, action, terminated), terminated, truncated, info
+
+    def _refuse(self, action: Any) -> None:
+        """Raise the `ActionError` of an action C refused (``Flags.BAD_ACTION``), as `check_action` words it."""
+        self._check_action(action)
+        raise ActionError(f"invalid action {describe_action(action)}: a value is outside the bounds or not finite; "
+                          f"the action space is {self.action_space}")
 
     def _started_from_state(self, seed: int | None, options: dict[str, Any]) -> bool:
         """Start the episode from ``options["state"]``, or one drawn from the config's

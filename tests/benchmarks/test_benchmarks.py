@@ -5,6 +5,7 @@ nobody ran lately still works."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import re
 import statistics
@@ -27,6 +28,7 @@ BENCHMARKS = {
     "init-once": (["--n", "2", "--init-seconds", "0.01", "--repeats", "1"], {"cores", "results"}),
     "balance": (["--n", "4", "--settings", "skewed", "--repeats", "1", "--seconds", "0.05"], {"cores", "results"}),
     "barrier": (["--workers", "1", "3", "--steps", "50", "--repeats", "1"], {"usable_cores", "results", "conditions"}),
+    "systems": (["--systems", "drive", "--rounds", "1", "--seconds", "0.05", "--warm", "0.05"], {"cores", "results"}),
 }
 
 
@@ -147,3 +149,27 @@ def test_the_pool_gain_bar_follows_the_single_envs_cost(single_us: float, n: int
     from benchmarks.pool_gain import bar
 
     assert bar(single_us, n, once) == expected
+
+
+@pytest.mark.parametrize("bad, message", [
+    (["--rounds", "0"], "systems: --rounds at least 1, --seconds more than 0, --warm at least 0; got 0, 0.3, 8.0"),
+    (["--systems", "dcmotor"], "systems: dcmotor is built from OMSimulator's test suite: give --oms"),
+    (["--systems", "linear-transformation", "--oms", "missing"], "systems --oms missing: no such folder"),
+])
+def test_the_systems_benchmark_refuses_bad_input_in_one_line(bad: list[str], message: str, tmp_path: Path) -> None:
+    command = [*own_bench("systems"), *bad, "--json", str(tmp_path / "r.json")]
+    result = run(command, timeout=120, cwd=tmp_path)
+    assert result.returncode == 1 and result.stderr.strip().startswith(f"error: {message}"), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and not (tmp_path / "r.json").exists()
+
+
+def test_the_systems_benchmark_says_why_ecos_is_not_measured_without_ecospy(tmp_path: Path) -> None:
+    """Ecos is a maintainers' comparison: without ``ecospy`` its columns are left out, with a line that says so."""
+    if importlib.util.find_spec("ecospy") is not None:
+        pytest.skip("ecospy is installed here: its columns are measured")
+    args = ["--systems", "drive", "--rounds", "1", "--seconds", "0.05", "--warm", "0.05"]
+    out = run_bench(own_bench("systems"), args, tmp_path / "result.json")
+    assert out.startswith("Ecos not measured: No module named 'ecospy' (pip install ecospy tbb"), out
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert result["ecos"] is None
+    assert set(result["results"][0]["steps_per_second"]) == {"one env", "one env, held", "pool n=8", "pool n=2"}

@@ -371,6 +371,9 @@ def test_parameter_values_the_fmu_rejects_surface_its_message(make_env):
         (["force"], np.array([1.0, 2.0]), "expected shape (1,), got shape (2,)"),
         (["force"], np.array([np.nan]), "NaN"),
         (["force"], np.array([10.5]), "outside the bounds"),
+        (["force"], np.array([-10.5], dtype=np.float32), "outside the bounds"),
+        (["force"], np.array([11]), "outside the bounds"),
+        (["force"], np.array([np.inf]), "NaN or infinity"),
         (["force"], "push", "expected numbers"),
         (["gear"], 5, "out of range [0, 4]"),
         (["gear"], 1.5, "expected integers"),
@@ -394,6 +397,22 @@ def test_invalid_actions_name_the_action_and_the_space(make_env, inputs, action,
     assert message.startswith(f"invalid action {action!r}"[:40])
     assert str(env.action_space) in message
     assert env.time == 0.0  # nothing reached the FMU
+
+
+@pytest.mark.parametrize("step_path", ["auto", "python"])
+@pytest.mark.parametrize("value", [np.inf, -np.inf, np.nan])
+def test_an_action_that_is_not_finite_is_refused_within_infinite_bounds(make_env, step_path, value):
+    """An array action's values are checked in C on the native path (bounds, finite), as
+    `check_action` checks them on the Python path: the same error, nothing stepped."""
+    env = make_env("probe", 2, inputs=["force"], outputs=["position"], step_path=step_path,
+                   action_space=spaces.Box(-np.inf, np.inf, (1,), np.float64))
+    assert env.step_path == ("native" if step_path == "auto" else "python")
+    env.reset()
+    with pytest.raises(ValueError, match=r"^invalid action array\(\[-?(inf|nan)\]\): it contains NaN or infinity"):
+        env.step(np.array([value]))
+    assert env.time == 0.0 and env.elapsed_steps == 0
+    env.step(np.array([1e300]))  # any finite value passes
+    assert env.time > 0.0
 
 
 def test_tunable_parameters_can_be_actions(make_env, fmi_version, fmu_mode):

@@ -164,6 +164,25 @@ def test_a_failing_component_truncates_the_episode_naming_it(system_fmus, family
 
 
 @pytest.mark.parametrize("step_path", ["auto", "python"])
+@pytest.mark.parametrize("action", [np.array([1.5]), np.array([np.nan]), np.array([1.5], dtype=np.float32),
+                                    np.array([2]), np.array([[0.5]])])
+def test_an_action_outside_the_space_is_refused_and_steps_no_component(system_fmus, step_path, action):
+    motor, inertia = system_fmus
+    with FMUEnv(system_config(motor, inertia, step_path=step_path)) as env:
+        env.reset(seed=0)
+        env.step(np.array([0.5]))
+        before = env.unwrapped.fmu.save_state()
+        with pytest.raises(ValueError, match=r"^invalid action .*the action space is Box"):
+            env.step(action)
+        assert env.time == TIME_STEP and env.elapsed_steps == 1
+        assert [c.time for c in env.fmu.components.values()] == [TIME_STEP, TIME_STEP]
+        after = env.step(np.array([0.5]))[0]
+        env.unwrapped.fmu.load_state(before)
+        env.elapsed_steps = 1
+        assert np.array_equal(env.step(np.array([0.5]))[0], after)  # the refused action changed no input
+
+
+@pytest.mark.parametrize("step_path", ["auto", "python"])
 @pytest.mark.parametrize("master", ["gauss-seidel", "jacobi"])
 def test_a_csv_table_drives_an_input_from_a_time_of_its_own_each_episode(system_fmus, tmp_path, master, step_path):
     motor, inertia = system_fmus

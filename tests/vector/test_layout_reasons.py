@@ -85,8 +85,12 @@ CASES: dict[str, tuple[Callable[[], PoolVectorEnv], tuple[str, ...], str]] = {
                            "no worker stands in for it, as the layout does not adapt: adapt_layout=False"), "workers"),
     "user's FMU, random parameters": (lambda: PoolVectorEnv(users(parameters={"m_cart": random_mass}), cores=2),
                                       ("no worker stands in for it", "does not reset deterministically"), "workers"),
+    # the user put FMU code in the calling process: it holds copies of the workers' envs too
     "user's FMU, caller_steps=True": (lambda: PoolVectorEnv(users(), caller_steps=True, cores=2),
-                                      ("env 0 does not say it is safe in the calling process",), "caller"),
+                                      ("its envs can move between the workers and the calling process",), "caller"),
+    # ... but never more instances of an FMU allowed few per process than its rule allows
+    "once per process, caller_steps=True": (lambda: once_per_process_pool(caller_steps=True),
+                                            ("env 0 does not say it is safe in the calling process",), "caller"),
     "once per process": (once_per_process_pool,
                          ("env 0's fn allows at most 1 env(s) per process",
                           "an FMU that may be instantiated only once per process"), "workers"),

@@ -152,8 +152,9 @@ static int32_t fail(mg_env *env, int call, int status) {
     return MG_FMU_ERROR;
 }
 
-/* Convert the action's values into the inputs; false (nothing written) if it is outside the
- * action space. In model exchange, new input values end the solver's continuous run. */
+/* Convert the action's values into the inputs; false (nothing written) if one is outside the
+ * action space's bounds or not finite (the single env leaves this check of an array's values to C).
+ * In model exchange, new input values end the solver's continuous run. */
 static bool write_action(mg_env *env, const void *action) {
     const char *row = action;
     if (env->discrete) {
@@ -165,8 +166,8 @@ static bool write_action(mg_env *env, const void *action) {
         for (int64_t k = 0; k < env->n_inputs; k++) {
             const mg_move *m = &env->action_moves[k];
             double x = as_double(load(row + m->source, m->source_type));
-            if (!(env->action_low[k] <= x && x <= env->action_high[k]))
-                return false; /* also NaN */
+            if (!(isfinite(x) && env->action_low[k] <= x && x <= env->action_high[k]))
+                return false; /* NaN and infinity too, as check_action refuses them */
         }
     }
     bool changed = false;

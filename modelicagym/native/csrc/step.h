@@ -101,7 +101,8 @@ typedef struct {
     int64_t observation_bytes;
     const double *action_table; /* n_actions x n_inputs */
     int64_t n_actions;
-    const double *action_low, *action_high; /* bounds per action value, compared as doubles (NULL: none) */
+    /* bounds per action value, compared as doubles; a value outside them or not finite is refused (NULL: none) */
+    const double *action_low, *action_high;
     const int64_t *bound_index; /* observation_moves index of each termination bound */
     const double *bound_low, *bound_high;
     int64_t n_bounds;

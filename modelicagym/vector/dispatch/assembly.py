@@ -8,7 +8,9 @@ one more worker starts, the stand-in, and creates a copy of every env; if they a
 safe, that worker stops and the calling process creates its own; if not, the stand-in keeps them
 and does the caller's part instead: it steps the caller's slice, and on a crowded machine the
 adaptive layout consolidates every env there (`modelicagym.vector.layout.placement`). So an env that does
-not say it is safe is never created in the calling process."""
+not say it is safe is never created in the calling process unless the user puts envs there
+(``caller_steps=True``): then the calling process also holds copies of the workers' envs, and the
+adaptive layout moves envs into it when that is faster, as it does with envs safe there."""
 
 from __future__ import annotations
 
@@ -43,6 +45,15 @@ class PoolParts:
     def caller_steps(self) -> bool:
         """Whether the calling process steps a slice of the envs."""
         return self.dispatcher.local is not None
+
+
+def _trusted(env_fns: Sequence[Callable[[], gym.Env]], layout: Layout) -> bool:
+    """Whether the user put envs in the calling process (``caller_steps=True``), so that it may
+    hold copies of the workers' envs to take them when that is faster, safe there or not: the same
+    FMUs' code runs there already. Not for envs allowed a few per process (``max_envs_per_process``):
+    copies would be more."""
+    return (layout.caller_slice is not None and not layout.caller_if_safe
+            and all(getattr(fn, "max_envs_per_process", None) is None for fn in env_fns))
 
 
 def assemble(
@@ -82,7 +93,7 @@ def assemble(
         )
         first = workers.connect(local)
         placement, local = place_envs(
-            list(env_fns), workers, local, config, adapt_layout, stand_in_slice, isolated
+            list(env_fns), workers, local, config, adapt_layout, stand_in_slice, isolated, _trusted(env_fns, layout)
         )
     except BaseException:
         if local is not None:

@@ -311,20 +311,22 @@ def place_envs(
     adapt_layout: bool | None,
     stand_in_slice: range | None = None,
     isolated: str | None = None,
+    trusted: bool = False,
 ) -> tuple[Placement, EnvSlice | None]:
     """The placement of a pool's envs (``config``: the pool's, for its autoreset mode and cores), and
     the calling process's slice: for an adaptive layout,
     every env (copies of the worker envs, then its own). With a stand-in worker (the last one, for
     envs not safe in the calling process), that worker steps ``stand_in_slice`` instead, and
     consolidates the envs when that is faster. ``isolated`` says why every env is in a worker,
-    with no stand-in (given whenever ``local`` is ``None`` without one). Raises `ConfigError` if
-    ``adapt_layout=True`` cannot be, saying why."""
+    with no stand-in (given whenever ``local`` is ``None`` without one). ``trusted``: the user put
+    envs in the calling process (``caller_steps=True``), so it may hold copies of the workers' envs
+    too, safe there or not. Raises `ConfigError` if ``adapt_layout=True`` cannot be, saying why."""
     autoreset_mode = config.autoreset_mode
     if stand_in_slice is not None:
         return _place_with_stand_in(workers, stand_in_slice, config, adapt_layout), None
     buffers = workers.buffers
     caller_slice = None if local is None else local.env_indices
-    reason = isolated or _fixed_layout_reason(workers, local, adapt_layout)
+    reason = isolated or _fixed_layout_reason(workers, local, adapt_layout, trusted)
     if reason is None:
         copies: list[gym.Env] = []
         try:
@@ -406,15 +408,16 @@ def stand_in_fixed_reason(description: EnvDescription, adapt_layout: bool | None
     return _never_adapts_reason(adapt_layout) or description.movable_reason
 
 
-def _fixed_layout_reason(workers: Workers, local: EnvSlice, adapt_layout: bool | None) -> str | None:
+def _fixed_layout_reason(workers: Workers, local: EnvSlice, adapt_layout: bool | None,
+                         trusted: bool = False) -> str | None:
     """Why the layout of a pool whose calling process steps ``local`` cannot adapt (``None``: it
-    can), before any copy is made."""
+    can), before any copy is made (``trusted``: as `place_envs`)."""
     if not workers.handles:
         return "num_workers=0: every env is in the calling process"
     never = _never_adapts_reason(adapt_layout)
     if never is not None:
         return never
-    unsafe = workers.unsafe_in_caller()
+    unsafe = None if trusted else workers.unsafe_in_caller()
     if unsafe is not None:
         return (f"env {unsafe} does not say it is safe in the calling process (safe_in_caller), so no copy of it "
                 "is made there")
