@@ -10,6 +10,10 @@ rounded down (at least one): a process beyond the quota's share is the one that 
 ``MODELICAGYM_CORES`` (and a pool's ``cores`` argument, which wins over it) overrides what is
 detected, in both directions: fewer cores leave room for other work, more let a 2-core machine
 plan what a 16-core one would.
+
+Where the usable cores are fewer than the CPUs of the affinity mask, a pool keeps its stepping
+processes on that many CPUs (`stepping_cpus`): inside a 1-CPU quota on two CPUs, a hand-over
+between two processes on different CPUs wakes an idle CPU that the quota cannot use anyway.
 """
 
 from __future__ import annotations
@@ -21,13 +25,14 @@ from pathlib import Path
 
 from modelicagym.errors import ConfigError
 
-__all__ = ["CORES_VARIABLE", "CoreCount", "count_cores", "usable_cores"]
+__all__ = ["CORES_VARIABLE", "CoreCount", "count_cores", "stepping_cpus", "usable_cores"]
 
 #: the environment variable that overrides the detected cores
 CORES_VARIABLE = "MODELICAGYM_CORES"
 
 _CGROUP_ROOT = Path("/sys/fs/cgroup")
 _PROC_CGROUP = Path("/proc/self/cgroup")
+_THREAD_STAT = Path("/proc/thread-self/stat")
 
 
 @dataclass(frozen=True)
@@ -82,6 +87,30 @@ def count_cores(
                               f"{detected}; unset it to use what is detected: {detected})") from None
         return CoreCount(_checked(given, CORES_VARIABLE), affinity, quota, f"{CORES_VARIABLE}={given}")
     return CoreCount(detected, affinity, quota)
+
+
+def stepping_cpus(cores: int, mask: set[int] | None = None, current: int | None = None) -> tuple[int, ...] | None:
+    """The CPUs a pool of ``cores`` usable cores keeps its stepping processes on: ``None`` where
+    ``cores`` covers the calling thread's affinity ``mask`` (they run anywhere in it), else
+    ``cores`` CPUs of the mask, from the one the thread runs on now (``current``; read when not
+    given) onwards in the mask's order, so that the scheduler's own choice of CPU for the thread
+    stays in the set and two pools started on different CPUs stay apart."""
+    mask = os.sched_getaffinity(0) if mask is None else mask
+    if cores >= len(mask):
+        return None
+    cpus = sorted(mask)
+    current = _current_cpu() if current is None else current
+    start = cpus.index(current) if current in cpus else 0
+    return tuple((cpus[start:] + cpus[:start])[:cores])
+
+
+def _current_cpu() -> int | None:
+    """The CPU the calling thread runs on now (field 39 of ``/proc/thread-self/stat``), or ``None``."""
+    stat = _read(_THREAD_STAT)
+    try:
+        return int(stat[stat.rindex(")") + 2:].split()[36])
+    except (ValueError, IndexError):
+        return None
 
 
 def _checked(cores: int, name: str) -> int:

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from step_paths import cartpole_fns
 
-from modelicagym.cores import CORES_VARIABLE, count_cores
+from modelicagym.cores import CORES_VARIABLE, count_cores, stepping_cpus
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
 
@@ -74,6 +74,17 @@ def test_the_variable_and_the_argument_override_what_is_detected(tmp_path: Path)
 def test_a_bad_variable_is_refused_naming_it(tmp_path: Path, value: str) -> None:
     with pytest.raises(ConfigError, match=CORES_VARIABLE):
         _count(tmp_path, "0::/\n", {}, environ={CORES_VARIABLE: value})
+
+
+def test_fewer_cores_than_cpus_step_on_as_many_from_the_threads_own() -> None:
+    assert stepping_cpus(2, {0, 1, 2, 3}, current=3) == (3, 0)
+    assert stepping_cpus(1, {2, 5}, current=5) == (5,)
+    assert stepping_cpus(1, {2, 5}, current=7) == (2,)  # a CPU outside the mask: from the mask's first
+
+
+def test_cores_for_every_cpu_of_the_mask_keep_to_none() -> None:
+    assert stepping_cpus(4, {0, 1, 2, 3}, current=0) is None
+    assert stepping_cpus(16, {0, 1}, current=1) is None
 
 
 @pytest.mark.processes
