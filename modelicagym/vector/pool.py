@@ -283,7 +283,8 @@ class PoolVectorEnv(VectorEnv):
         #: the usable cores the pool plans for
         self.cores = usable_cores(cores)
         #: the CPUs the pool steps on, where its cores are fewer than the calling thread's affinity
-        #: mask (its workers, and the thread that made it, while it is open); ``None``: anywhere in the mask
+        #: mask (its workers, and the thread that made it, while it is open); ``None``: anywhere in the
+        #: mask (and where no worker starts)
         self.cpus = stepping_cpus(self.cores)
         layout = plan_layout(self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout,
                              caller_steps, batch_size, self.cores)
@@ -310,7 +311,9 @@ class PoolVectorEnv(VectorEnv):
         except BaseException:
             self.closed = True
             raise
-        self._caller_affinity = CallerAffinity(self.cpus if parts.workers.handles else None)
+        if not parts.workers.handles:  # no hand-over to keep on one CPU: the calling thread is left alone
+            self.cpus = None
+        self._caller_affinity = CallerAffinity(self.cpus)
         self.caller_steps = parts.caller_steps
         self.num_workers = len(parts.workers.handles)
         self._workers, self._placement, self._dispatcher = parts.workers, parts.placement, parts.dispatcher

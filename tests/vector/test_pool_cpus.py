@@ -85,4 +85,4 @@ def test_a_pool_without_workers_leaves_the_calling_thread_alone() -> None:
     native, _ = cartpole_fns(2)
     with PoolVectorEnv(native, num_workers=0, cores=1, start_method="fork") as pool:
         pool.reset(seed=0)
-        assert os.sched_getaffinity(0) == MASK
+        assert pool.cpus is None and os.sched_getaffinity(0) == MASK
