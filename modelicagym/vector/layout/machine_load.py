@@ -27,8 +27,9 @@ Every threshold of these readings, what it decides, and where it was measured (d
     a calling process that steps every env probes its workers again. A rule, not a measurement:
     half a core idle since the last look.
 
-Without PSI the machine is never called quiet (the workers sleep between batches), and the C check
-counts the runnable threads of ``/proc/loadavg`` instead.
+Without PSI, or without the native library (no C compiler), the machine is never called quiet (the
+workers sleep between batches), and the C check counts the runnable threads of ``/proc/loadavg``
+instead.
 
 **One probe, three verdicts, and why they are not one.** Every verdict reads the same probe: the
 kernel's "some" total, read by the C library once a millisecond at most. What differs is the span
