@@ -9,7 +9,8 @@ one env, against 1.20x with the stand-in and the calling thread on one CPU.
 
 So the pool keeps to `modelicagym.cores.stepping_cpus`: its workers pin themselves when they start
 (``WorkerConfig.cpus``), and `CallerAffinity` pins the one thread that made the pool, for as long
-as it is open. The rule, and why not more or less (docs/design.md, "Usable cores"):
+as it is open. The rule, and why not more or less (docs/design.md, "Stepping on the usable cores'
+CPUs"):
 
 - affinity is per thread on Linux: the process's other threads (a learner's, a logger's) keep
   their masks; threads this thread starts while the pool is open inherit its mask;
