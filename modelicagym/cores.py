@@ -10,24 +10,33 @@ rounded down (at least one): a process beyond the quota's share is the one that 
 ``MODELICAGYM_CORES`` (and a pool's ``cores`` argument, which wins over it) overrides what is
 detected, in both directions: fewer cores leave room for other work, more let a 2-core machine
 plan what a 16-core one would.
+
+Where the usable cores are fewer than the CPUs of the affinity mask, a pool keeps its stepping
+processes on that many CPUs (`stepping_cpus`): inside a 1-CPU quota on two CPUs, a hand-over
+between two processes on different CPUs wakes an idle CPU that the quota cannot use anyway.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from modelicagym.errors import ConfigError
 
-__all__ = ["CORES_VARIABLE", "CoreCount", "count_cores", "usable_cores"]
+__all__ = ["CORES_VARIABLE", "CoreCount", "count_cores", "stepping_cpus", "usable_cores"]
 
 #: the environment variable that overrides the detected cores
 CORES_VARIABLE = "MODELICAGYM_CORES"
 
 _CGROUP_ROOT = Path("/sys/fs/cgroup")
 _PROC_CGROUP = Path("/proc/self/cgroup")
+_THREAD_STAT = Path("/proc/thread-self/stat")
+_CPU_ROOT = Path("/sys/devices/system/cpu")
+#: seconds over which a pool that keeps to fewer CPUs than its mask has reads which are idle
+IDLE_WINDOW = 0.01
 
 
 @dataclass(frozen=True)
@@ -82,6 +91,61 @@ def count_cores(
                               f"{detected}; unset it to use what is detected: {detected})") from None
         return CoreCount(_checked(given, CORES_VARIABLE), affinity, quota, f"{CORES_VARIABLE}={given}")
     return CoreCount(detected, affinity, quota)
+
+
+def stepping_cpus(
+    cores: int, mask: set[int] | None = None, current: int | None = None, idle: dict[int, float] | None = None
+) -> tuple[int, ...] | None:
+    """The CPUs a pool of ``cores`` usable cores keeps its stepping processes on: ``None`` where
+    ``cores`` covers the calling thread's affinity ``mask`` (they run anywhere in it), else the
+    ``cores`` CPUs of the mask that were idlest over the last `IDLE_WINDOW` seconds (``idle``: each
+    CPU's idle share, read when not given; a pool beside another pool on a busy CPU takes a free
+    one), the CPU the thread runs on now first among equals (``current``; read when not given),
+    then the mask's order from there."""
+    mask = os.sched_getaffinity(0) if mask is None else mask
+    if cores >= len(mask):
+        return None
+    cpus = sorted(mask)
+    current = _current_cpu() if current is None else current
+    start = cpus.index(current) if current in cpus else 0
+    ordered = cpus[start:] + cpus[:start]
+    idle = _idle_shares(ordered) if idle is None else idle
+    return tuple(sorted(ordered, key=lambda cpu: -round(idle.get(cpu, 0.0), 1))[:cores])
+
+
+def _idle_shares(cpus: list[int], window: float | None = None) -> dict[int, float]:
+    """Each CPU's idle share over ``window`` seconds (`IDLE_WINDOW`), from the time it spent in its
+    idle states (``/sys/devices/system/cpu/cpuN/cpuidle``, in µs); empty where that cannot be read."""
+    window = IDLE_WINDOW if window is None else window
+    before = _idle_us(cpus)
+    if before is None:
+        return {}
+    start = time.monotonic()
+    time.sleep(window)
+    after, elapsed_us = _idle_us(cpus), (time.monotonic() - start) * 1e6
+    if after is None:
+        return {}
+    return {cpu: min(1.0, (after[cpu] - before[cpu]) / elapsed_us) for cpu in cpus}
+
+
+def _idle_us(cpus: list[int]) -> dict[int, int] | None:
+    """Microseconds each CPU spent idle since boot, or ``None`` where one cannot be read."""
+    total = {}
+    for cpu in cpus:
+        times = [_read(state / "time") for state in (_CPU_ROOT / f"cpu{cpu}" / "cpuidle").glob("state*")]
+        if not times or not all(t.isdigit() for t in times):
+            return None
+        total[cpu] = sum(int(t) for t in times)
+    return total
+
+
+def _current_cpu() -> int | None:
+    """The CPU the calling thread runs on now (field 39 of ``/proc/thread-self/stat``), or ``None``."""
+    stat = _read(_THREAD_STAT)
+    try:
+        return int(stat[stat.rindex(")") + 2:].split()[36])
+    except (ValueError, IndexError):
+        return None
 
 
 def _checked(cores: int, name: str) -> int:

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from step_paths import cartpole_fns
 
-from modelicagym.cores import CORES_VARIABLE, count_cores
+from modelicagym.cores import CORES_VARIABLE, count_cores, stepping_cpus
 from modelicagym.errors import ConfigError
 from modelicagym.vector import PoolVectorEnv
 
@@ -74,6 +74,25 @@ def test_the_variable_and_the_argument_override_what_is_detected(tmp_path: Path)
 def test_a_bad_variable_is_refused_naming_it(tmp_path: Path, value: str) -> None:
     with pytest.raises(ConfigError, match=CORES_VARIABLE):
         _count(tmp_path, "0::/\n", {}, environ={CORES_VARIABLE: value})
+
+
+def test_fewer_cores_than_cpus_step_on_as_many_from_the_threads_own() -> None:
+    assert stepping_cpus(2, {0, 1, 2, 3}, current=3, idle={}) == (3, 0)
+    assert stepping_cpus(1, {2, 5}, current=5, idle={2: 0.5, 5: 0.5}) == (5,)
+    assert stepping_cpus(1, {2, 5}, current=7, idle={}) == (2,)  # a CPU outside the mask: from the mask's first
+
+
+def test_the_idlest_cpus_win_over_the_threads_own() -> None:
+    """A second training beside a first that keeps CPU 0 busy takes the free CPU, wherever its
+    thread happened to run; CPUs about as idle as each other keep the thread's own first."""
+    assert stepping_cpus(1, {0, 1}, current=0, idle={0: 0.02, 1: 0.97}) == (1,)
+    assert stepping_cpus(2, {0, 1, 2, 3}, current=0, idle={0: 0.0, 1: 0.9, 2: 0.1, 3: 0.9}) == (1, 3)
+    assert stepping_cpus(1, {0, 1}, current=1, idle={0: 0.93, 1: 0.96}) == (1,)
+
+
+def test_cores_for_every_cpu_of_the_mask_keep_to_none() -> None:
+    assert stepping_cpus(4, {0, 1, 2, 3}, current=0) is None
+    assert stepping_cpus(16, {0, 1}, current=1) is None
 
 
 @pytest.mark.processes

@@ -70,6 +70,7 @@ SIGNATURES = {
     "mg_signal_try": (ctypes.c_int, (ctypes.c_void_p,)),
     "mg_signal_wait": (ctypes.c_int, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_int64, ctypes.c_void_p)),
     "mg_machine_crowded": (ctypes.c_int, ()),
+    "mg_machine_stall_us": (ctypes.c_int64, ()),
     "mg_env_step": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
     "mg_env_reset": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_step_batch": (ctypes.c_int64, (ctypes.c_void_p,)),

@@ -31,7 +31,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.async_vector_env import AsyncState
 from gymnasium.vector.utils import batch_differing_spaces, batch_space
 
-from modelicagym.cores import usable_cores
+from modelicagym.cores import stepping_cpus, usable_cores
 from modelicagym.errors import ArgumentError, ConfigError
 from modelicagym.vector.checks import (
     check_async_vector_env_options,
@@ -58,6 +58,7 @@ from modelicagym.vector.dispatch.party import Outcome
 from modelicagym.vector.dispatch.recovery import RESTART_INFO_KEY, Recovery
 from modelicagym.vector.dispatch.timing_recorder import TimingRecorder
 from modelicagym.vector.errors import CallerTimeoutError, NoPendingCallError, PoolError
+from modelicagym.vector.layout.affinity import CallerAffinity
 from modelicagym.vector.layout.placement import LayoutState
 from modelicagym.vector.layout.plan import default_start_method, plan_layout
 from modelicagym.vector.reset_options import check_options_per_env, with_initial_state
@@ -281,6 +282,10 @@ class PoolVectorEnv(VectorEnv):
         self.copy = copy
         #: the usable cores the pool plans for
         self.cores = usable_cores(cores)
+        #: the CPUs the pool steps on, where its cores are fewer than the calling thread's affinity
+        #: mask (its workers, and the thread that made it, while it is open); ``None``: anywhere in the
+        #: mask (and where no worker starts)
+        self.cpus = stepping_cpus(self.cores)
         layout = plan_layout(self.env_fns, num_workers, max_envs_per_worker, restart_dead_workers, step_timeout,
                              caller_steps, batch_size, self.cores)
         self.start_method = start_method or default_start_method()
@@ -299,12 +304,16 @@ class PoolVectorEnv(VectorEnv):
             observation_mode="same" if observation_mode == "same" else "different",
             num_envs=self.num_envs,
             cores=self.cores,
+            cpus=self.cpus,
         )
         try:
             parts = assemble(self.env_fns, layout, self.start_method, config, adapt_layout, self.max_concurrency)
         except BaseException:
             self.closed = True
             raise
+        if not parts.workers.handles:  # no hand-over to keep on one CPU: the calling thread is left alone
+            self.cpus = None
+        self._caller_affinity = CallerAffinity(self.cpus)
         self.caller_steps = parts.caller_steps
         self.num_workers = len(parts.workers.handles)
         self._workers, self._placement, self._dispatcher = parts.workers, parts.placement, parts.dispatcher
@@ -801,6 +810,7 @@ class PoolVectorEnv(VectorEnv):
         self._sending_now = False
         self._workers.release()
         self._dispatcher.release()
+        self._caller_affinity.release()
         self._buffers = self._actions = None
         self.closed = True
 

@@ -10,7 +10,6 @@ choose."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -112,12 +111,12 @@ class SimulatedStandIn:
     Its `ConsolidationPolicy` is fed what such a pool measures (the parent's wait per batch, the
     parties' own stepping times); envs move as soon as it says."""
 
-    def __init__(self, cores: int, env_us: list[float], tmp_path: Path) -> None:
+    def __init__(self, cores: int, env_us: list[float]) -> None:
         slices = plan_workers(len(env_us), None, None, cores)
         self.home, self.worker_slices = slices[-1], slices[:-1]
         self.shapes = layout_shapes(self.worker_slices, len(self.home))
-        self.machine = Machine(tmp_path)
-        self.policy = ConsolidationPolicy(self.shapes, cores, clock=lambda: self.machine.now, pressure=self.machine.path)
+        self.machine = Machine()
+        self.policy = ConsolidationPolicy(self.shapes, cores, clock=lambda: self.machine.now, stall_us=self.machine.stall)
         self.env_us = np.array(env_us)
         self.in_caller = np.zeros(len(env_us), dtype=np.uint8)
         self.stepping = np.ones(len(self.worker_slices) + 1, dtype=np.uint8)
@@ -165,7 +164,7 @@ class SimulatedStandIn:
 
 @pytest.mark.parametrize("cores", [2, 4, 8, 16])
 @pytest.mark.parametrize("heavy_us", [MEDIUM, HEAVY], ids=["100us", "1ms"])
-def test_a_stand_in_takes_envs_until_the_parties_finish_together(cores: int, heavy_us: float, tmp_path: Path) -> None:
+def test_a_stand_in_takes_envs_until_the_parties_finish_together(cores: int, heavy_us: float) -> None:
     """The first worker's envs, or the first half of all envs, cost ``heavy_us``, the rest 5 us:
     the stand-in, planned with light envs only, takes heavy ones where that shortens the batch
     (within the model's margin: on 8 cores half the envs make four heavy workers, which one
@@ -175,7 +174,7 @@ def test_a_stand_in_takes_envs_until_the_parties_finish_together(cores: int, hea
     the stand-in, 1.11 times the best batch, which has 12)."""
     num_envs = 4 * cores
     for heavy, margin in ((4, 1.15), (num_envs // 2, 1.1)):
-        pool = SimulatedStandIn(cores, [heavy_us if i < heavy else 5.0 for i in range(num_envs)], tmp_path)
+        pool = SimulatedStandIn(cores, [heavy_us if i < heavy else 5.0 for i in range(num_envs)])
         assert pool.settle() <= margin, (heavy, pool.policy.last_decision)
         assert pool.policy.target == pool.policy.spread, pool.policy.last_decision
         if cores == 2:
@@ -289,7 +288,7 @@ def test_the_model_predicts_the_slowest_party_and_the_sharing_of_cores() -> None
 
 
 def test_layout_shapes_follow_the_move_order() -> None:
-    slices = [range(0, 3), range(3, 6)]
+    slices = [range(3), range(3, 6)]
     shapes = layout_shapes(slices, home_envs=2)
     assert list(move_order(slices)) == [2, 5, 1, 4, 0, 3]
     assert shapes[0] == Shape(2, 3, 2) and shapes[1] == Shape(3, 3, 2) and shapes[2] == Shape(4, 2, 2)

@@ -8,7 +8,6 @@ import os
 import time
 from collections.abc import Callable
 from functools import partial
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -287,12 +286,12 @@ def _party_times(worker_us: float, stand_in_us: float, lent: int) -> PartyTimes:
     return times
 
 
-def test_the_spread_layout_takes_the_target_the_cost_model_predicts_fastest(tmp_path: Path) -> None:
+def test_the_spread_layout_takes_the_target_the_cost_model_predicts_fastest() -> None:
     """Both parties are workers, so an env costs the same in either: 4 envs of 100 us in the worker
     against 4 of 5 us in the stand-in are even with 2 moved (220 us against 200 us a batch), not 3
     (320 against 100); when the stand-in's envs grow costlier, envs go back."""
-    machine = Machine(tmp_path)
-    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, pressure=machine.path)
+    machine = Machine()
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, stall_us=machine.stall)
     window = _windows_of(policy, machine, stall_share=0.0)
     assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
     assert "predicted 220.0 us" in policy.last_decision
@@ -317,9 +316,9 @@ def _windows_of(policy: ConsolidationPolicy, machine: Machine, stall_share: floa
 
 
 @pytest.mark.parametrize("quiet", [True, False])
-def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs(quiet: bool, tmp_path: Path) -> None:
-    machine = Machine(tmp_path)
-    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, pressure=machine.path)
+def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs(quiet: bool) -> None:
+    machine = Machine()
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, stall_us=machine.stall)
     window = _windows_of(policy, machine, stall_share=0.0 if quiet else 0.3)  # 0.3: a busy process beside
 
     assert window(400.0, 400.0, 20.0) and policy.target == policy.spread == 2, policy.last_decision
@@ -338,11 +337,11 @@ def test_the_consolidation_policy_balances_the_spread_layout_by_party_costs(quie
     assert window(420.0, 0.0, 420.0) and policy.target == 2  # ... and loses: back to the balanced spread
 
 
-def test_a_consolidation_try_waits_until_the_machine_watch_can_tell(tmp_path: Path) -> None:
+def test_a_consolidation_try_waits_until_the_machine_watch_can_tell() -> None:
     """The pool's start-up crowds the machine; the policy's watch starts at its first window, and a
     try that the party costs rule out waits until the watch has seen the machine for a while."""
-    machine = Machine(tmp_path)
-    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, pressure=machine.path)
+    machine = Machine()
+    policy = ConsolidationPolicy(STAND_IN_SHAPES, 2, clock=lambda: machine.now, stall_us=machine.stall)
     machine.run(PROBE_FIRST_SECONDS, 0.5)  # start-up: workers spawned, FMUs instantiated
     window = _windows_of(policy, machine, stall_share=0.0)
     assert not window(220.0, 210.0, 220.0)  # the first window: the watch starts, cannot tell yet

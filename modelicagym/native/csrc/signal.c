@@ -143,9 +143,8 @@ static void hold(int64_t now) {
     machine.until_ns = now + machine.hold_ns;
 }
 
-static int crowded(int64_t now) {
-    if (now < machine.until_ns)
-        return 1;
+/* Read the machine if a reading is due: 1 when it found it crowded (a hold starts, unless one runs). */
+static int read_machine(int64_t now) {
     int64_t elapsed = now - machine.checked_ns;
     if (elapsed < CHECK_EVERY_NS)
         return 0;
@@ -154,11 +153,19 @@ static int crowded(int64_t now) {
     machine.checked_ns = now;
     if (machine.fd < 0 || !read_crowded(now, elapsed))
         return 0;
-    hold(now);
+    if (now >= machine.until_ns)
+        hold(now);
     return 1;
 }
 
+static int crowded(int64_t now) { return now < machine.until_ns || read_machine(now); }
+
 int mg_machine_crowded(void) { return crowded(mg_now_ns()); }
+
+int64_t mg_machine_stall_us(void) {
+    read_machine(mg_now_ns());
+    return machine.fd >= 0 && machine.psi && machine.stall_us > 0 ? machine.stall_us : -1;
+}
 
 /* ---- the wait ---- */
 

@@ -83,6 +83,11 @@ int mg_signal_try(mg_signal *signal);
  * a millisecond); for the pool's layout and tests. */
 int mg_machine_crowded(void);
 
+/* The machine's one load probe, as the pool's layout reads it (modelicagym/vector/layout/machine_load.py):
+ * the CPU pressure's "some" total in microseconds as of the last reading (read now if one is due), -1
+ * where the pressure cannot be read. Its readings are the crowding check's own: one reader a process. */
+int64_t mg_machine_stall_us(void);
+
 /* Nanoseconds of CLOCK_MONOTONIC. */
 int64_t mg_now_ns(void);
 

@@ -1,10 +1,11 @@
-"""The machine's load: whether its cores are crowded or idle, read in one place.
+"""The machine's load: whether its cores are crowded or idle, read by one probe, judged in one place.
 
 The pool adapts to the cores actually free, and reads them from the kernel's own accounts:
 
-- *the CPU pressure* (``/proc/pressure/cpu``, the time some runnable thread waited for a core):
-  `MachineWatch` says whether it stayed low for a while; the C waits read the same file, a
-  millisecond at a time (:func:`machine_crowded`);
+- *the CPU pressure* (``/proc/pressure/cpu``, the time some runnable thread waited for a core),
+  read by one probe a process, in C (``native/csrc/signal.c``; at most once a millisecond): the C
+  waits ask it whether the machine is crowded now (:func:`machine_crowded`), and every `MachineWatch`
+  reads its readings (:func:`machine_stall_us`) to say whether the pressure stayed low for a while;
 - *the idle cores* (``/proc/stat``): `IdleCores`, averaged since the last look.
 
 Every threshold of these readings, what it decides, and where it was measured (docs/design.md,
@@ -26,8 +27,30 @@ Every threshold of these readings, what it decides, and where it was measured (d
     a calling process that steps every env probes its workers again. A rule, not a measurement:
     half a core idle since the last look.
 
-Without PSI the machine is never called quiet (the workers sleep between batches), and the C check
-counts the runnable threads of ``/proc/loadavg`` instead.
+Without PSI, or without the native library (no C compiler), the machine is never called quiet (the
+workers sleep between batches), and the C check counts the runnable threads of ``/proc/loadavg``
+instead.
+
+**One probe, three verdicts, and why they are not one.** Every verdict reads the same probe: the
+kernel's "some" total, read by the C library once a millisecond at most. What differs is the span
+a verdict judges and what a wrong verdict costs, so each has its own share:
+
+- *crowded now* (C, per wait) must answer within a millisecond, without the GIL, since a poll on
+  a crowded machine holds a core somebody needs for a scheduler slice. Over a single millisecond
+  a few wake-ups' runnable time already shows, so its share is above the sustained ones; a wrong
+  "crowded" costs one wait's wake-up and a 2 ms hold.
+- *quiet for a second* (`STALL_SHARE`) lets the stand-in's workers poll until it changes, every
+  batch; a wrong "quiet" costs a scheduler slice each batch, so it takes the lowest share over the
+  longest span. Before this verdict existed, the crowding check alone let pollers through in the
+  gaps between its millisecond readings (the 0.9x above).
+- *timings to trust* (`TRUST_STALL_SHARE`) asks whether a party's wall time is its own stepping.
+  The layouts it compares make pressure of their own (~3% with two workers of 1 ms envs): at 2%
+  the policy would never trust them and would try a consolidation that cost such a pool 4-6 s at
+  half speed; a neighbour makes 30% and more.
+
+A single share for all three would have to be below 2% and above 3% at once. The 2% of the polling
+verdict was measured against the crowding check alone, not against 5% over 0.2 s: that comparison
+is still owed.
 """
 
 from __future__ import annotations
@@ -35,13 +58,11 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = [
     "IDLE_CORES_TO_PROBE",
-    "PSI_CPU",
     "QUIET_FOR",
     "READ_EVERY",
     "STALL_SHARE",
@@ -50,6 +71,7 @@ __all__ = [
     "IdleCores",
     "MachineWatch",
     "machine_crowded",
+    "machine_stall_us",
 ]
 
 #: seconds between two readings of the CPU pressure, at least
@@ -66,17 +88,16 @@ TRUST_STALL_SHARE = 0.1
 #: idle cores (averaged since the last look) that make a probe of the workers worth it
 IDLE_CORES_TO_PROBE = 0.5
 
-PSI_CPU = Path("/proc/pressure/cpu")
-
 
 class MachineWatch:
-    """Reads the CPU pressure at most every `READ_EVERY` seconds; :meth:`quiet` says whether it
-    stayed under ``stall_share`` of the time (`STALL_SHARE` unless told) for the last ``quiet_for``
-    seconds."""
+    """Takes the probe's CPU pressure (``stall_us``: microseconds some thread waited for a core, in
+    all, or ``None``; `machine_stall_us` unless told) at most every `READ_EVERY` seconds;
+    :meth:`quiet` says whether it stayed under ``stall_share`` of the time (`STALL_SHARE` unless
+    told) for the last ``quiet_for`` seconds."""
 
-    def __init__(self, path: Path = PSI_CPU, clock: Callable[[], float] = time.monotonic,
+    def __init__(self, stall_us: Callable[[], int | None] | None = None, clock: Callable[[], float] = time.monotonic,
                  quiet_for: float = QUIET_FOR, stall_share: float = STALL_SHARE) -> None:
-        self._path = path
+        self._read_stall_us = machine_stall_us if stall_us is None else stall_us
         self._quiet_for = quiet_for
         self._stall_share = stall_share
         self._clock = clock
@@ -99,14 +120,6 @@ class MachineWatch:
                 self._low_since = self._read_at
             self._read_at, self._stall_us = now, stall_us
         return self._low_since is not None and now - self._low_since >= self._quiet_for
-
-    def _read_stall_us(self) -> int | None:
-        """The total microseconds some thread waited for a core ("some ... total="), or ``None``."""
-        try:
-            line = self._path.read_text().splitlines()[0]
-            return int(line.rsplit("total=", 1)[1])
-        except (OSError, IndexError, ValueError):
-            return None
 
 
 class IdleCores:
@@ -141,3 +154,12 @@ def machine_crowded() -> bool:
     cores (``mg_machine_crowded``; ``False`` without the native library)."""
     library = pool_native_library()
     return library is not None and bool(library.mg_machine_crowded())
+
+
+def machine_stall_us() -> int | None:
+    """The CPU pressure as the process's one probe last read it (``mg_machine_stall_us``; read now if
+    a reading is due): microseconds some thread waited for a core, in all; ``None`` where it cannot
+    be read, or without the native library."""
+    library = pool_native_library()
+    stall_us = -1 if library is None else library.mg_machine_stall_us()
+    return None if stall_us < 0 else stall_us

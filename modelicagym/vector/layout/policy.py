@@ -13,13 +13,11 @@ import statistics
 import time
 from collections.abc import Callable
 from dataclasses import replace
-from pathlib import Path
 
 from modelicagym.vector.layout.cost_model import Costs, PartyCosts, PartyTimes, Shape, best_shape
 from modelicagym.vector.layout.cost_model import batch_us as batch_us_of
 from modelicagym.vector.layout.machine_load import (
     IDLE_CORES_TO_PROBE,
-    PSI_CPU,
     READ_EVERY,
     TRUST_QUIET_FOR,
     TRUST_STALL_SHARE,
@@ -242,15 +240,15 @@ class ConsolidationPolicy(_Policy):
             the stand-in as the home party).
         cores: the usable cores (`modelicagym.cores.usable_cores`).
         clock: seconds, monotonic (a parameter for tests).
-        pressure: the CPU pressure file the policy's `MachineWatch` reads (started at its first
-            window, after the pool's start-up; a parameter for tests).
+        stall_us: the CPU pressure the policy's `MachineWatch` takes (started at its first window,
+            after the pool's start-up; a parameter for tests; default: the machine's probe).
     """
 
     HOME = "the stand-in worker"
 
     def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float] = time.monotonic,
-                 pressure: Path = PSI_CPU) -> None:
-        self._pressure = pressure
+                 stall_us: Callable[[], int | None] | None = None) -> None:
+        self._stall_us = stall_us
         self._quiet: Callable[[], bool] | None = None
         #: when the policy's own watch started (it cannot tell a quiet machine for a while)
         self._watch_started: float | None = None
@@ -346,7 +344,7 @@ class ConsolidationPolicy(_Policy):
         """Whether the machine has been quiet for `TRUST_QUIET_FOR` seconds; ``None`` while the
         policy's own watch, started at its first window, cannot tell yet."""
         if self._quiet is None:
-            watch = MachineWatch(self._pressure, self._clock, quiet_for=TRUST_QUIET_FOR, stall_share=TRUST_STALL_SHARE)
+            watch = MachineWatch(self._stall_us, self._clock, quiet_for=TRUST_QUIET_FOR, stall_share=TRUST_STALL_SHARE)
             self._quiet, self._watch_started = watch.quiet, now
         quiet = self._quiet()
         if not quiet and now - self._watch_started < TRUST_QUIET_FOR + READ_EVERY:

@@ -145,6 +145,8 @@ class WorkerConfig:
     num_envs: int = 0
     #: the usable cores the pool plans for (`modelicagym.cores.usable_cores`)
     cores: int = 1
+    #: the CPUs the pool's stepping processes keep to (``None``: this process's affinity mask)
+    cpus: tuple[int, ...] | None = None
 
 
 #: what a worker is doing before it serves commands (named in messages; ``startup_timeout`` applies)

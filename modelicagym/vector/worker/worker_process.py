@@ -62,6 +62,7 @@ def run_worker(
     """Entry point of a worker process (the ``target`` of its ``multiprocessing.Process``);
     ``stand_in``: it steps the envs marked ``in_caller``, as the calling process would."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    keep_to(config.cpus)
     exit_with_parent()
     envs: list[gym.Env] = []
     try:
@@ -86,6 +87,17 @@ def run_worker(
         logger.debug("worker %d: pipe to the parent closed, exiting", worker_index)
     finally:
         close_envs(envs)
+
+
+def keep_to(cpus: tuple[int, ...] | None) -> None:
+    """Keep this process on the pool's CPUs (`modelicagym.vector.layout.affinity`), before it starts
+    any thread, so that its threads keep to them too (``None``: it runs where its parent may)."""
+    if cpus is None:
+        return
+    try:
+        os.sched_setaffinity(0, cpus)
+    except OSError as error:  # a CPU gone offline since the pool chose it
+        logger.info("a worker stays where its parent may run, not on CPUs %s: %s", cpus, error)
 
 
 def exit_with_parent() -> None:
