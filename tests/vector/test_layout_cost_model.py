@@ -56,7 +56,9 @@ class SimulatedMachine:
 class SimulatedPool:
     """A pool of ``num_envs`` envs laid out as a pool plans it on ``machine``, its policy fed what
     the machine gives, part after part; envs move as soon as the policy says (as if every episode
-    ended every batch)."""
+    ended every batch). The busy processes show only in the parties' times, never as foreign load
+    or CPU pressure: these tests check the model's decisions (the tries a shared machine makes are
+    checked in tests/vector/test_vector_layout.py)."""
 
     def __init__(self, machine: SimulatedMachine, num_envs: int) -> None:
         slices = plan_workers(num_envs, None, None, machine.cores)
@@ -66,7 +68,7 @@ class SimulatedPool:
         self.now = [0.0]
         self.idle = [0.0]
         self.policy = LayoutPolicy(self.shapes, machine.cores, clock=lambda: self.now[0],
-                                   idle_cores=lambda: self.idle[0])
+                                   idle_cores=lambda: self.idle[0], stall_us=lambda: 0, foreign_cores=lambda: 0.0)
         self.in_caller = np.zeros(num_envs, dtype=np.uint8)
         self.stepping = np.ones(len(self.worker_slices), dtype=np.uint8)
         self.env_ns = np.zeros(len(self.worker_slices) + 1, dtype=np.int64)

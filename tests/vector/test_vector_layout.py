@@ -5,6 +5,8 @@ are measured to be cheaper; idle workers sleep."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from functools import partial
@@ -23,7 +25,14 @@ from modelicagym.vector import PoolVectorEnv
 from modelicagym.vector.dispatch.dispatcher import go_poll_time
 from modelicagym.vector.layout import placement
 from modelicagym.vector.layout.cost_model import SAMPLE_EVERY, PartyTimes
-from modelicagym.vector.layout.policy import PROBE_FIRST_SECONDS, TRY_SHARE, WINDOW_PARTS, ConsolidationPolicy
+from modelicagym.vector.layout.machine_load import READ_EVERY, ForeignLoad
+from modelicagym.vector.layout.policy import (
+    PROBE_FIRST_SECONDS,
+    TRY_SHARE,
+    WINDOW_PARTS,
+    ConsolidationPolicy,
+    LayoutPolicy,
+)
 from modelicagym.vector.pool import DEFAULT_SPIN_TIME
 from modelicagym.vector.wire.sync import pool_native_library
 
@@ -223,6 +232,114 @@ def test_a_failed_try_that_took_long_to_undo_delays_the_next_one_in_proportion()
     assert not window(4000.0), "a failed try that cost 4 s was tried again too soon"
     now[0] = tried + cost / TRY_SHARE
     assert window(4000.0) and policy.target == 4
+
+
+class SharedMachine:
+    """A pool of 8 light envs (3 us a step), one worker and the calling process with 4 each, fed to
+    a `LayoutPolicy`: the hand-over costs ``handover_us``, and on a shared machine each batch
+    that wakes the worker also loses ``unseen_us`` that no party measures (the caller waiting for
+    a core between steps), which only the batches' wall time shows."""
+
+    ENV_US = 3.0
+
+    def __init__(self, foreign_cores: float, handover_us: float = 10.0, unseen_us: float = 40.0) -> None:
+        self.machine = Machine()
+        self.foreign_cores, self.handover_us, self.unseen_us = foreign_cores, handover_us, unseen_us
+        self.policy = LayoutPolicy(placement.layout_shapes([range(4)], 4), 2, clock=lambda: self.machine.now,
+                                   idle_cores=lambda: 0.0, stall_us=self.machine.stall,
+                                   foreign_cores=lambda: self.foreign_cores)
+
+    def window(self) -> bool:
+        """A window of parts in the policy's layout; ``True`` when the target changed."""
+        shape = self.policy.shapes[self.policy.target]
+        local_us = shape.home_envs * self.ENV_US
+        worker_us = shape.worker_envs * self.ENV_US
+        batch_us = max(local_us, self.handover_us + worker_us) if worker_us else local_us
+        wall_us = batch_us + (self.unseen_us if worker_us else 0.0)
+        in_caller = np.array([0] * shape.worker_envs + [1] * (8 - shape.worker_envs), dtype=np.uint8)
+        changed = False
+        for _ in range(WINDOW_PARTS):
+            self.machine.run(64 * wall_us * 1e-6 * 100, 0.0)  # 100 parts' worth: the window's time passes
+            times = PartyTimes(np.array([worker_us * 1e3, 0]), in_caller, [range(4)],
+                               np.array([shape.worker_envs > 0, 1], np.uint8), stand_in=False)
+            for _ in range(SAMPLE_EVERY):
+                times.count()
+            changed |= self.policy.observe(6400, int(6400 * local_us * 1e3), int(6400 * (batch_us - local_us) * 1e3),
+                                           shape.home_envs, parties=times)
+        return changed
+
+    def run(self, seconds: float) -> list[int]:
+        """Windows for ``seconds``; the targets the policy took."""
+        targets, until = [], self.machine.now + seconds
+        while self.machine.now < until:
+            if self.window():
+                targets.append(self.policy.target)
+        return targets
+
+
+def test_on_a_machine_of_its_own_the_layout_policy_tries_nothing() -> None:
+    pool = SharedMachine(foreign_cores=0.0)
+    targets = pool.run(30.0)
+    assert targets and pool.policy.movable not in targets, pool.policy.last_decision
+
+
+def test_on_a_shared_machine_every_env_in_the_caller_is_tried_and_kept_if_batches_are_faster() -> None:
+    """Two trainings at once: the model alone keeps a worker, whose wake-ups cost what no party
+    measures; a try of every env in the calling process shows it in whole batches, and stays."""
+    pool = SharedMachine(foreign_cores=1.0)
+    targets = pool.run(30.0)
+    assert targets[-1] == pool.policy.movable, pool.policy.last_decision
+    assert targets.count(pool.policy.movable) == 1, targets  # kept: no core idle, no probe of the workers
+    assert "the machine is shared" in pool.policy.last_decision
+
+
+def test_on_a_shared_machine_a_try_that_is_slower_goes_back_and_waits_longer() -> None:
+    pool = SharedMachine(foreign_cores=1.0, unseen_us=0.0)
+    tries: list[float] = []
+    until = pool.machine.now + 60.0
+    while pool.machine.now < until:
+        if pool.window() and pool.policy.target == pool.policy.movable:
+            tries.append(pool.machine.now)
+    assert pool.policy.target != pool.policy.movable, pool.policy.last_decision
+    assert len(tries) >= 3, tries
+    gaps = np.diff(tries)
+    assert all(later > earlier for earlier, later in zip(gaps, gaps[1:])), gaps  # backs off
+    assert "us a batch with every env in the calling process" in pool.policy.last_decision
+
+
+def test_a_shared_machine_tries_no_layout_whose_envs_alone_would_take_far_longer() -> None:
+    """8 envs at home, at their cost measured now, would take 1.6x the batch: no try."""
+    pool = SharedMachine(foreign_cores=1.0, handover_us=0.0)
+    pool.ENV_US = 100.0
+    targets = pool.run(30.0)
+    assert pool.policy.movable not in targets, pool.policy.last_decision
+
+
+def test_the_foreign_load_counts_other_processes_and_not_the_pools_own() -> None:
+    """Over the same interval, a busy process counts as foreign load unless it is one of the pool's."""
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        clock = [0.0]
+        theirs = ForeignLoad(lambda: [os.getpid()], clock=lambda: clock[0])
+        ours = ForeignLoad(lambda: [os.getpid(), busy.pid], clock=lambda: clock[0])
+        ticks = os.sysconf("SC_CLK_TCK")
+        started = time.monotonic()
+        while _cpu_ticks(busy.pid) < 0.3 * ticks and time.monotonic() - started < 30:
+            time.sleep(0.05)
+        clock[0] = READ_EVERY
+        foreign, own_excluded = theirs(), ours()
+        share = _cpu_ticks(busy.pid) / ticks / (time.monotonic() - started)
+    finally:
+        busy.kill()
+        busy.wait()
+    assert foreign is not None and own_excluded is not None
+    assert foreign - own_excluded == pytest.approx(share, abs=0.15), (foreign, own_excluded, share)
+
+
+def _cpu_ticks(pid: int) -> int:
+    with open(f"/proc/{pid}/stat", "rb") as handle:
+        fields = handle.read().rsplit(b")", 1)[1].split()
+    return int(fields[11]) + int(fields[12])
 
 
 def _moody(fmu: str, threshold: float, **options: Any) -> modelicagym.FMUEnv:

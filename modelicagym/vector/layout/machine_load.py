@@ -62,12 +62,14 @@ from collections.abc import Callable
 from modelicagym.vector.wire.sync import pool_native_library
 
 __all__ = [
+    "FOREIGN_CORES_TO_SHARE",
     "IDLE_CORES_TO_PROBE",
     "QUIET_FOR",
     "READ_EVERY",
     "STALL_SHARE",
     "TRUST_QUIET_FOR",
     "TRUST_STALL_SHARE",
+    "ForeignLoad",
     "IdleCores",
     "MachineWatch",
     "machine_crowded",
@@ -87,6 +89,8 @@ TRUST_QUIET_FOR = 0.3
 TRUST_STALL_SHARE = 0.1
 #: idle cores (averaged since the last look) that make a probe of the workers worth it
 IDLE_CORES_TO_PROBE = 0.5
+#: cores of the pool's CPUs that other processes keep busy, for the pool to count them as shared
+FOREIGN_CORES_TO_SHARE = 0.5
 
 
 class MachineWatch:
@@ -147,6 +151,59 @@ class IdleCores:
             return None
         values = [int(f) for f in fields]
         return values[3] + values[4], sum(values[:8])
+
+
+class ForeignLoad:
+    """Cores of ``cpus`` (the calling thread's affinity mask unless told) that processes other than
+    ``pids()`` (the pool's own: the calling process and its workers) kept busy, averaged since the
+    last reading; readings at most every `READ_EVERY` seconds (between them, the last one).
+
+    The CPU pressure cannot see a neighbour that never makes a thread wait: two pools on two cores
+    take turns on them, the machine's cores are all busy and the pressure stays near 5%. What each
+    pool can see is that half the time spent on its CPUs is not its own. Busy time is read from
+    ``/proc/stat``'s lines of those CPUs, the pool's own from ``/proc/PID/stat`` (both in clock
+    ticks); time stolen by the hypervisor counts as foreign. ``None`` where either cannot be read."""
+
+    def __init__(self, pids: Callable[[], list[int]], cpus: set[int] | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self._pids = pids
+        self._cpus = {f"cpu{cpu}".encode() for cpu in (os.sched_getaffinity(0) if cpus is None else cpus)}
+        self._clock = clock
+        self._read_at = clock()
+        self._last = self._read()
+        self._cores: float | None = None
+
+    def __call__(self) -> float | None:
+        now = self._clock()
+        if now - self._read_at < READ_EVERY:
+            return self._cores
+        reading = self._read()
+        last, self._last, self._read_at = self._last, reading, now
+        if reading is None or last is None or reading[1] <= last[1]:
+            self._cores = None
+        else:
+            busy, total, own = (new - old for new, old in zip(reading, last))
+            self._cores = max(0.0, (busy - own) * len(self._cpus) / total)
+        return self._cores
+
+    def _read(self) -> tuple[int, int, int] | None:
+        """(busy, total) clock ticks of the CPUs, and the pool's processes' CPU time in ticks."""
+        busy = total = own = 0
+        try:
+            with open("/proc/stat", "rb") as handle:
+                for line in handle:
+                    fields = line.split()
+                    if fields and fields[0] in self._cpus:
+                        values = [int(f) for f in fields[1:9]]
+                        total += sum(values)
+                        busy += sum(values) - values[3] - values[4]
+            for pid in self._pids():
+                with open(f"/proc/{pid}/stat", "rb") as handle:
+                    fields = handle.read().rsplit(b")", 1)[1].split()
+                own += int(fields[11]) + int(fields[12])
+        except (OSError, ValueError, IndexError):
+            return None
+        return busy, total, own
 
 
 def machine_crowded() -> bool:

@@ -34,6 +34,7 @@ again. A probe that fails waits twice as long before the next.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -46,6 +47,7 @@ from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
 from modelicagym.vector.layout.cost_model import PartyTimes, Shape
+from modelicagym.vector.layout.machine_load import ForeignLoad
 from modelicagym.vector.layout.policy import ConsolidationPolicy, LayoutPolicy
 from modelicagym.vector.slice.creation import close_envs, create_envs
 from modelicagym.vector.slice.env_slice import EnvSlice, movable_reason
@@ -347,7 +349,9 @@ def place_envs(
     worker_slices = [handle.env_indices for handle in workers.handles]
     policy = env_ns = None
     if reason is None:
-        policy = LayoutPolicy(layout_shapes(worker_slices, len(caller_slice)), config.cores)
+        pids = [os.getpid(), *(handle.process.pid for handle in workers.handles)]
+        policy = LayoutPolicy(layout_shapes(worker_slices, len(caller_slice)), config.cores,
+                              foreign_cores=ForeignLoad(lambda: pids))
         env_ns = buffers.timing[:, SharedBuffers.ENV_NS]
         reason = "its envs can move between the workers and the calling process at episode boundaries"
     placement = Placement(

@@ -17,6 +17,7 @@ from dataclasses import replace
 from modelicagym.vector.layout.cost_model import Costs, PartyCosts, PartyTimes, Shape, best_shape
 from modelicagym.vector.layout.cost_model import batch_us as batch_us_of
 from modelicagym.vector.layout.machine_load import (
+    FOREIGN_CORES_TO_SHARE,
     IDLE_CORES_TO_PROBE,
     READ_EVERY,
     TRUST_QUIET_FOR,
@@ -45,6 +46,11 @@ PROBE_MAX_SECONDS = 30.0
 #: envs of ~1 ms a step and 500-step episodes, 4 s of every try at half speed (a pool of 8 ran at
 #: 0.98x a single env in 5 s rounds, idle, where the spread layout alone does 1.9x)
 TRY_SHARE = 0.05
+#: on a crowded machine, how much faster the calling process may step once its workers no longer
+#: compete for the cores: a try of every env in it is ruled out where its envs, at their measured
+#: cost, would take longer than this times the batch now (on 2 cores beside a busy process, the
+#: caller and a worker are 3 runnable threads to 2 cores; the caller alone with the neighbour, 2)
+CROWDED_HOME_GAIN = 1.5
 
 
 class _Policy:
@@ -55,7 +61,8 @@ class _Policy:
     #: the home party, as the record of a change names it
     HOME = ""
 
-    def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float]) -> None:
+    def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float],
+                 stall_us: Callable[[], int | None] | None) -> None:
         self.shapes = shapes
         self.movable, self.home = len(shapes) - 1, shapes[0].home_envs
         self.cores = cores
@@ -65,6 +72,16 @@ class _Policy:
         self._clock = clock
         self._probe_wait = PROBE_FIRST_SECONDS
         self._switched_at = clock()
+        self._stall_us = stall_us
+        self._quiet: Callable[[], bool] | None = None
+        #: when the policy's own watch started (it cannot tell a quiet machine for a while)
+        self._watch_started: float | None = None
+        #: while a try's window runs: the batch time of the layout it left, and that layout's target
+        self._left_us: float | None = None
+        self._left_target = 0
+        #: when the last try started, and whether it failed and its envs are on their way back
+        self._try_started = 0.0
+        self._given_up = False
         self._window()
 
     def _window(self) -> None:
@@ -83,6 +100,47 @@ class _Policy:
         self.last_decision = f"{self.home + target} envs to {self.HOME}: {why}"
         logger.debug("pool layout: %s", self.last_decision)
         return True
+
+    def _account_failed_try(self) -> None:
+        """The envs of a failed try are back (the layout is settled again): what the try cost
+        bounds the wait before the next, so that failed tries cost at most `TRY_SHARE` of the time."""
+        if self._given_up:
+            self._given_up = False
+            cost = self._clock() - self._try_started
+            self._probe_wait = max(self._probe_wait, cost * (1 / TRY_SHARE - 1))
+
+    def _start_try(self, target: int, batch_us: float, now: float, why: str) -> bool:
+        """Try ``target`` for a window, remembering the batch time of the layout it leaves."""
+        self._left_us, self._left_target, self._try_started = batch_us, self.target, now
+        return self._switch(target, now, why)
+
+    def _end_try(self, batch_us: float, now: float) -> bool:
+        """The try's window measured ``batch_us`` a batch: keep the layout tried if it is faster by
+        `MARGIN`, else go back and wait twice as long before the next try (``True``: going back)."""
+        left_us, self._left_us = self._left_us, None
+        if MARGIN * batch_us < left_us:
+            self._probe_wait, self._switched_at = PROBE_FIRST_SECONDS, now
+            return False
+        self._probe_wait = min(2 * self._probe_wait, PROBE_MAX_SECONDS)
+        self._given_up = True
+        here, there = self._names(self.target), self._names(self._left_target)
+        return self._switch(self._left_target, now, f"the parent waited {batch_us:.1f} us a batch with {here}, "
+                                                    f"{left_us:.1f} us with {there}")
+
+    def _machine_quiet(self, now: float) -> bool | None:
+        """Whether the machine has been quiet for `TRUST_QUIET_FOR` seconds; ``None`` while the
+        policy's own watch, started at its first window, cannot tell yet."""
+        if self._quiet is None:
+            watch = MachineWatch(self._stall_us, self._clock, quiet_for=TRUST_QUIET_FOR, stall_share=TRUST_STALL_SHARE)
+            self._quiet, self._watch_started = watch.quiet, now
+        quiet = self._quiet()
+        if not quiet and now - self._watch_started < TRUST_QUIET_FOR + READ_EVERY:
+            return None
+        return quiet
+
+    def _names(self, target: int) -> str:
+        """The layout ``target`` makes, in words."""
+        raise NotImplementedError
 
 
 class LayoutPolicy(_Policy):
@@ -119,14 +177,19 @@ class LayoutPolicy(_Policy):
         cores: int,
         clock: Callable[[], float] = time.monotonic,
         idle_cores: Callable[[], float] | None = None,
+        stall_us: Callable[[], int | None] | None = None,
+        foreign_cores: Callable[[], float | None] | None = None,
     ) -> None:
         #: the last hand-over measured while the caller waited for the workers (us; ``None``: none yet)
         self.handover_us: float | None = None
         #: the costs measured when every env last moved to the caller
         self._left: Costs | None = None
+        #: when the last part was observed (a part's wall time runs from there)
+        self._observed_at: float | None = None
         self._idle_cores = idle_cores or IdleCores(cores)
+        self._foreign_cores = foreign_cores or (lambda: None)
         self._probing = False
-        super().__init__(shapes, cores, clock)
+        super().__init__(shapes, cores, clock, stall_us)
 
     def observe(
         self, batches: int, local_ns: int, wait_ns: int, local_envs: int, settled: bool = True,
@@ -140,17 +203,27 @@ class LayoutPolicy(_Policy):
         if not settled:
             self._window()
             return False
+        self._account_failed_try()
+        now = self._clock()
+        since, self._observed_at = self._observed_at, now
         if batches and local_envs:
             local_us = local_ns / batches / 1e3
-            # a batch, an env in the caller, the caller's own slice
-            self._parts.append(((local_ns + wait_ns) / batches / 1e3, local_us / local_envs, local_us))
+            batch_us = (local_ns + wait_ns) / batches / 1e3
+            wall_us = batch_us if since is None else (now - since) / batches * 1e6
+            # a batch (stepping and waiting), an env in the caller, the caller's own slice, a batch's wall time
+            self._parts.append((batch_us, local_us / local_envs, local_us, wall_us))
             self._party_samples += samples
-        now = self._clock()
-        in_caller = self.target == self.movable
+        in_caller = self.target == self.movable and self._left_us is None
         if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
             return False
-        costs = None if in_caller or parties is None else parties.costs(self._party_samples)
-        changed = self._probe(now) if in_caller else self._decide(now, costs)
+        if self._left_us is not None:
+            changed = self._end_try(statistics.median(part[3] for part in self._parts), now)
+            if self.target == self.movable:  # kept: the workers come back once a core is idle
+                self._left = None
+        elif in_caller:
+            changed = self._probe(now)
+        else:
+            changed = self._decide(now, None if parties is None else parties.costs(self._party_samples))
         self._window()
         return changed
 
@@ -194,7 +267,7 @@ class LayoutPolicy(_Policy):
             self._probe_wait = (min(2 * self._probe_wait, PROBE_MAX_SECONDS) if target == self.movable
                                 else PROBE_FIRST_SECONDS)
         if target == self.target:
-            return False
+            return self._try_every_env_here(now, costs, batch_us, statistics.median(part[3] for part in self._parts))
         if target == self.movable:
             self._idle_cores()  # the idle-core reading starts now
             self._left = costs
@@ -204,6 +277,40 @@ class LayoutPolicy(_Policy):
                                          f"{costs.handover_us:.1f} us: a batch took {batch_us:.1f} us, "
                                          f"{self.home + target}/{self.home + self.movable} envs in the calling "
                                          f"process are predicted to take {predicted:.1f} us")
+
+    def _try_every_env_here(self, now: float, costs: Costs, batch_us: float, wall_us: float) -> bool:
+        """On a shared machine, try every env in the calling process, judged by whole batches.
+
+        The model sees other processes only in what the pool's own parties measure. Two trainings
+        at once settle where each one's caller steps most envs and its worker the rest: each pool's
+        wake-ups and stepping take turns on the cores with the other pool's, and neither pool's
+        parties show what that costs the other (64 light envs each: 385k and 428k steps/s, where
+        every env in each caller made 575k each). So, where other processes keep
+        `FOREIGN_CORES_TO_SHARE` of the pool's CPUs busy or threads wait for cores
+        (`TRUST_STALL_SHARE`), the caller tries every env for a window, as a consolidation policy
+        does, unless its own envs' cost rules that out: stepping them all at home, at the cost per
+        env measured in this crowd, may take at most `CROWDED_HOME_GAIN` times the batch now.
+
+        A try is judged by the batches' wall time (``wall_us``: from one part to the next, the
+        caller's own code included), not by the time the pool stepped and waited: in a crowd the
+        caller also waits for a core between steps, and that wait is what the workers' wake-ups
+        cost it (54 of 64 light envs in the caller: 106 us stepped and waited, 166 us a batch)."""
+        crowded = self._machine_quiet(now) is False  # every window: the watch reads the pressure as it goes
+        foreign = self._foreign_cores()
+        shared = crowded or (foreign is not None and foreign >= FOREIGN_CORES_TO_SHARE)
+        if not shared or now - self._switched_at < self._probe_wait:
+            return False
+        alone_us = batch_us_of(costs, self.shapes[self.movable])
+        if alone_us > CROWDED_HOME_GAIN * batch_us:
+            return False
+        return self._start_try(self.movable, wall_us, now, f"the machine is shared and a batch takes {wall_us:.1f} us "
+                                                           f"with {self._names(self.target)}: "
+                                                           f"{self._names(self.movable)} is tried")
+
+    def _names(self, target: int) -> str:
+        if target == self.movable:
+            return "every env in the calling process"
+        return f"{self.home + target}/{self.home + self.movable} envs in the calling process"
 
 
 class ConsolidationPolicy(_Policy):
@@ -248,18 +355,9 @@ class ConsolidationPolicy(_Policy):
 
     def __init__(self, shapes: list[Shape], cores: int, clock: Callable[[], float] = time.monotonic,
                  stall_us: Callable[[], int | None] | None = None) -> None:
-        self._stall_us = stall_us
-        self._quiet: Callable[[], bool] | None = None
-        #: when the policy's own watch started (it cannot tell a quiet machine for a while)
-        self._watch_started: float | None = None
         #: the target of the spread layout, chosen by the cost model
         self.spread = 0
-        #: the batch time of the layout a try left, while the try's window runs
-        self._left_us: float | None = None
-        #: when the last try started, and whether it failed and its envs are on their way back
-        self._try_started = 0.0
-        self._given_up = False
-        super().__init__(shapes, cores, clock)
+        super().__init__(shapes, cores, clock, stall_us)
 
     def observe(
         self, batches: int, local_ns: int, wait_ns: int, local_envs: int, settled: bool = True,
@@ -272,10 +370,7 @@ class ConsolidationPolicy(_Policy):
         if not settled:
             self._window()
             return False
-        if self._given_up:  # the envs of a failed try are back: what it cost bounds the next wait
-            self._given_up = False
-            cost = self._clock() - self._try_started
-            self._probe_wait = max(self._probe_wait, cost * (1 / TRY_SHARE - 1))
+        self._account_failed_try()
         if batches:
             self._parts.append((local_ns + wait_ns) / batches / 1e3)
         self._party_samples += samples
@@ -286,16 +381,8 @@ class ConsolidationPolicy(_Policy):
         costs = None if parties is None else parties.costs(self._party_samples)
         quiet = self._machine_quiet(now)  # every window: the watch reads the pressure as it goes
         self._window()
-        here, there = self._names(self.target), self._names(self._other())
         if self._left_us is not None:
-            left_us, self._left_us = self._left_us, None
-            if MARGIN * batch_us < left_us:
-                self._probe_wait, self._switched_at = PROBE_FIRST_SECONDS, now
-                return False
-            self._probe_wait = min(2 * self._probe_wait, PROBE_MAX_SECONDS)
-            self._given_up = True
-            return self._switch(self._other(), now, f"the parent waited {batch_us:.1f} us a batch with {here}, "
-                                                    f"{left_us:.1f} us with {there}")
+            return self._end_try(batch_us, now)
         spread = None if costs is None or self.target == self.movable else self._spread_model(costs)
         if spread is not None and (target := best_shape(spread, self.shapes[: self.movable], self.target,
                                                         MARGIN)) != self.target:
@@ -314,9 +401,9 @@ class ConsolidationPolicy(_Policy):
                 self._switched_at = now
             if quiet is not False:
                 return False
-        self._left_us, self._try_started = batch_us, now
-        return self._switch(self._other(), now, f"the parent waits {batch_us:.1f} us a batch with {here}; {there} "
-                                                "are tried")
+        here, there = self._names(self.target), self._names(self._other())
+        return self._start_try(self._other(), batch_us, now, f"the parent waits {batch_us:.1f} us a batch with "
+                                                             f"{here}; {there} are tried")
 
     def _spread_model(self, costs: PartyCosts) -> Costs | None:
         """The cost model of the spread layout from a window's party costs (``None`` where a party
@@ -339,17 +426,6 @@ class ConsolidationPolicy(_Policy):
         every_env_us = costs.total_us / envs
         model = Costs(every_env_us, every_env_us, 0.0, cores=self.cores, parties=self.shapes[self.target].workers + 1)
         return batch_us_of(model, self.shapes[self.movable])
-
-    def _machine_quiet(self, now: float) -> bool | None:
-        """Whether the machine has been quiet for `TRUST_QUIET_FOR` seconds; ``None`` while the
-        policy's own watch, started at its first window, cannot tell yet."""
-        if self._quiet is None:
-            watch = MachineWatch(self._stall_us, self._clock, quiet_for=TRUST_QUIET_FOR, stall_share=TRUST_STALL_SHARE)
-            self._quiet, self._watch_started = watch.quiet, now
-        quiet = self._quiet()
-        if not quiet and now - self._watch_started < TRUST_QUIET_FOR + READ_EVERY:
-            return None
-        return quiet
 
     def _other(self) -> int:
         """The target of the layout not running now."""
