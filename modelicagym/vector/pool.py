@@ -486,8 +486,9 @@ class PoolVectorEnv(VectorEnv):
 
     def _send_step(self, actions: Any, ids: np.ndarray | None = None) -> None:
         """Check the actions (of envs ``ids`` only, if given), write them to shared memory and send the step."""
-        self._assert_is_running()
-        self._assert_idle("step_async")
+        if self.closed or self._state is not AsyncState.DEFAULT or self._partial is not None:
+            self._assert_is_running()
+            self._assert_idle("step_async")
         self._step_started_ns = time.perf_counter_ns() if self._timing_enabled else 0
         if ids is None:
             self._actions.write(actions)
@@ -501,8 +502,9 @@ class PoolVectorEnv(VectorEnv):
     def _recv_step(self, timeout: float | None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The results of the step sent: a failed worker's envs as :mod:`~modelicagym.vector.dispatch.recovery`
         reports them, the layout adapted, the timing recorded, the infos merged."""
-        self._assert_is_running()
-        self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
+        if self.closed or self._state is not AsyncState.WAITING_STEP:
+            self._assert_is_running()
+            self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
         deadline = Deadline.after(timeout)
         buffers = self._buffers
         entries: Entries = []
@@ -521,7 +523,8 @@ class PoolVectorEnv(VectorEnv):
         infos = self._merge_infos(entries) if entries else {}
         if self._same_step:
             add_final_infos(infos, buffers.take_final_ready(), buffers.final_observations, self.num_envs)
-        self._raise_if_overran(deadline, "step_wait")
+        if timeout is not None:
+            self._raise_if_overran(deadline, "step_wait")
         return (
             buffers.observations.read_batch(self.copy),
             buffers.rewards.copy(),

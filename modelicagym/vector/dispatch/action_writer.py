@@ -104,17 +104,12 @@ class ActionWriter:
         """Check ``actions`` and write them; raise `ActionError` (naming the env) if an env would
         refuse its action. Nothing any worker reads has changed when it raises. Each env gets its
         action in the dtype of the batch given (an array), as ``SyncVectorEnv`` hands it over."""
-        if self._fast and type(actions) is np.ndarray and actions.shape == self._shape and self._takes(actions.dtype):
+        if self._fast and type(actions) is np.ndarray and actions.shape == self._shape and (
+                (same := actions.dtype == self._dtype) or self._takes(actions.dtype)):
             self._target[...] = actions
-            bad = self._range_check()
-            if bad >= 0 and self._clip:
-                np.clip(self._target, *self._bounds_of_batch, out=self._target)
-                bad = self._range_check()
-            if bad >= 0 and not self._is_used(bad):
-                bad = self._first_used_outside(self._target, self._all_envs)
-            if bad >= 0:
-                raise self._refusal(actions[bad], bad)
-            self._given_dtype[0] = self._dtype_code(actions)
+            if self._range_check() >= 0:
+                self._refuse_outside(actions)
+            self._given_dtype[0] = 0 if same else ord(actions.dtype.char)
             return
         if self._dict is not None and self._dict.write(actions):
             self._given_dtype[0] = 0
@@ -124,6 +119,19 @@ class ActionWriter:
         self._check_each(actions)
         self.shared.write_batch(actions if self._dtype is None else np.asarray(actions).astype(self._dtype))
         self._given_dtype[0] = self._dtype_code(actions)
+
+    def _refuse_outside(self, actions: np.ndarray) -> None:
+        """Some action written is outside the space: clip the batch into a ``Box`` that clips, else
+        raise the refusal of the first env that steps with one (an env left out of the step may
+        hold any action)."""
+        bad = self._range_check()
+        if self._clip:
+            np.clip(self._target, *self._bounds_of_batch, out=self._target)
+            bad = self._range_check()
+        if bad >= 0 and not self._is_used(bad):
+            bad = self._first_used_outside(self._target, self._all_envs)
+        if bad >= 0:
+            raise self._refusal(actions[bad], bad)
 
     def _takes(self, dtype: np.dtype) -> bool:
         """Whether an array of ``dtype`` fits the shared actions unchanged (the fast path)."""
