@@ -26,7 +26,7 @@ from pathlib import Path
 
 from modelicagym.errors import ConfigError
 
-__all__ = ["CORES_VARIABLE", "CoreCount", "count_cores", "stepping_cpus", "usable_cores"]
+__all__ = ["CORES_VARIABLE", "CoreCount", "count_cores", "current_cpu", "stepping_cpus", "usable_cores"]
 
 #: the environment variable that overrides the detected cores
 CORES_VARIABLE = "MODELICAGYM_CORES"
@@ -106,7 +106,7 @@ def stepping_cpus(
     if cores >= len(mask):
         return None
     cpus = sorted(mask)
-    current = _current_cpu() if current is None else current
+    current = current_cpu() if current is None else current
     start = cpus.index(current) if current in cpus else 0
     ordered = cpus[start:] + cpus[:start]
     idle = _idle_shares(ordered) if idle is None else idle
@@ -139,7 +139,7 @@ def _idle_us(cpus: list[int]) -> dict[int, int] | None:
     return total
 
 
-def _current_cpu() -> int | None:
+def current_cpu() -> int | None:
     """The CPU the calling thread runs on now (field 39 of ``/proc/thread-self/stat``), or ``None``."""
     stat = _read(_THREAD_STAT)
     try:

@@ -60,7 +60,10 @@ def assert_native_equals_python(native_fns: list, python_fns: list, steps: int =
 
 
 class Flipping:
-    """A policy that moves every movable env to the other side every ``every`` parts it observes."""
+    """A policy that moves every movable env to the other side every ``every`` parts it observes
+    (its parties never apart)."""
+
+    apart = home_slower = False
 
     def __init__(self, movable: int, every: int) -> None:
         self.movable, self.target, self.switches, self.last_decision = movable, 0, 0, ""

@@ -518,6 +518,7 @@ class PoolVectorEnv(VectorEnv):
         if self._placement.due():
             self._placement.after_step(buffers.terminations, buffers.truncations, self._dispatcher.take_collect_times)
             self._dispatcher.watch_machine()
+            self._dispatcher.step_own_slice_on(self._placement.caller_cpu)
         if self._timing_enabled and not restarted:
             self._timing.add(time.perf_counter_ns() - self._step_started_ns, buffers.timing, self._placement.stepping)
         infos = self._merge_infos(entries) if entries else {}

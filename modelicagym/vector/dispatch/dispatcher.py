@@ -19,6 +19,7 @@ means for the pool: those are the pool's and :mod:`~modelicagym.vector.dispatch.
 
 from __future__ import annotations
 
+import os
 import time
 from collections import deque
 from multiprocessing.reduction import ForkingPickler
@@ -116,8 +117,10 @@ class Dispatcher:
         self._collector = self._native_collector()
         #: how the calling process's slice runs a step: in one C call if it is native with no endings
         #: of its own in Python (`CallerParty.run_native_step`), else as any command
-        self._own_step = None if self.caller is None else (
+        self._own_step = self._own_step_anywhere = None if self.caller is None else (
             self.caller.run_native_step if local.native is not None and local.endings is None else self.caller.run)
+        #: the CPU the calling thread steps its slice on (``None``: where it runs; `step_own_slice_on`)
+        self._own_cpu: int | None = None
         #: nanoseconds the calling process stepped its slice, and steps that woke no worker (so no
         #: native collection), since the last `take_collect_times`
         self._own_ns = self._own_calls = 0
@@ -334,6 +337,27 @@ class Dispatcher:
             started = time.perf_counter_ns()
             self._own_step()
             self._own_ns += time.perf_counter_ns() - started
+
+    def step_own_slice_on(self, cpu: int | None) -> None:
+        """From now on the calling thread steps its slice on CPU ``cpu`` (``None``: where it runs),
+        its affinity mask given back as each step of the slice ends, so that nothing else it runs,
+        and no thread it starts, keeps to that CPU (`modelicagym.vector.layout.affinity.PartiesApart`)."""
+        if cpu == self._own_cpu or self._own_step_anywhere is None:
+            return
+        self._own_cpu, step = cpu, self._own_step_anywhere
+        if cpu is None:
+            self._own_step = step
+            return
+        mask, on_cpu = os.sched_getaffinity(0), (cpu,)
+
+        def step_on_cpu() -> None:
+            os.sched_setaffinity(0, on_cpu)
+            try:
+                step()
+            finally:
+                os.sched_setaffinity(0, mask)
+
+        self._own_step = step_on_cpu
 
     # ------------------------------------------------------------------ recv
 

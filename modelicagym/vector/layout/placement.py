@@ -46,6 +46,7 @@ from gymnasium.vector import AutoresetMode
 from modelicagym.errors import ConfigError
 from modelicagym.native.abi import RESET_THEN_STEP
 from modelicagym.vector.errors import PoolMemoryError
+from modelicagym.vector.layout.affinity import PartiesApart
 from modelicagym.vector.layout.cost_model import PartyTimes, Shape
 from modelicagym.vector.layout.machine_load import ForeignLoad
 from modelicagym.vector.layout.policy import ConsolidationPolicy, LayoutPolicy
@@ -162,8 +163,10 @@ class Placement:
         reason: str,
         stand_in: bool = False,
         env_ns: np.ndarray | None = None,
+        apart: PartiesApart | None = None,
     ) -> None:
         self.in_caller = in_caller
+        self._apart = apart
         self.needs_reset = needs_reset
         self.policy = policy
         self.reason = reason
@@ -236,8 +239,15 @@ class Placement:
             if times is not None and policy is not None and policy.observe(*times, self._caller_envs, self._settled,
                                                                           **parties):
                 self._retarget()
+            if self._apart is not None:
+                self._apart.keep(policy.apart, policy.home_slower)
         if not self._settled and self._at_steps:
             self._pending = self._movers(terminations | truncations)
+
+    @property
+    def caller_cpu(self) -> int | None:
+        """The CPU the calling thread steps its slice on while the parties are apart (else ``None``)."""
+        return None if self._apart is None else self._apart.caller_cpu
 
     @property
     def pending(self) -> bool:
@@ -347,16 +357,17 @@ def place_envs(
             close_envs(copies)
     _refuse_adapt_layout(reason, adapt_layout)
     worker_slices = [handle.env_indices for handle in workers.handles]
-    policy = env_ns = None
+    policy = env_ns = apart = None
     if reason is None:
-        pids = [os.getpid(), *(handle.process.pid for handle in workers.handles)]
+        worker_pids = [handle.process.pid for handle in workers.handles]
         policy = LayoutPolicy(layout_shapes(worker_slices, len(caller_slice)), config.cores,
-                              foreign_cores=ForeignLoad(lambda: pids))
+                              foreign_cores=ForeignLoad(lambda: [os.getpid(), *worker_pids]))
         env_ns = buffers.timing[:, SharedBuffers.ENV_NS]
         reason = "its envs can move between the workers and the calling process at episode boundaries"
+        apart = PartiesApart(worker_pids, config.cpus)
     placement = Placement(
         buffers.in_caller, buffers.needs_reset, worker_slices, caller_slice, autoreset_mode, policy, reason,
-        env_ns=env_ns,
+        env_ns=env_ns, apart=apart,
     )
     return placement, local
 

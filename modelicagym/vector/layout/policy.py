@@ -46,11 +46,12 @@ PROBE_MAX_SECONDS = 30.0
 #: envs of ~1 ms a step and 500-step episodes, 4 s of every try at half speed (a pool of 8 ran at
 #: 0.98x a single env in 5 s rounds, idle, where the spread layout alone does 1.9x)
 TRY_SHARE = 0.05
-#: on a crowded machine, how much faster the calling process may step once its workers no longer
-#: compete for the cores: a try of every env in it is ruled out where its envs, at their measured
-#: cost, would take longer than this times the batch now (on 2 cores beside a busy process, the
-#: caller and a worker are 3 runnable threads to 2 cores; the caller alone with the neighbour, 2)
-CROWDED_HOME_GAIN = 1.5
+#: on a shared machine, the batch (us) from which the stepping parties keep to CPUs of their own: the
+#: calling thread pins itself around its own stepping, ~6 us a batch on this project's VM (5% of it)
+APART_BATCH_US = 120.0
+#: apart, the calling thread takes a worker's CPU where its envs step this many times slower than the
+#: workers' (it shares its CPU with the neighbour: 150 us against 75 us; apart and alone, within 10%)
+APART_SWAP = 1.5
 
 
 class _Policy:
@@ -189,6 +190,13 @@ class LayoutPolicy(_Policy):
         self._idle_cores = idle_cores or IdleCores(cores)
         self._foreign_cores = foreign_cores or (lambda: None)
         self._probing = False
+        #: whether the stepping parties should each keep to a CPU of their own
+        #: (`modelicagym.vector.layout.affinity.PartiesApart`): on a shared machine, while workers step
+        #: batches of at least `APART_BATCH_US`
+        self.apart = False
+        #: an env's step in the calling process took `APART_SWAP` times one in a worker in the last
+        #: window: apart, the caller's CPU is the crowded one
+        self.home_slower = False
         super().__init__(shapes, cores, clock, stall_us)
 
     def observe(
@@ -266,11 +274,15 @@ class LayoutPolicy(_Policy):
             self._probing = False
             self._probe_wait = (min(2 * self._probe_wait, PROBE_MAX_SECONDS) if target == self.movable
                                 else PROBE_FIRST_SECONDS)
+        shared = self._shared(now)
+        self.apart = shared and batch_us >= APART_BATCH_US
+        self.home_slower = costs.home_env_us > APART_SWAP * costs.worker_env_us
         if target == self.target:
-            return self._try_every_env_here(now, costs, batch_us, statistics.median(part[3] for part in self._parts))
+            return shared and self._try_every_env_here(now, costs, statistics.median(part[3] for part in self._parts))
         if target == self.movable:
             self._idle_cores()  # the idle-core reading starts now
             self._left = costs
+            self.apart = False
         predicted = batch_us_of(costs, self.shapes[target])
         return self._switch(target, now, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
                                          f"{costs.worker_env_us:.1f} us in a worker, a hand-over "
@@ -278,7 +290,7 @@ class LayoutPolicy(_Policy):
                                          f"{self.home + target}/{self.home + self.movable} envs in the calling "
                                          f"process are predicted to take {predicted:.1f} us")
 
-    def _try_every_env_here(self, now: float, costs: Costs, batch_us: float, wall_us: float) -> bool:
+    def _try_every_env_here(self, now: float, costs: Costs, wall_us: float) -> bool:
         """On a shared machine, try every env in the calling process, judged by whole batches.
 
         The model sees other processes only in what the pool's own parties measure. Two trainings
@@ -289,23 +301,29 @@ class LayoutPolicy(_Policy):
         `FOREIGN_CORES_TO_SHARE` of the pool's CPUs busy or threads wait for cores
         (`TRUST_STALL_SHARE`), the caller tries every env for a window, as a consolidation policy
         does, unless its own envs' cost rules that out: stepping them all at home, at the cost per
-        env measured in this crowd, may take at most `CROWDED_HOME_GAIN` times the batch now.
+        env measured now, must be faster by `MARGIN` than a batch's wall time now (8 envs of ~75 us
+        beside a busy process, the parties apart: 592 us at home against 560 us a batch; each try
+        lost 20% for its window).
 
         A try is judged by the batches' wall time (``wall_us``: from one part to the next, the
         caller's own code included), not by the time the pool stepped and waited: in a crowd the
         caller also waits for a core between steps, and that wait is what the workers' wake-ups
         cost it (54 of 64 light envs in the caller: 106 us stepped and waited, 166 us a batch)."""
-        crowded = self._machine_quiet(now) is False  # every window: the watch reads the pressure as it goes
-        foreign = self._foreign_cores()
-        shared = crowded or (foreign is not None and foreign >= FOREIGN_CORES_TO_SHARE)
-        if not shared or now - self._switched_at < self._probe_wait:
+        if now - self._switched_at < self._probe_wait:
             return False
-        alone_us = batch_us_of(costs, self.shapes[self.movable])
-        if alone_us > CROWDED_HOME_GAIN * batch_us:
+        if MARGIN * batch_us_of(costs, self.shapes[self.movable]) >= wall_us:
             return False
+        self.apart = False
         return self._start_try(self.movable, wall_us, now, f"the machine is shared and a batch takes {wall_us:.1f} us "
                                                            f"with {self._names(self.target)}: "
                                                            f"{self._names(self.movable)} is tried")
+
+    def _shared(self, now: float) -> bool:
+        """Whether other processes keep `FOREIGN_CORES_TO_SHARE` of the pool's CPUs busy, or
+        threads wait for cores (`TRUST_STALL_SHARE`)."""
+        crowded = self._machine_quiet(now) is False  # every window: the watch reads the pressure as it goes
+        foreign = self._foreign_cores()
+        return crowded or (foreign is not None and foreign >= FOREIGN_CORES_TO_SHARE)
 
     def _names(self, target: int) -> str:
         if target == self.movable:
