@@ -284,7 +284,8 @@ class LayoutPolicy(_Policy):
             self._left = costs
             self.apart = False
         predicted = batch_us_of(costs, self.shapes[target])
-        return self._switch(target, now, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
+        # a move within the spread layouts does not delay the next try; every env at home starts the probes' wait
+        return self._switch(target, now if target == self.movable else None, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
                                          f"{costs.worker_env_us:.1f} us in a worker, a hand-over "
                                          f"{costs.handover_us:.1f} us: a batch took {batch_us:.1f} us, "
                                          f"{self.home + target}/{self.home + self.movable} envs in the calling "
