@@ -49,6 +49,9 @@ TRY_SHARE = 0.05
 #: on a shared machine, the batch (us) from which the stepping parties keep to CPUs of their own: the
 #: calling thread pins itself around its own stepping, ~6 us a batch on this project's VM (5% of it)
 APART_BATCH_US = 120.0
+#: a try of the parties apart (or together again) stays if a batch's wall time is this much shorter:
+#: a try moves no env, so it costs one window, and the gain beside a busy process is ~10%
+APART_MARGIN = 1.03
 #: apart, the calling thread takes a worker's CPU where its envs step this many times slower than the
 #: workers' (it shares its CPU with the neighbour: 150 us against 75 us; apart and alone, within 10%)
 APART_SWAP = 1.5
@@ -192,11 +195,15 @@ class LayoutPolicy(_Policy):
         self._probing = False
         #: whether the stepping parties should each keep to a CPU of their own
         #: (`modelicagym.vector.layout.affinity.PartiesApart`): on a shared machine, while workers step
-        #: batches of at least `APART_BATCH_US`
+        #: batches of at least `APART_BATCH_US`, where a try showed it faster (`_keep_apart`)
         self.apart = False
         #: an env's step in the calling process took `APART_SWAP` times one in a worker in the last
         #: window: apart, the caller's CPU is the crowded one
         self.home_slower = False
+        #: while a try of the other choice of `apart` runs: a batch's wall time before it
+        self._apart_left_us: float | None = None
+        self._apart_wait = PROBE_FIRST_SECONDS
+        self._apart_tried_at = clock()
         super().__init__(shapes, cores, clock, stall_us)
 
     def observe(
@@ -275,10 +282,13 @@ class LayoutPolicy(_Policy):
             self._probe_wait = (min(2 * self._probe_wait, PROBE_MAX_SECONDS) if target == self.movable
                                 else PROBE_FIRST_SECONDS)
         shared = self._shared(now)
-        self.apart = shared and batch_us >= APART_BATCH_US
+        wall_us = statistics.median(part[3] for part in self._parts)
         self.home_slower = costs.home_env_us > APART_SWAP * costs.worker_env_us
         if target == self.target:
-            return shared and self._try_every_env_here(now, costs, statistics.median(part[3] for part in self._parts))
+            if self._keep_apart(now, shared and batch_us >= APART_BATCH_US, wall_us):
+                return False
+            return shared and self._try_every_env_here(now, costs, wall_us)
+        self._apart_left_us = None  # the layout changes: a try of the parties' CPUs cannot be judged
         if target == self.movable:
             self._idle_cores()  # the idle-core reading starts now
             self._left = costs
@@ -318,6 +328,33 @@ class LayoutPolicy(_Policy):
         return self._start_try(self.movable, wall_us, now, f"the machine is shared and a batch takes {wall_us:.1f} us "
                                                            f"with {self._names(self.target)}: "
                                                            f"{self._names(self.movable)} is tried")
+
+    def _keep_apart(self, now: float, may: bool, wall_us: float) -> bool:
+        """Whether the stepping parties keep to CPUs of their own (`apart`), tried by whole batches
+        as layouts are: once `apart_wait` has passed, the other choice runs for a window and stays
+        if a batch's wall time is shorter by `APART_MARGIN`, else the choice goes back and the next
+        try waits twice as long. ``may``: the machine is shared and the batches long enough
+        (`APART_BATCH_US`); otherwise the parties are together. ``True`` while a try's window runs
+        (no other try meanwhile).
+
+        Apart helps beside a busy process that runs wherever a CPU is free (8 envs of ~80 us: 1.08x
+        one env together, 1.17-1.22x apart), and hurts beside another pool kept apart, whose parties
+        cannot fill each other's idle CPU (two such trainings summed 0.93x two single envs apart,
+        1.08x together): only a try can tell them apart."""
+        if self._apart_left_us is not None:
+            left_us, self._apart_left_us = self._apart_left_us, None
+            if APART_MARGIN * wall_us >= left_us:
+                self.apart = not self.apart
+                self._apart_wait = min(2 * self._apart_wait, PROBE_MAX_SECONDS)
+            self._apart_tried_at = now
+            return False
+        if not may:
+            self.apart = False
+            return False
+        if now - self._apart_tried_at < self._apart_wait:
+            return False
+        self.apart, self._apart_left_us, self._apart_tried_at = not self.apart, wall_us, now
+        return True
 
     def _shared(self, now: float) -> bool:
         """Whether other processes keep `FOREIGN_CORES_TO_SHARE` of the pool's CPUs busy, or
