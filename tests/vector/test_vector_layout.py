@@ -244,11 +244,14 @@ class SharedMachine:
     ENV_US = 3.0
 
     def __init__(self, foreign_cores: float, handover_us: float = 10.0, unseen_us: float = 40.0,
-                 alone_us: float = 0.0) -> None:
+                 alone_us: float = 0.0, apart_us: float = 0.0) -> None:
         self.machine = Machine()
         self.foreign_cores, self.handover_us, self.unseen_us = foreign_cores, handover_us, unseen_us
         #: what every env at home costs beyond their steps (the caller then shares its core with the neighbour)
         self.alone_us = alone_us
+        #: what a batch gains (< 0) or loses with the parties apart
+        self.apart_us = apart_us
+        self.apart_changes = 0
         self.policy = LayoutPolicy(placement.layout_shapes([range(4)], 4), 2, clock=lambda: self.machine.now,
                                    idle_cores=lambda: 0.0, stall_us=self.machine.stall,
                                    foreign_cores=lambda: self.foreign_cores)
@@ -259,7 +262,7 @@ class SharedMachine:
         local_us = shape.home_envs * self.ENV_US
         worker_us = shape.worker_envs * self.ENV_US
         batch_us = max(local_us, self.handover_us + worker_us) if worker_us else local_us
-        wall_us = batch_us + (self.unseen_us if worker_us else self.alone_us)
+        wall_us = batch_us + (self.unseen_us if worker_us else self.alone_us) + (self.apart_us if self.policy.apart else 0)
         in_caller = np.array([0] * shape.worker_envs + [1] * (8 - shape.worker_envs), dtype=np.uint8)
         changed = False
         for _ in range(WINDOW_PARTS):
@@ -268,8 +271,10 @@ class SharedMachine:
                                np.array([shape.worker_envs > 0, 1], np.uint8), stand_in=False)
             for _ in range(SAMPLE_EVERY):
                 times.count()
+            apart = self.policy.apart
             changed |= self.policy.observe(640, int(640 * local_us * 1e3), int(640 * (batch_us - local_us) * 1e3),
                                            shape.home_envs, parties=times)
+            self.apart_changes += apart != self.policy.apart
         return changed
 
     def run(self, seconds: float) -> list[int]:
@@ -319,6 +324,28 @@ def test_a_shared_machine_tries_no_layout_whose_envs_at_home_would_take_longer_t
     pool.ENV_US = 100.0
     targets = pool.run(30.0)
     assert pool.policy.movable not in targets, pool.policy.last_decision
+
+
+@pytest.mark.parametrize("apart_us", [-100.0, 100.0], ids=["faster", "slower"])
+def test_on_a_shared_machine_the_parties_go_apart_where_batches_are_shorter_so(apart_us: float) -> None:
+    """Heavy batches (8 envs of 100 us): apart is tried, and kept only where a batch's wall time is
+    shorter; the tries of the losing choice back off."""
+    pool = SharedMachine(foreign_cores=1.0, handover_us=0.0, unseen_us=50.0, apart_us=apart_us)
+    pool.ENV_US = 100.0
+    pool.run(120.0)
+    assert pool.policy.apart is (apart_us < 0), pool.policy.last_decision
+    assert pool.apart_changes >= 2, pool.apart_changes  # the other choice was tried too
+    pool.apart_changes = 0
+    pool.run(60.0)
+    assert pool.policy.apart is (apart_us < 0)
+    assert pool.apart_changes <= 4, pool.apart_changes  # backed off: at most a try every 30 s
+
+
+def test_on_a_machine_of_its_own_the_parties_are_never_apart() -> None:
+    pool = SharedMachine(foreign_cores=0.0, handover_us=0.0, unseen_us=50.0, apart_us=-100.0)
+    pool.ENV_US = 100.0
+    pool.run(30.0)
+    assert pool.apart_changes == 0 and not pool.policy.apart
 
 
 def test_the_foreign_load_counts_other_processes_and_not_the_pools_own() -> None:
