@@ -51,7 +51,7 @@ from modelicagym.vector.checks import (
 )
 from modelicagym.vector.dispatch.action_writer import ActionWriter
 from modelicagym.vector.dispatch.assembly import assemble
-from modelicagym.vector.dispatch.deadline import Deadline
+from modelicagym.vector.dispatch.deadline import NEVER, Deadline
 from modelicagym.vector.dispatch.infos import Entries, add_final_infos, merge_infos, select_infos
 from modelicagym.vector.dispatch.partial_batches import PartialBatches
 from modelicagym.vector.dispatch.party import Outcome
@@ -443,7 +443,19 @@ class PoolVectorEnv(VectorEnv):
         """Step every env with its action; returns batched ``(obs, rewards, terminations,
         truncations, infos)`` as :class:`~gymnasium.vector.SyncVectorEnv` does: :meth:`step_async`
         then :meth:`step_wait`. A Ctrl-C while it runs leaves the pool as it was (the step never
-        started) or stopped, never half-way."""
+        started) or stopped, never half-way.
+
+        Where no worker steps and the calling process steps every env in one C call (every env
+        at home, native), the step is that call (`Dispatcher.step_at_home`), with the same checks
+        and results."""
+        dispatcher = self._dispatcher
+        if (dispatcher.steps_at_home and not self.closed and self._state is AsyncState.DEFAULT and self._partial is None
+                and not self._placement.pending and not self._timing_enabled):
+            self._actions.write(actions)
+            self._state = AsyncState.WAITING_STEP  # a Ctrl-C from here on stops the pool (`_interrupted`)
+            quiet = dispatcher.step_at_home()
+            self._state = AsyncState.DEFAULT
+            return self._step_results([], False) if quiet else self._collect_step(None, NEVER)
         self._send_step(actions)
         return self._recv_step(None)
 
@@ -505,16 +517,33 @@ class PoolVectorEnv(VectorEnv):
         if self.closed or self._state is not AsyncState.WAITING_STEP:
             self._assert_is_running()
             self._assert_waiting(AsyncState.WAITING_STEP, "step_wait", "step_async")
-        deadline = Deadline.after(timeout)
-        buffers = self._buffers
+        deadline = Deadline.after(timeout)  # the calling process's own envs count against it too
+        self._state = AsyncState.DEFAULT
+        self._dispatcher.run_own_slice()
+        return self._collect_step(timeout, deadline)
+
+    def _collect_step(self, timeout: float | None, deadline: Deadline
+                      ) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Receive every party's answer to the step (the calling process's slice has run; ``timeout``
+        from ``deadline`` on) and the results."""
         entries: Entries = []
         restarted = False
-        for command, message, failure in self._receive(timeout, "step"):
+        for command, message, failure in self._dispatcher.recv(timeout, "step"):
             if failure is not None:
                 entries += self._recovery.after_step(command.party, failure)
                 restarted = True
             elif message is not None:
                 entries += message.data
+        results = self._step_results(entries, restarted)
+        if timeout is not None:
+            self._raise_if_overran(deadline, "step_wait")
+        return results
+
+    def _step_results(self, entries: Entries, restarted: bool) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray,
+                                                                         dict[str, Any]]:
+        """A step's results, once every party has answered (``entries``: their infos; ``restarted``:
+        a worker was restarted): the layout adapted, the timing recorded, the infos merged."""
+        buffers = self._buffers
         if self._placement.due():
             self._placement.after_step(buffers.terminations, buffers.truncations, self._dispatcher.take_collect_times)
             self._dispatcher.watch_machine()
@@ -524,8 +553,6 @@ class PoolVectorEnv(VectorEnv):
         infos = self._merge_infos(entries) if entries else {}
         if self._same_step:
             add_final_infos(infos, buffers.take_final_ready(), buffers.final_observations, self.num_envs)
-        if timeout is not None:
-            self._raise_if_overran(deadline, "step_wait")
         return (
             buffers.observations.read_batch(self.copy),
             buffers.rewards.copy(),

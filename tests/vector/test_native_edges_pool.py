@@ -83,13 +83,14 @@ def test_a_pool_of_cartpoles_with_python_edges_steps_natively_as_sync_vector_env
 
 @pytest.mark.parametrize("mode", MODES, ids=lambda m: m.value)
 @pytest.mark.parametrize("cls, n, options", [(GearboxProbeEndings, 4, {}), (GearboxProbe, 8, {"caller_steps": True}),
-                                             (DictProbe, 4, {"caller_steps": True})],
-                         ids=["endings-n4-workers", "n8-caller", "dict-actions-n4-caller"])
+                                             (DictProbe, 4, {"caller_steps": True}), (GearboxProbe, 8, {"num_workers": 0})],
+                         ids=["endings-n4-workers", "n8-caller", "dict-actions-n4-caller", "n8-every-env-at-home"])
 def test_a_pool_of_typed_probes_with_fmu_errors_steps_natively_as_sync_vector_env(
         family_fmu: Callable[[str, int], Path], fmi_version: int, mode: AutoresetMode, cls: type, n: int,
         options: dict) -> None:
     """The probe is a user's FMU (workers' slices by default; ``caller_steps=True`` adds the
-    calling process's); env i's doStep fails after 3 + i % 4 steps of an episode."""
+    calling process's; ``num_workers=0``: every step is one C call in the calling process, and
+    Python finishes the envs whose FMU failed); env i's doStep fails after 3 + i % 4 steps of an episode."""
     path = family_fmu("probe", fmi_version)
 
     def fns(**config: object) -> list[Callable]:

@@ -17,6 +17,7 @@ from vector_rollouts import assert_native_equals_python, assert_same, rollout
 
 import modelicagym
 from modelicagym.vector import EnvError, PoolVectorEnv, WorkerDiedError, WorkerTimeoutError
+from modelicagym.vector.dispatch.dispatcher import Dispatcher
 from modelicagym.vector.dispatch.recovery import RESTART_INFO_KEY
 
 pytestmark = pytest.mark.timeout(180)
@@ -53,16 +54,24 @@ def test_resets_python_must_do_are_done_by_python(reset_rung: str, mode: Autores
         assert_native_equals_python(native, python, autoreset_mode=mode, num_workers=1)
 
 
+@pytest.mark.parametrize("layout", ["caller steps", "caller only"])
 @pytest.mark.parametrize("mode", list(AutoresetMode))
 @pytest.mark.parametrize("fault", [1, 2])
-def test_fmu_errors_and_model_ends_match_sync(family_fmu: Callable[[str, int], Path], mode: AutoresetMode, fault: int) -> None:
-    """fault 1: the model ends the simulation; 2: doStep returns Error (the episode is truncated)."""
+def test_fmu_errors_and_model_ends_match_sync(monkeypatch: pytest.MonkeyPatch, family_fmu: Callable[[str, int], Path],
+                                              mode: AutoresetMode, fault: int, layout: str) -> None:
+    """fault 1: the model ends the simulation; 2: doStep returns Error (the episode is truncated).
+    With every env at home a step is one C call, and Python finishes the steps it leaves to it."""
     def fns(**path: Any) -> list:
         faulty = {"fault": fault, "fault_after": 3}
         return [partial(probe_env, family_fmu("probe", 2), parameters=faulty if i == 1 else {}, max_episode_steps=8, **path)
                 for i in range(3)]
 
-    assert_native_equals_python(fns(), fns(step_path="python"), steps=40, autoreset_mode=mode, caller_steps=True)
+    quiet: list[bool] = []
+    step_at_home = Dispatcher.step_at_home
+    monkeypatch.setattr(Dispatcher, "step_at_home", lambda self: quiet.append(step_at_home(self)) or quiet[-1])
+    assert_native_equals_python(fns(), fns(step_path="python"), steps=40, autoreset_mode=mode, **LAYOUTS[layout])
+    if layout == "caller only":
+        assert True in quiet and False in quiet, quiet  # both ways: quiet steps, and Python finishing some
 
 
 @pytest.mark.usefixtures("no_leaks")

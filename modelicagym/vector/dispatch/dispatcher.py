@@ -22,6 +22,7 @@ from __future__ import annotations
 import os
 import time
 from collections import deque
+from collections.abc import Callable
 from multiprocessing.reduction import ForkingPickler
 from typing import Any
 
@@ -106,6 +107,7 @@ class Dispatcher:
         #: how long the calling process polls for the workers of a step (its waiter polls only
         #: while the workers' posts come within that time)
         self._collect_spin_ns = np.array([round(spin_time * 1e9)], dtype=np.int64)
+        self._home_step: Callable[[], int] | None = None  # set below, once the slice's step is known
         self.stepping_changed()
         #: the command slots hold STEP for every worker (so a step need not write them again)
         self._slots_say_step = False
@@ -121,6 +123,11 @@ class Dispatcher:
             self.caller.run_native_step if local.native is not None and local.endings is None else self.caller.run)
         #: the CPU the calling thread steps its slice on (``None``: where it runs; `step_own_slice_on`)
         self._own_cpu: int | None = None
+        #: a step that wakes no worker can be one C call (`step_at_home`): the slice's native step
+        self._home_step = (local.native.step if self.caller is not None
+                           and self._own_step_anywhere == self.caller.run_native_step
+                           and not buffers.actions.pickled and max_concurrency is None else None)
+        self.stepping_changed()
         #: nanoseconds the calling process stepped its slice, and steps that woke no worker (so no
         #: native collection), since the last `take_collect_times`
         self._own_ns = self._own_calls = 0
@@ -148,6 +155,9 @@ class Dispatcher:
         self._step_all = [PendingCommand(party, Command.STEP) for party in self._stepping_parties]
         #: a step wakes at least one worker
         self._workers_step = any(party is not self.caller for party in self._stepping_parties)
+        #: a whole batch's step wakes no worker and the calling process steps its envs in one C
+        #: call: :meth:`step_at_home` is then the whole of send, run and recv
+        self.steps_at_home = self._home_step is not None and not self._workers_step
         self._set_go_spin()
 
     def watch_machine(self) -> None:
@@ -358,6 +368,22 @@ class Dispatcher:
                 os.sched_setaffinity(0, mask)
 
         self._own_step = step_on_cpu
+
+    def step_at_home(self) -> bool:
+        """The step of a batch whose stepping envs are all the calling process's (`steps_at_home`):
+        its slice steps now, with the actions in shared memory. ``True``: the step is complete,
+        nothing left to Python. ``False``: Python has finished what the native step left to it, and
+        the step is out as after :meth:`send_step` and :meth:`run_own_slice`: :meth:`recv` takes its
+        reply (infos, an env's error)."""
+        started = time.perf_counter_ns()
+        quiet = self._home_step() == 0
+        self._own_ns += time.perf_counter_ns() - started
+        if quiet:
+            self._own_calls += 1
+            return True
+        self.pending, self._step_sent = self._step_all, True
+        self.caller.finish_native_step()
+        return False
 
     # ------------------------------------------------------------------ recv
 

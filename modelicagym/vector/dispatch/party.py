@@ -124,11 +124,16 @@ class CallerParty:
         itself; Python then finishes only what C left to it."""
         self._command = None
         if self.envs.native.step():
-            self.watch.enter()
-            try:
-                self.hold(self.envs.finish_native_step())
-            finally:
-                self.watch.leave()
+            self.finish_native_step()
+
+    def finish_native_step(self) -> None:
+        """Finish in Python what the slice's last native step left to it; the reply waits for
+        :meth:`answer`."""
+        self.watch.enter()
+        try:
+            self.hold(self.envs.finish_native_step())
+        finally:
+            self.watch.leave()
 
     def hold(self, reply: Message | None) -> None:
         """Keep ``reply`` for :meth:`answer` (e.g. what Python finished of a native step)."""
