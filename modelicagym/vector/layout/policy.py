@@ -49,9 +49,9 @@ TRY_SHARE = 0.05
 #: on a shared machine, the batch (us) from which the stepping parties keep to CPUs of their own: the
 #: calling thread pins itself around its own stepping, ~6 us a batch on this project's VM (5% of it)
 APART_BATCH_US = 120.0
-#: a try of the parties apart (or together again) stays if a batch's wall time is this much shorter:
-#: a try moves no env, so it costs one window, and the gain beside a busy process is ~10%
-APART_MARGIN = 1.03
+#: a try of the parties apart (or together again) stays if a batch's wall time is this much shorter
+#: (at 3%, two heavy pools kept apart on a window's noise: their rates move ±10% from one 0.5 s to the next)
+APART_MARGIN = 1.1
 #: apart, the calling thread takes a worker's CPU where its envs step this many times slower than the
 #: workers' (it shares its CPU with the neighbour: 150 us against 75 us; apart and alone, within 10%)
 APART_SWAP = 1.5
@@ -333,8 +333,9 @@ class LayoutPolicy(_Policy):
         """Whether the stepping parties keep to CPUs of their own (`apart`), tried by whole batches
         as layouts are: once `apart_wait` has passed, the other choice runs for a window and stays
         if a batch's wall time is shorter by `APART_MARGIN`, else the choice goes back and the next
-        try waits twice as long. ``may``: the machine is shared and the batches long enough
-        (`APART_BATCH_US`); otherwise the parties are together. ``True`` while a try's window runs
+        try waits twice as long, and at least 19 times what the try cost (`TRY_SHARE`). ``may``:
+        the machine is shared and the batches long enough (`APART_BATCH_US`); otherwise the parties
+        are together. ``True`` while a try's window runs
         (no other try meanwhile).
 
         Apart helps beside a busy process that runs wherever a CPU is free (8 envs of ~80 us: 1.08x
@@ -343,9 +344,10 @@ class LayoutPolicy(_Policy):
         1.08x together): only a try can tell them apart."""
         if self._apart_left_us is not None:
             left_us, self._apart_left_us = self._apart_left_us, None
-            if APART_MARGIN * wall_us >= left_us:
+            if APART_MARGIN * wall_us >= left_us:  # lost: back, and the next try waits long enough (`TRY_SHARE`)
                 self.apart = not self.apart
-                self._apart_wait = min(2 * self._apart_wait, PROBE_MAX_SECONDS)
+                self._apart_wait = max(min(2 * self._apart_wait, PROBE_MAX_SECONDS),
+                                       (now - self._apart_tried_at) * (1 / TRY_SHARE - 1))
             self._apart_tried_at = now
             return False
         if not may:
