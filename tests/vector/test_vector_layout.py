@@ -4,6 +4,7 @@ are measured to be cheaper; idle workers sleep."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import subprocess
 import sys
@@ -312,7 +313,7 @@ def test_on_a_shared_machine_a_try_that_is_slower_goes_back_and_waits_longer() -
     assert pool.policy.target != pool.policy.movable, pool.policy.last_decision
     assert len(tries) >= 3, tries
     gaps = np.diff(tries)
-    assert all(later >= 0.99 * earlier for earlier, later in zip(gaps, gaps[1:])), gaps  # backs off, up to a cap
+    assert all(later >= 0.99 * earlier for earlier, later in itertools.pairwise(gaps)), gaps  # backs off, up to a cap
     assert gaps[-1] >= 4 * gaps[0], gaps
     assert "us a batch with every env in the calling process" in pool.policy.last_decision
 
