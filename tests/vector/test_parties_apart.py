@@ -101,6 +101,9 @@ def test_the_calling_thread_steps_its_slice_on_its_cpu_and_gets_its_mask_back() 
         pool._dispatcher.step_own_slice_on(None)
         pool.step(np.zeros(2, dtype=np.int64))
         assert recorder.masks[-1] == MASK
+        pool._dispatcher.step_own_slice_on(4096)  # a CPU the thread may not take: it steps where it runs
+        pool.step(np.zeros(2, dtype=np.int64))
+        assert recorder.masks[-1] == MASK and os.sched_getaffinity(0) == MASK
 
 
 def test_parties_that_outnumber_the_cpus_are_never_kept_apart() -> None:

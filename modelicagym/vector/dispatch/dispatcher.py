@@ -361,7 +361,11 @@ class Dispatcher:
         mask, on_cpu = os.sched_getaffinity(0), (cpu,)
 
         def step_on_cpu() -> None:
-            os.sched_setaffinity(0, on_cpu)
+            try:
+                os.sched_setaffinity(0, on_cpu)
+            except OSError:  # the CPU went offline, or a cgroup took it: the slice steps where it runs
+                step()
+                return
             try:
                 step()
             finally:
