@@ -295,11 +295,12 @@ class LayoutPolicy(_Policy):
             self.apart = False
         predicted = batch_us_of(costs, self.shapes[target])
         # a move within the spread layouts does not delay the next try; every env at home starts the probes' wait
-        return self._switch(target, now if target == self.movable else None, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
-                                         f"{costs.worker_env_us:.1f} us in a worker, a hand-over "
-                                         f"{costs.handover_us:.1f} us: a batch took {batch_us:.1f} us, "
-                                         f"{self.home + target}/{self.home + self.movable} envs in the calling "
-                                         f"process are predicted to take {predicted:.1f} us")
+        changed_at = now if target == self.movable else None
+        return self._switch(target, changed_at, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
+                                                f"{costs.worker_env_us:.1f} us in a worker, a hand-over "
+                                                f"{costs.handover_us:.1f} us: a batch took {batch_us:.1f} us, "
+                                                f"{self.home + target}/{self.home + self.movable} envs in the "
+                                                f"calling process are predicted to take {predicted:.1f} us")
 
     def _try_every_env_here(self, now: float, costs: Costs, wall_us: float) -> bool:
         """On a shared machine, try every env in the calling process, judged by whole batches.
@@ -335,8 +336,7 @@ class LayoutPolicy(_Policy):
         if a batch's wall time is shorter by `APART_MARGIN`, else the choice goes back and the next
         try waits twice as long, and at least 19 times what the try cost (`TRY_SHARE`). ``may``:
         the machine is shared and the batches long enough (`APART_BATCH_US`); otherwise the parties
-        are together. ``True`` while a try's window runs
-        (no other try meanwhile).
+        are together. ``True`` while a try's window runs (no other try meanwhile).
 
         Apart helps beside a busy process that runs wherever a CPU is free (8 envs of ~80 us: 1.08x
         one env together, 1.17-1.22x apart), and hurts beside another pool kept apart, whose parties
