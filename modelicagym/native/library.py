@@ -74,6 +74,7 @@ SIGNATURES = {
     "mg_env_step": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)),
     "mg_env_reset": (ctypes.c_int32, (ctypes.c_void_p,)),
     "mg_step_batch": (ctypes.c_int64, (ctypes.c_void_p,)),
+    "mg_step_batch_in_range": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_void_p)),
     "mg_step_open": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_void_p)),
     "mg_end_steps": (ctypes.c_int64, (ctypes.c_void_p, ctypes.c_int32, ctypes.c_void_p)),
     "mg_watch_register": (ctypes.c_int32, (ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p)),

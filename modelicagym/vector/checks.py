@@ -22,6 +22,7 @@ has one.
 from __future__ import annotations
 
 import functools
+import inspect
 import math
 import multiprocessing
 import threading
@@ -303,17 +304,28 @@ def public_call(method: Callable[..., Any]) -> Callable[..., Any]:
       goes to the pool's ``_interrupted()`` first, which decides what is left of the pool (see
       `PoolVectorEnv._interrupted`), then propagates.
 
-    A public call never calls another (they share private helpers), so claims do not nest."""
+    A public call never calls another (they share private helpers), so claims do not nest. A call
+    whose one argument is ``actions`` (``step``, ``step_async``: the hot path) gets a wrapper of
+    that signature, ~150 ns faster than one that forwards ``*args, **kwargs``."""
     name = method.__name__
+    if list(inspect.signature(method).parameters) == ["self", "actions"]:
+
+        @functools.wraps(method)
+        def guarded_step(self: Any, actions: Any) -> Any:
+            _claim(self, name)
+            try:
+                return method(self, actions)
+            except (KeyboardInterrupt, SystemExit):
+                self._interrupted()
+                raise
+            finally:
+                self._user.pop("thread", None)
+
+        return guarded_step
 
     @functools.wraps(method)
     def guarded(self: Any, *args: Any, **kwargs: Any) -> Any:
-        me = threading.get_ident()
-        if self._user.setdefault("thread", me) != me:
-            raise ConcurrentUseError(
-                f"`{name}` was called from a second thread while another thread is inside a call to this pool; "
-                "a pool is used from one thread at a time (give each thread its own pool, or a lock)"
-            )
+        _claim(self, name)
         try:
             return method(self, *args, **kwargs)
         except (KeyboardInterrupt, SystemExit):
@@ -323,6 +335,16 @@ def public_call(method: Callable[..., Any]) -> Callable[..., Any]:
             self._user.pop("thread", None)
 
     return guarded
+
+
+def _claim(pool: Any, call: str) -> None:
+    """Claim ``pool`` for this thread, or raise `ConcurrentUseError` if another thread holds it (`public_call`)."""
+    me = threading.get_ident()
+    if pool._user.setdefault("thread", me) != me:
+        raise ConcurrentUseError(
+            f"`{call}` was called from a second thread while another thread is inside a call to this pool; "
+            "a pool is used from one thread at a time (give each thread its own pool, or a lock)"
+        )
 
 
 def check_open(closed: bool, owner: str) -> None:

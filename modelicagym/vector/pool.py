@@ -337,6 +337,8 @@ class PoolVectorEnv(VectorEnv):
             self._buffers.needs_reset if self.autoreset_mode is AutoresetMode.NEXT_STEP else None,
             clip=first.clips_actions,
         )
+        #: a step with every env at home range-checks its actions in its C call (`Dispatcher.step_at_home`)
+        self._range_checked_at_home = self._dispatcher.check_range_at_home(self._actions.native_range)
         self._recovery = Recovery(
             self._workers, self._dispatcher, self.autoreset_mode, restart_dead_workers, self._abort
         )
@@ -451,9 +453,14 @@ class PoolVectorEnv(VectorEnv):
         dispatcher = self._dispatcher
         if (dispatcher.steps_at_home and not self.closed and self._state is AsyncState.DEFAULT and self._partial is None
                 and not self._placement.pending and not self._timing_enabled):
-            self._actions.write(actions)
+            self._actions.write(actions, self._range_checked_at_home)
             self._state = AsyncState.WAITING_STEP  # a Ctrl-C from here on stops the pool (`_interrupted`)
             quiet = dispatcher.step_at_home()
+            if quiet is None:  # an action outside its space, nothing stepped
+                self._state = AsyncState.DEFAULT
+                self._actions.refuse_outside(actions)  # raises, or clips, or finds an env that ignores it
+                self._state = AsyncState.WAITING_STEP
+                quiet = dispatcher.step_at_home(check_range=False)
             self._state = AsyncState.DEFAULT
             return self._step_results([], False) if quiet else self._collect_step(None, NEVER)
         self._send_step(actions)

@@ -22,6 +22,11 @@ from modelicagym.vector import PoolVectorEnv
 
 pytestmark = pytest.mark.timeout(120)
 
+#: where the envs step: the calling process and workers, workers only, every env at home (a step
+#: is then one C call, which range-checks the batch before it steps any env)
+LAYOUTS = {"caller steps": {"caller_steps": True}, "workers": {"caller_steps": False, "num_workers": 2},
+           "at home": {"num_workers": 0}}
+
 
 def single_env_message(action: Any) -> str:
     env = modelicagym.make("cartpole")
@@ -31,7 +36,7 @@ def single_env_message(action: Any) -> str:
     return str(info.value)
 
 
-@pytest.mark.parametrize("caller_steps", [True, False])
+@pytest.mark.parametrize("layout", LAYOUTS)
 @pytest.mark.parametrize(
     "actions, env_index, single",
     [
@@ -42,16 +47,16 @@ def single_env_message(action: Any) -> str:
     ],
 )
 def test_refused_with_the_single_envs_message_and_the_env_index(
-    caller_steps: bool, actions: np.ndarray, env_index: int, single: Any
+    layout: str, actions: np.ndarray, env_index: int, single: Any
 ) -> None:
     fns = [partial(modelicagym.make, "cartpole")] * 2
-    with PoolVectorEnv(fns, caller_steps=caller_steps, num_workers=None if caller_steps else 2) as pool:
-        pool.reset(seed=0)
+    with PoolVectorEnv(fns, **LAYOUTS[layout]) as pool, modelicagym.make_vec("cartpole", n=2) as twin:
+        assert_same(pool.reset(seed=0), twin.reset(seed=0))
         with pytest.raises(ActionError) as info:
             pool.step(actions)
         assert str(info.value) == f"env {env_index}: {single_env_message(single)}"
-        observations, rewards, *_ = pool.step(np.array([1, 0]))  # still usable
-        assert rewards.tolist() == [1.0, 1.0]
+        # still usable, and no env stepped on the refused batch
+        assert_same(pool.step(np.array([1, 0])), twin.step(np.array([1, 0])))
 
 
 WRONG_BATCH = "expected a batch of 2 actions"
@@ -83,14 +88,18 @@ def test_integral_floats_and_lists_are_taken_as_the_single_env_takes_them() -> N
             assert_same(pool.step(actions), other.step(np.asarray(actions, dtype=np.int64)))
 
 
-def test_box_actions_are_checked_for_bounds_and_nan(family_fmu: Callable[[str, int], Path]) -> None:
-    with PoolVectorEnv([partial(probe_env, family_fmu("probe", 2))] * 3, caller_steps=True) as pool:
-        pool.reset(seed=0)
+@pytest.mark.parametrize("layout", ["caller steps", "at home"])
+def test_box_actions_are_checked_for_bounds_and_nan(family_fmu: Callable[[str, int], Path], layout: str) -> None:
+    fns = [partial(probe_env, family_fmu("probe", 2))] * 3
+    sync = SyncVectorEnv(fns)
+    with PoolVectorEnv(fns, **LAYOUTS[layout]) as pool:
+        assert_same(pool.reset(seed=0), sync.reset(seed=0))
         for actions, index in ((np.array([[0.0], [11.0], [0.0]]), 1), (np.array([[0.0], [0.0], [np.nan]]), 2)):
             with pytest.raises(ActionError, match=rf"env {index}: invalid action .*the action space is Box"):
                 pool.step(actions)
-        observations, *_ = pool.step(np.full((3, 1), 2.0))
-        assert observations.shape == (3, 2)
+        good = np.full((3, 1), 2.0)
+        assert_same(pool.step(good), sync.step(good))
+    sync.close()
 
 
 @pytest.mark.parametrize("act, bad, match", [
@@ -149,19 +158,19 @@ def actions_ignored_by_resetting_envs(good: Any, bad: Any, ended: np.ndarray) ->
     return np.where(ended.reshape((-1,) + (1,) * (good.ndim - 1)), bad, good)
 
 
-@pytest.mark.parametrize("caller_steps", [True, False])
+@pytest.mark.parametrize("layout", LAYOUTS)
 @pytest.mark.parametrize("make, good, bad", [
     (partial(modelicagym.make, "cartpole"), np.array([1, 1, 1]), 7),
     (partial(CountEnv, act="dict"), {"position": np.zeros((3, 2)), "mode": np.array([0, 1, 2])},
      {"position": np.full(2, np.nan), "mode": 9}),
 ])
 def test_next_step_autoreset_ignores_the_action_of_a_resetting_env_unchecked(
-    caller_steps: bool, make: Callable[[], Any], good: Any, bad: Any
+    layout: str, make: Callable[[], Any], good: Any, bad: Any
 ) -> None:
     """As in ``SyncVectorEnv``: the step after an episode ended resets that env and ignores its
     action, whatever it is; the other envs' actions are still checked."""
     sync = SyncVectorEnv([make] * 3)
-    with PoolVectorEnv([make] * 3, caller_steps=caller_steps, num_workers=None if caller_steps else 2) as pool:
+    with PoolVectorEnv([make] * 3, **LAYOUTS[layout]) as pool:
         assert_same(pool.reset(seed=3), sync.reset(seed=3))
         ended = np.zeros(3, dtype=bool)
         resets = 0

@@ -68,7 +68,8 @@ def test_fmu_errors_and_model_ends_match_sync(monkeypatch: pytest.MonkeyPatch, f
 
     quiet: list[bool] = []
     step_at_home = Dispatcher.step_at_home
-    monkeypatch.setattr(Dispatcher, "step_at_home", lambda self: quiet.append(step_at_home(self)) or quiet[-1])
+    monkeypatch.setattr(Dispatcher, "step_at_home",
+                        lambda self, check_range=True: quiet.append(step_at_home(self, check_range)) or quiet[-1])
     assert_native_equals_python(fns(), fns(step_path="python"), steps=40, autoreset_mode=mode, **LAYOUTS[layout])
     if layout == "caller only":
         assert True in quiet and False in quiet, quiet  # both ways: quiet steps, and Python finishing some

@@ -44,6 +44,12 @@ int64_t mg_step_batch(mg_batch *b) {
     return for_python;
 }
 
+int64_t mg_step_batch_in_range(mg_batch *b, const mg_range *range) {
+    if (mg_first_range_outside(range, 1) >= 0)
+        return -1;
+    return mg_step_batch(b);
+}
+
 /* The pool's autoreset in C. Its Python twin is Autoreset in modelicagym/vector/slice/autoreset.py
  * (the Python path, and what C leaves to Python: MG_PYTHON_RESET); change both together.
  * tests/vector/test_autoreset_twins.py steps the same envs both ways in every mode. */

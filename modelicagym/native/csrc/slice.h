@@ -11,6 +11,7 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "actions.h"
 #include "signal.h"
 #include "step.h"
 
@@ -70,6 +71,11 @@ typedef struct {
  * Returns how many envs need Python: MG_FMU_ERROR, MG_PYTHON_RESET, MG_BAD_ACTION, or an info to
  * report (MG_MODEL_ENDED). A plain same-step reset needs none: final_ready marks it. */
 int64_t mg_step_batch(mg_batch *batch);
+
+/* mg_step_batch, after the pool's range check of the whole batch's actions (`range`: the shared
+ * actions of every env, as the parent checks them before any worker sees them): -1, and nothing
+ * stepped, when a value is outside. A step with every env in the calling process is then one call. */
+int64_t mg_step_batch_in_range(mg_batch *batch, const mg_range *range);
 
 /* Copy env i's observation (env->observation) into the shared observations, or the final
  * observations when `final`: its row, or a Dict's entries scattered to their arrays. Nothing for

@@ -5,7 +5,9 @@ out of range) is refused by the pool with the single env's message (`modelicagym
 the env's index, and the pool stays usable: no worker is woken. The common spaces cost two
 small steps on the hot path: the batch is copied into the shared action array (whose workers
 are asleep) and range-checked there by one native call (``mg_first_outside_*``, ~0.3 µs where
-numpy needs ~3 µs for a small batch). A ``Dict`` of array spaces is checked key by key on the
+numpy needs ~3 µs for a small batch); with every env in the calling process that check is part of
+the step's own C call (``mg_step_batch_in_range``, which checks the whole batch before it steps any
+env). A ``Dict`` of array spaces is checked key by key on the
 whole batch (`DictBatch`: one native call range-checks every key it can, numpy or Python the
 others; ~1.5 µs for five keys, where checking each env's dict in Python cost ~4 µs an env); a batch it does not
 accept goes through the element-by-element check, which accepts or refuses it with the single
@@ -75,11 +77,16 @@ class ActionWriter:
         self._batched = batch_space(space, shared.n)
         self._target = target = None if shared.pickled else shared.read_batch(copy_out=False)
         self._range_check = None
+        #: the range check of the whole batch as one ``mg_range`` (``None`` where C cannot do it):
+        #: a step's C call may do it for :meth:`write` (``range_checked_by_step``)
+        self.native_range: MgRange | None = None
         if type(space) is spaces.Discrete and isinstance(target, np.ndarray):
             self._bounds = (int(space.start), int(space.start + space.n - 1))
             if library is not None and target.dtype == np.int64:
                 args = (target.ctypes.data, shared.n, *self._bounds)
                 self._range_check = lambda: library.mg_first_outside_int64(*args)
+                self.native_range = MgRange(values=target.ctypes.data, n=shared.n, width=1, is_float=0,
+                                            low_int=self._bounds[0], high_int=self._bounds[1])
         elif type(space) is spaces.Box and isinstance(target, np.ndarray) and target.dtype == np.float64:
             width = int(np.prod(space.shape))
             self._bounds = tuple(
@@ -89,6 +96,8 @@ class ActionWriter:
             if library is not None:
                 args = (target.ctypes.data, shared.n, width, self._bounds[0].ctypes.data, self._bounds[1].ctypes.data)
                 self._range_check = lambda: library.mg_first_outside_float64(*args)
+                self.native_range = MgRange(values=target.ctypes.data, n=shared.n, width=width, is_float=1,
+                                            low=self._bounds[0].ctypes.data, high=self._bounds[1].ctypes.data)
         else:
             self._bounds = None
         self._dict = DictBatch.of(space, target, library)
@@ -100,15 +109,19 @@ class ActionWriter:
         if self._range_check is None and self._fast:
             self._range_check = lambda: self._first_used_outside(self._target, self._all_envs)
 
-    def write(self, actions: Any) -> None:
+    def write(self, actions: Any, range_checked_by_step: bool = False) -> None:
         """Check ``actions`` and write them; raise `ActionError` (naming the env) if an env would
         refuse its action. Nothing any worker reads has changed when it raises. Each env gets its
-        action in the dtype of the batch given (an array), as ``SyncVectorEnv`` hands it over."""
+        action in the dtype of the batch given (an array), as ``SyncVectorEnv`` hands it over.
+
+        ``range_checked_by_step``: the step's C call checks `native_range` before it steps any env
+        (and on a value outside, the caller calls :meth:`refuse_outside`), so an array of the
+        batch's shape is written unchecked: one native call less on the hot path."""
         if self._fast and type(actions) is np.ndarray and actions.shape == self._shape and (
                 (same := actions.dtype == self._dtype) or self._takes(actions.dtype)):
             self._target[...] = actions
-            if self._range_check() >= 0:
-                self._refuse_outside(actions)
+            if not range_checked_by_step and self._range_check() >= 0:
+                self.refuse_outside(actions)
             self._given_dtype[0] = 0 if same else ord(actions.dtype.char)
             return
         if self._dict is not None and self._dict.write(actions):
@@ -120,10 +133,10 @@ class ActionWriter:
         self.shared.write_batch(actions if self._dtype is None else np.asarray(actions).astype(self._dtype))
         self._given_dtype[0] = self._dtype_code(actions)
 
-    def _refuse_outside(self, actions: np.ndarray) -> None:
-        """Some action written is outside the space: clip the batch into a ``Box`` that clips, else
-        raise the refusal of the first env that steps with one (an env left out of the step may
-        hold any action)."""
+    def refuse_outside(self, actions: Any) -> None:
+        """Some action written (``actions``) is outside the space: clip the batch into a ``Box``
+        that clips, else raise the refusal of the first env that steps with one (an env left out
+        of the step, or resetting, may hold any action)."""
         bad = self._range_check()
         if self._clip:
             np.clip(self._target, *self._bounds_of_batch, out=self._target)

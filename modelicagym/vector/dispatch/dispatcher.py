@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from modelicagym.native.abi import COLLECT_DONE, MgWaiter
+from modelicagym.native.abi import COLLECT_DONE, MgRange, MgWaiter
 from modelicagym.vector.dispatch.deadline import Deadline
 from modelicagym.vector.dispatch.native_collector import NativeCollector
 from modelicagym.vector.dispatch.party import CallerParty, Outcome, Party, PendingCommand
@@ -127,6 +127,8 @@ class Dispatcher:
         self._home_step = (local.native.step if self.caller is not None
                            and self._own_step_anywhere == self.caller.run_native_step
                            and not buffers.actions.pickled and max_concurrency is None else None)
+        #: the same, after the batch's range check where the pool leaves it to C (`check_range_at_home`)
+        self._home_step_in_range = self._home_step
         self.stepping_changed()
         #: nanoseconds the calling process stepped its slice, and steps that woke no worker (so no
         #: native collection), since the last `take_collect_times`
@@ -373,16 +375,29 @@ class Dispatcher:
 
         self._own_step = step_on_cpu
 
-    def step_at_home(self) -> bool:
+    def check_range_at_home(self, actions: MgRange | None) -> bool:
+        """Let :meth:`step_at_home` range-check the batch's actions (``actions``, the action
+        writer's `~ActionWriter.native_range`) in its C call; whether it will (``False`` where the
+        slice cannot step at home, or C cannot check the actions)."""
+        if self._home_step is None or actions is None:
+            return False
+        self._home_step_in_range = self.local.native.stepper_in_range(actions)
+        return True
+
+    def step_at_home(self, check_range: bool = True) -> bool | None:
         """The step of a batch whose stepping envs are all the calling process's (`steps_at_home`):
-        its slice steps now, with the actions in shared memory. ``True``: the step is complete,
+        its slice steps now, with the actions in shared memory, after their range check if
+        :meth:`check_range_at_home` set one and ``check_range``. ``True``: the step is complete,
         nothing left to Python. ``False``: Python has finished what the native step left to it, and
         the step is out as after :meth:`send_step` and :meth:`run_own_slice`: :meth:`recv` takes its
-        reply (infos, an env's error)."""
+        reply (infos, an env's error). ``None``: an action is outside its space, nothing stepped."""
+        step = self._home_step_in_range if check_range else self._home_step
         started = time.perf_counter_ns()
-        quiet = self._home_step() == 0
+        left = step()
         self._own_ns += time.perf_counter_ns() - started
-        if quiet:
+        if left < 0:
+            return None
+        if left == 0:
             self._own_calls += 1
             return True
         self.pending, self._step_sent = self._step_all, True

@@ -19,7 +19,8 @@ the calling process's in `modelicagym.vector.dispatch.native_collector`.
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -27,7 +28,7 @@ from gymnasium.spaces import Box, Dict, Discrete, MultiBinary, MultiDiscrete
 from gymnasium.vector import AutoresetMode
 
 from modelicagym.errors import ArgumentError
-from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgEnv, MgPart, NativeABIError
+from modelicagym.native.abi import AutoresetCode, Flags, MgBatch, MgEnv, MgPart, MgRange, NativeABIError
 from modelicagym.native.library import load_library
 from modelicagym.vector.env_contract import NativeEnv, PoolEnv
 from modelicagym.vector.wire.buffers import SharedBuffers
@@ -258,6 +259,12 @@ class NativeBatch:
     def step(self) -> int:
         """Step every env; returns how many need Python to finish (see ``flags``)."""
         return self._step(self.ref)
+
+    def stepper_in_range(self, actions: MgRange) -> Callable[[], int]:
+        """:meth:`step` after the range check ``actions`` of the whole batch, in the same C call
+        (``mg_step_batch_in_range``): the callable returns -1, with nothing stepped, when a value
+        is outside."""
+        return functools.partial(self.library.mg_step_batch_in_range, self.ref, ctypes.byref(actions))
 
     def step_open(self) -> int:
         """Step every env, deciding no ending (``python_endings``); returns how many envs
