@@ -436,6 +436,7 @@ class PoolVectorEnv(VectorEnv):
                 entries += message.data
         if self._placement.adaptive and self._placement.after_reset(self._buffers.reset_mask):
             self._dispatcher.stepping_changed()
+            self._time_steps()
         return entries
 
     # ------------------------------------------------------------------ step
@@ -516,6 +517,7 @@ class PoolVectorEnv(VectorEnv):
         self._state = AsyncState.WAITING_STEP  # from here on a Ctrl-C stops the pool (`_interrupted`)
         if self._placement.pending and self._placement.move_pending():
             self._dispatcher.stepping_changed()
+            self._time_steps()
         self._dispatcher.send_step()
 
     def _recv_step(self, timeout: float | None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -744,8 +746,12 @@ class PoolVectorEnv(VectorEnv):
         self._assert_is_running()
         self._assert_idle("set_timing")
         self._timing_enabled = bool(enabled)
-        self._buffers.timing_enabled[0] = self._timing_enabled or self._placement.samples_parties
+        self._time_steps()
         self._timing.clear()
+
+    def _time_steps(self) -> None:
+        """The parties time their steps while timing is on, or while the layout policy samples them."""
+        self._buffers.timing_enabled[0] = self._timing_enabled or self._placement.samples_parties
 
     def timing(self, reset: bool = False) -> StepTiming:
         """Where step time went, as means per batch step since timing was switched on.

@@ -96,6 +96,7 @@ def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch
         for _ in range(200):
             pool.step(np.ones(4, dtype=np.int64))
         assert pool.layout.envs_in_caller == 4 and pool.layout.workers_stepping == 0, pool.layout
+        assert pool._buffers.timing_enabled[0] == 0  # no worker steps: the policy samples nothing, nothing is timed
         pool.set_timing(True)
         before = _cpu_seconds(pool.worker_pids[0])
         for _ in range(20_000):
@@ -104,6 +105,16 @@ def test_workers_that_step_nothing_are_not_woken(monkeypatch: pytest.MonkeyPatch
         timing = pool.timing()
         assert "4/4 envs in the calling process, 0/1 workers stepping" in timing.layout
         assert 0 < timing.fmu_s <= timing.fmu_total_s  # the caller's slice is the critical one, all of it
+        pool.set_timing(False)
+        policy._every = 1  # the workers step again, and are timed for the policy
+        pool.step(np.ones(4, dtype=np.int64))
+        policy._every = 10**9
+        assert policy.target == 0
+        for _ in range(200):
+            if pool.layout.workers_stepping:
+                break
+            pool.step(np.ones(4, dtype=np.int64))
+        assert pool.layout.workers_stepping == 1 and pool._buffers.timing_enabled[0] == 1, pool.layout
 
 
 @pytest.mark.parametrize("options", [{"adapt_layout": False}, {}])
@@ -253,8 +264,10 @@ class SharedMachine:
         #: what a batch gains (< 0) or loses with the parties apart
         self.apart_us = apart_us
         self.apart_changes = 0
+        #: the cores idle between two readings of the policy
+        self.idle_cores = 0.0
         self.policy = LayoutPolicy(placement.layout_shapes([range(4)], 4), 2, clock=lambda: self.machine.now,
-                                   idle_cores=lambda: 0.0, stall_us=self.machine.stall,
+                                   idle_cores=lambda: self.idle_cores, stall_us=self.machine.stall,
                                    foreign_cores=lambda: self.foreign_cores)
 
     def window(self) -> bool:
@@ -287,10 +300,31 @@ class SharedMachine:
         return targets
 
 
-def test_on_a_machine_of_its_own_the_layout_policy_tries_nothing() -> None:
-    pool = SharedMachine(foreign_cores=0.0)
+def test_on_a_machine_of_its_own_the_layout_policy_tries_nothing_where_the_model_sees_every_cost() -> None:
+    pool = SharedMachine(foreign_cores=0.0, unseen_us=0.0)
     targets = pool.run(30.0)
     assert targets and pool.policy.movable not in targets, pool.policy.last_decision
+
+
+def test_every_env_at_home_is_tried_where_whole_batches_show_a_cost_the_model_misses() -> None:
+    """On a machine of its own: the pool's code around a step with workers (sending, collecting)
+    is in no party's time, and a step with every env at home saves it. Every env at home is tried
+    and kept; the workers, tried again whenever a core was idle, lose by whole batches and wait
+    longer each time."""
+    pool = SharedMachine(foreign_cores=0.0, unseen_us=40.0)
+    pool.idle_cores = 1.0
+    movable, returns = pool.policy.movable, []
+    until = pool.machine.now + 120.0
+    while pool.machine.now < until:
+        before = pool.policy.target
+        if pool.window() and before == movable:
+            returns.append(pool.machine.now)
+    assert pool.policy.target == movable, pool.policy.last_decision
+    assert "the machine is shared" not in pool.policy.last_decision
+    assert len(returns) >= 3, returns
+    gaps = np.diff(returns)
+    assert all(later >= 0.99 * earlier for earlier, later in itertools.pairwise(gaps)), gaps
+    assert gaps[-1] >= 4 * gaps[0], gaps
 
 
 def test_on_a_shared_machine_every_env_in_the_caller_is_tried_and_kept_if_batches_are_faster() -> None:

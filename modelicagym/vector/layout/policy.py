@@ -245,13 +245,18 @@ class LayoutPolicy(_Policy):
     def _probe(self, now: float) -> bool:
         """Every env is in the caller: try the workers again once a core has been idle, or once the
         caller's envs cost so much more than when they moved that the workers, their last costs
-        scaled alike, are predicted faster."""
+        scaled alike, are predicted faster. Where a try of whole batches put every env here
+        (`_try_every_env_here`), the workers' return is such a try too: the model chose them before."""
         if now - self._switched_at < self._probe_wait:
             return False
         idle = self._idle_cores()
         target, why = 0, f"{idle:.1f} idle cores: the workers are tried again"
+        if self._left is None:  # here by a try
+            if idle < IDLE_CORES_TO_PROBE or not self._parts:
+                return False
+            return self._start_try(0, statistics.median(part[3] for part in self._parts), now, why)
         if idle < IDLE_CORES_TO_PROBE:
-            if self._left is None or not self._parts or self._left.home_env_us <= 0:
+            if not self._parts or self._left.home_env_us <= 0:
                 return False
             home_env_us = statistics.median(part[1] for part in self._parts)
             scale = home_env_us / self._left.home_env_us
@@ -287,7 +292,7 @@ class LayoutPolicy(_Policy):
         if target == self.target:
             if self._keep_apart(now, shared and batch_us >= APART_BATCH_US, wall_us):
                 return False
-            return shared and self._try_every_env_here(now, costs, wall_us)
+            return self._try_every_env_here(now, costs, wall_us, shared)
         self._apart_left_us = None  # the layout changes: a try of the parties' CPUs cannot be judged
         if target == self.movable:
             self._idle_cores()  # the idle-core reading starts now
@@ -302,32 +307,39 @@ class LayoutPolicy(_Policy):
                                                 f"{self.home + target}/{self.home + self.movable} envs in the "
                                                 f"calling process are predicted to take {predicted:.1f} us")
 
-    def _try_every_env_here(self, now: float, costs: Costs, wall_us: float) -> bool:
-        """On a shared machine, try every env in the calling process, judged by whole batches.
+    def _try_every_env_here(self, now: float, costs: Costs, wall_us: float, shared: bool) -> bool:
+        """Try every env in the calling process, judged by whole batches, unless its own envs' cost
+        rules that out: stepping them all at home, at the cost per env measured now, must be faster
+        by `MARGIN` than a batch's wall time now (8 envs of ~75 us beside a busy process, the
+        parties apart: 592 us at home against 560 us a batch; each try lost 20% for its window).
+        A try runs for a window, as a consolidation policy's does; ``shared``: the machine is.
 
-        The model sees other processes only in what the pool's own parties measure. Two trainings
-        at once settle where each one's caller steps most envs and its worker the rest: each pool's
-        wake-ups and stepping take turns on the cores with the other pool's, and neither pool's
-        parties show what that costs the other (64 light envs each: 385k and 428k steps/s, where
-        every env in each caller made 575k each). So, where other processes keep
-        `FOREIGN_CORES_TO_SHARE` of the pool's CPUs busy or threads wait for cores
-        (`TRUST_STALL_SHARE`), the caller tries every env for a window, as a consolidation policy
-        does, unless its own envs' cost rules that out: stepping them all at home, at the cost per
-        env measured now, must be faster by `MARGIN` than a batch's wall time now (8 envs of ~75 us
-        beside a busy process, the parties apart: 592 us at home against 560 us a batch; each try
-        lost 20% for its window).
+        The model sees only what the pool's parties measure, stepping and waiting. Two costs
+        escape it, and whole batches show both:
+
+        - *the pool's own code around a step with workers* (sending, collecting: 2-3 us a batch on
+          this project's VM), which a step with every env at home saves, being one C call
+          (`~modelicagym.vector.dispatch.dispatcher.Dispatcher.step_at_home`): 2 light envs
+          settled with one in the worker at 8.6 us a batch, where every env at home takes 6.3;
+        - *other processes*: two trainings at once settle where each one's caller steps most envs
+          and its worker the rest; each pool's wake-ups and stepping take turns on the cores with
+          the other pool's, and neither pool's parties show what that costs the other (64 light
+          envs each: 385k and 428k steps/s, where every env in each caller made 575k each).
 
         A try is judged by the batches' wall time (``wall_us``: from one part to the next, the
         caller's own code included), not by the time the pool stepped and waited: in a crowd the
         caller also waits for a core between steps, and that wait is what the workers' wake-ups
-        cost it (54 of 64 light envs in the caller: 106 us stepped and waited, 166 us a batch)."""
+        cost it (54 of 64 light envs in the caller: 106 us stepped and waited, 166 us a batch).
+        Where the caller's code between steps is long (a learner's update), a try rarely wins by
+        `MARGIN` and backs off, at most `TRY_SHARE` of the time."""
         if now - self._switched_at < self._probe_wait:
             return False
         if MARGIN * batch_us_of(costs, self.shapes[self.movable]) >= wall_us:
             return False
         self.apart = False
-        return self._start_try(self.movable, wall_us, now, f"the machine is shared and a batch takes {wall_us:.1f} us "
-                                                           f"with {self._names(self.target)}: "
+        where = "the machine is shared and " if shared else ""
+        return self._start_try(self.movable, wall_us, now, f"{where}a batch takes {wall_us:.1f} us with "
+                                                           f"{self._names(self.target)}: "
                                                            f"{self._names(self.movable)} is tried")
 
     def _keep_apart(self, now: float, may: bool, wall_us: float) -> bool:
