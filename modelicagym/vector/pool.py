@@ -435,8 +435,7 @@ class PoolVectorEnv(VectorEnv):
             elif message is not None:
                 entries += message.data
         if self._placement.adaptive and self._placement.after_reset(self._buffers.reset_mask):
-            self._dispatcher.stepping_changed()
-            self._time_steps()
+            self._stepping_changed()
         return entries
 
     # ------------------------------------------------------------------ step
@@ -516,8 +515,7 @@ class PoolVectorEnv(VectorEnv):
             self._actions.write_rows(np.asarray(actions), ids)
         self._state = AsyncState.WAITING_STEP  # from here on a Ctrl-C stops the pool (`_interrupted`)
         if self._placement.pending and self._placement.move_pending():
-            self._dispatcher.stepping_changed()
-            self._time_steps()
+            self._stepping_changed()
         self._dispatcher.send_step()
 
     def _recv_step(self, timeout: float | None) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -748,6 +746,12 @@ class PoolVectorEnv(VectorEnv):
         self._timing_enabled = bool(enabled)
         self._time_steps()
         self._timing.clear()
+
+    def _stepping_changed(self) -> None:
+        """Envs moved and a worker started or stopped stepping: the dispatcher wakes only those
+        that step, and the parties time their steps while a worker steps (`_time_steps`)."""
+        self._dispatcher.stepping_changed()
+        self._time_steps()
 
     def _time_steps(self) -> None:
         """The parties time their steps while timing is on, or while the layout policy samples them."""
