@@ -246,6 +246,26 @@ def test_a_failed_try_that_took_long_to_undo_delays_the_next_one_in_proportion()
     assert window(4000.0) and policy.target == 4
 
 
+def feed_window(policy: LayoutPolicy, machine: Machine, local_us: float, worker_us: float, batch_us: float,
+                wall_us: float) -> bool:
+    """A window of parts of a pool of 8 envs with one worker, in ``policy``'s layout: per batch the caller
+    stepped its envs in ``local_us`` and the worker its envs in ``worker_us``, the batch took
+    ``batch_us`` stepping and waiting, and ``wall_us`` in all; ``True`` when the target changed."""
+    shape = policy.shapes[policy.target]
+    worker_slice = range(policy.movable)
+    in_caller = np.array([0] * shape.worker_envs + [1] * (8 - shape.worker_envs), dtype=np.uint8)
+    changed = False
+    for _ in range(WINDOW_PARTS):
+        machine.run(640 * wall_us * 1e-6, 0.0)
+        times = PartyTimes(np.array([worker_us * 1e3, 0]), in_caller, [worker_slice],
+                           np.array([shape.worker_envs > 0, 1], np.uint8), stand_in=False)
+        for _ in range(SAMPLE_EVERY):
+            times.count()
+        changed |= policy.observe(640, int(640 * local_us * 1e3), int(640 * (batch_us - local_us) * 1e3),
+                                  shape.home_envs, parties=times)
+    return changed
+
+
 class SharedMachine:
     """A pool of 8 light envs (3 us a step), one worker and the calling process with 4 each, fed to
     a `LayoutPolicy`: the hand-over costs ``handover_us``, and on a shared machine each batch
@@ -277,18 +297,9 @@ class SharedMachine:
         worker_us = shape.worker_envs * self.ENV_US
         batch_us = max(local_us, self.handover_us + worker_us) if worker_us else local_us
         wall_us = batch_us + (self.unseen_us if worker_us else self.alone_us) + (self.apart_us if self.policy.apart else 0)
-        in_caller = np.array([0] * shape.worker_envs + [1] * (8 - shape.worker_envs), dtype=np.uint8)
-        changed = False
-        for _ in range(WINDOW_PARTS):
-            self.machine.run(640 * wall_us * 1e-6, 0.0)
-            times = PartyTimes(np.array([worker_us * 1e3, 0]), in_caller, [range(4)],
-                               np.array([shape.worker_envs > 0, 1], np.uint8), stand_in=False)
-            for _ in range(SAMPLE_EVERY):
-                times.count()
-            apart = self.policy.apart
-            changed |= self.policy.observe(640, int(640 * local_us * 1e3), int(640 * (batch_us - local_us) * 1e3),
-                                           shape.home_envs, parties=times)
-            self.apart_changes += apart != self.policy.apart
+        apart = self.policy.apart
+        changed = feed_window(self.policy, self.machine, local_us, worker_us, batch_us, wall_us)
+        self.apart_changes += apart != self.policy.apart
         return changed
 
     def run(self, seconds: float) -> list[int]:
@@ -367,12 +378,14 @@ def test_on_a_shared_machine_the_parties_go_apart_where_batches_are_shorter_so(a
     shorter; the tries of the losing choice back off."""
     pool = SharedMachine(foreign_cores=1.0, handover_us=0.0, unseen_us=50.0, apart_us=apart_us)
     pool.ENV_US = 100.0
-    pool.run(120.0)
-    assert pool.policy.apart is (apart_us < 0), pool.policy.last_decision
-    assert pool.apart_changes >= 2, pool.apart_changes  # the other choice was tried too
-    pool.apart_changes = 0
     pool.run(60.0)
-    assert pool.policy.apart is (apart_us < 0)
+    assert pool.apart_changes >= 2, pool.apart_changes  # the other choice was tried too
+    pool.apart_changes, choices = 0, []
+    until = pool.machine.now + 60.0
+    while pool.machine.now < until:
+        pool.window()
+        choices.append(pool.policy.apart)
+    assert choices.count(apart_us < 0) >= 0.9 * len(choices), choices  # the other choice only in its tries
     assert pool.apart_changes <= 4, pool.apart_changes  # backed off: at most a try every 30 s
 
 
@@ -381,6 +394,106 @@ def test_on_a_machine_of_its_own_the_parties_are_never_apart() -> None:
     pool.ENV_US = 100.0
     pool.run(30.0)
     assert pool.apart_changes == 0 and not pool.policy.apart
+
+
+class BusyNeighbour:
+    """A pool of 8 heavy envs (80 us a step), one worker and the calling process with 4 each, beside
+    one busy process on 2 cores, fed to a `LayoutPolicy` as this project's VM measured it:
+
+    - together, the kernel runs the caller and the worker it wakes on one CPU at times: a hand-over
+      of 300 us, and each batch loses 150 us that no party measures (the caller waiting for a core);
+    - apart, the worker shares its CPU with the neighbour and waits for its turn there: its side
+      takes 3.1 times its stepping, and a batch loses 40 us outside the parties. The calling thread
+      starts on the neighbour's CPU (its envs take 1.6 times as long, the worker's side is its
+      stepping) until the policy's ``home_slower`` swaps it with the worker (`PartiesApart.keep`);
+    - every env at home: a batch is their steps and ``alone_us``.
+    """
+
+    ENV_US, HANDOVER_US, TOGETHER_US, STRETCH, APART_US = 80.0, 300.0, 150.0, 3.1, 40.0
+
+    def __init__(self, alone_us: float = 60.0) -> None:
+        self.machine = Machine()
+        self.alone_us = alone_us
+        self.swapped = False
+        self.policy = LayoutPolicy(placement.layout_shapes([range(4)], 4), 2, clock=lambda: self.machine.now,
+                                   idle_cores=lambda: 0.0, stall_us=self.machine.stall, foreign_cores=lambda: 1.0)
+
+    def window(self) -> bool:
+        """A window of parts in the policy's layout; ``True`` when the target changed."""
+        policy = self.policy
+        shape = policy.shapes[policy.target]
+        crowded_home = policy.apart and not self.swapped
+        local_us = shape.home_envs * self.ENV_US * (1.6 if crowded_home else 1.0)
+        worker_us = shape.worker_envs * self.ENV_US
+        if not worker_us:
+            batch_us, wall_us = local_us, local_us + self.alone_us
+        elif policy.apart:
+            batch_us = max(local_us, worker_us * (1.0 if crowded_home else self.STRETCH))
+            wall_us = batch_us + self.APART_US
+        else:
+            batch_us = max(local_us, self.HANDOVER_US + worker_us)
+            wall_us = batch_us + self.TOGETHER_US
+        changed = feed_window(policy, self.machine, local_us, worker_us, batch_us, wall_us)
+        self.swapped = policy.apart and (self.swapped or policy.home_slower)
+        return changed
+
+    def run(self, seconds: float) -> list[tuple[int, bool]]:
+        """Windows for ``seconds``; the layout (target, apart) after each."""
+        layouts, until = [], self.machine.now + seconds
+        while self.machine.now < until:
+            self.window()
+            layouts.append((self.policy.target, self.policy.apart))
+        return layouts
+
+
+def test_beside_a_busy_process_heavy_envs_settle_apart_where_the_workers_turns_allow() -> None:
+    """Apart, the worker's turns on the neighbour's CPU grow with what it steps: 6 envs at home
+    and 2 in the worker (536 us a batch) beat 7 and 1 (600 us), and every layout together (630 us
+    and more). A try of the parties apart moves to the layout the model picks for them, once the
+    calling thread has left the neighbour's CPU, and the tries of the parties together lose."""
+    pool = BusyNeighbour()
+    layouts = pool.run(60.0)
+    assert layouts[-1] == (2, True), pool.policy.last_decision
+    last = layouts[-len(layouts) // 4 :]
+    assert last.count((2, True)) >= 0.8 * len(last), last
+
+
+def test_a_failed_try_of_every_env_at_home_brings_the_parties_back_apart() -> None:
+    """6 envs at home and 2 in the worker, the parties apart: a batch's wall time (736 us) looks
+    beatable by every env at home (640 us at today's cost), which is tried and loses (1040 us): the
+    layout it left comes back with the parties apart, as they were."""
+    machine = Machine()
+    policy = LayoutPolicy(placement.layout_shapes([range(2)], 6), 2, clock=lambda: machine.now,
+                          idle_cores=lambda: 0.0, stall_us=machine.stall, foreign_cores=lambda: 1.0)
+    policy.apart = True
+    home_tries = 0
+    until = machine.now + 30.0
+    while machine.now < until:
+        if policy.target == policy.movable:
+            changed = feed_window(policy, machine, 640.0, 0.0, 640.0, 1040.0)
+            home_tries += changed
+            if changed:
+                assert policy.apart, policy.last_decision
+        elif policy.apart:
+            feed_window(policy, machine, 480.0, 160.0, 496.0, 736.0)
+        else:
+            feed_window(policy, machine, 480.0, 160.0, 480.0, 900.0)
+    assert home_tries >= 1
+    assert policy.apart and policy.target == 0, policy.last_decision
+
+
+def test_a_hand_over_the_caller_stopped_waiting_for_moves_nothing() -> None:
+    """6 envs at home and 2 in the worker (80 us a step): in one window the caller waited for the
+    worker (595 us a batch, a hand-over of 435 us); in the next its own slice was the batch (76 us
+    an env, 462 us), so the worker's side ended within it. The hand-over of the window before
+    would predict 7 envs at home (532 us) faster than the 462 us a batch takes now."""
+    machine = Machine()
+    policy = LayoutPolicy(placement.layout_shapes([range(2)], 6), 2, clock=lambda: machine.now,
+                          idle_cores=lambda: 0.0, stall_us=machine.stall, foreign_cores=lambda: 0.0)
+    assert not feed_window(policy, machine, 480.0, 160.0, 595.0, 595.0)
+    for _ in range(20):
+        assert not feed_window(policy, machine, 456.0, 160.0, 462.0, 462.0), policy.last_decision
+    assert policy.target == 0
 
 
 def test_the_foreign_load_counts_other_processes_and_not_the_pools_own() -> None:

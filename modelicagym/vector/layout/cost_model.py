@@ -14,6 +14,12 @@ side (wake-up latency, the barrier, the home party's wait for the last signal). 
 measured while the pool runs (`modelicagym.vector.layout.policy`), so they carry what the
 machine does to them: a light FMU's batch is mostly ``handover``, a heavy one's mostly stepping.
 
+A worker that shares its CPU with a busy neighbour (the parties apart on a shared machine,
+`modelicagym.vector.layout.affinity.PartiesApart`) waits for its turn there in proportion to the
+CPU time it asks for, so its side is its stepping stretched by a measured factor:
+``w * worker_env * stretch`` (8 envs of ~85 us beside one busy process: 3.1x its stepping with 2
+and with 3 envs in the worker; a constant hand-over of 530 us, measured with 3, picked 1).
+
 Cores enter where the stepping parties outnumber them: then parties take turns on a core, and
 each one's step takes ``parties / cores`` times its own CPU time. Costs are measured in one layout
 and predicted for another, so they are scaled by the ratio of the two layouts' sharing.
@@ -52,6 +58,9 @@ class Costs:
     #: for a stand-in worker, whose envs cost what they cost wherever they run, its measured time
     #: less its envs at ``home_env_us`` (negative where its own envs are the cheaper ones)
     home_offset_us: float = 0.0
+    #: how much longer the workers' side takes than their stepping (1: on CPUs of their own; a worker
+    #: sharing its CPU with a busy neighbour waits for its turn in proportion to its stepping)
+    worker_stretch: float = 1.0
     #: the usable cores, and the stepping parties the costs were measured with
     cores: int = 1
     parties: int = 1
@@ -77,7 +86,7 @@ def batch_us(costs: Costs, shape: Shape) -> float:
     home = (costs.home_offset_us + shape.home_envs * costs.home_env_us) * scale
     if shape.workers == 0 or shape.worker_envs == 0:
         return home
-    return max(home, costs.handover_us + shape.worker_envs * costs.worker_env_us * scale)
+    return max(home, costs.handover_us + shape.worker_envs * costs.worker_env_us * scale * costs.worker_stretch)
 
 
 def best_shape(costs: Costs, shapes: list[Shape], current: int, margin: float) -> int:

@@ -52,8 +52,17 @@ APART_BATCH_US = 120.0
 #: a try of the parties apart (or together again) stays if a batch's wall time is this much shorter
 #: (at 3%, two heavy pools kept apart on a window's noise: their rates move ±10% from one 0.5 s to the next)
 APART_MARGIN = 1.1
+#: a try of the parties apart (or together) is judged on the mean wall time of this many windows, against
+#: as many before it (one window of 8 heavy envs beside a busy process, ~0.2 s, moves ±12% in one layout)
+APART_WINDOWS = 2
+#: a try of the parties apart (or together) moves the layout at most this many times before it is judged
+APART_MOVES = 3
+#: apart, the workers' side over their stepping before it is measured: a worker sharing its CPU with
+#: one busy process gets half of it (measured beside one: 3.1-3.9)
+STRETCH_FIRST = 2.0
 #: apart, the calling thread takes a worker's CPU where its envs step this many times slower than the
-#: workers' (it shares its CPU with the neighbour: 150 us against 75 us; apart and alone, within 10%)
+#: workers' (it shares its CPU with the neighbour: 150 us against 75 us; apart and alone, within 20%;
+#: 1.3 swapped more often in `bench shared` and was not faster)
 APART_SWAP = 1.5
 
 
@@ -184,8 +193,12 @@ class LayoutPolicy(_Policy):
         stall_us: Callable[[], int | None] | None = None,
         foreign_cores: Callable[[], float | None] | None = None,
     ) -> None:
-        #: the last hand-over measured while the caller waited for the workers (us; ``None``: none yet)
+        #: the hand-over (us; ``None``: none yet): the last measured while the caller waited for the
+        #: workers, and at most what a window since left for it within the caller's own slice
         self.handover_us: float | None = None
+        #: apart, the workers' side of a batch over their stepping (``None``: not measured yet), as
+        #: `handover_us` is measured
+        self.worker_stretch: float | None = None
         #: the costs measured when every env last moved to the caller
         self._left: Costs | None = None
         #: when the last part was observed (a part's wall time runs from there)
@@ -202,6 +215,14 @@ class LayoutPolicy(_Policy):
         self.home_slower = False
         #: while a try of the other choice of `apart` runs: a batch's wall time before it
         self._apart_left_us: float | None = None
+        #: that try's layout before it, whether it has swapped the calling thread's CPU for a
+        #: worker's (`home_slower`), and how often it moved the layout
+        self._apart_left_target = 0
+        self._apart_swapped, self._apart_moves = False, 0
+        #: a batch's wall time in the last windows (at most `APART_WINDOWS`), the layout and parties as now
+        self._walls: list[float] = []
+        #: whether the parties were apart before a try of every env in the caller (back with them if it fails)
+        self._apart_before_try = False
         self._apart_wait = PROBE_FIRST_SECONDS
         self._apart_tried_at = clock()
         super().__init__(shapes, cores, clock, stall_us)
@@ -235,6 +256,8 @@ class LayoutPolicy(_Policy):
             changed = self._end_try(statistics.median(part[3] for part in self._parts), now)
             if self.target == self.movable:  # kept: the workers come back once a core is idle
                 self._left = None
+            elif changed:  # failed: back to the layout it left, the parties as they were
+                self.apart = self._apart_before_try
         elif in_caller:
             changed = self._probe(now)
         else:
@@ -276,24 +299,31 @@ class LayoutPolicy(_Policy):
         batch_us = statistics.median(part[0] for part in self._parts)
         home_env_us = statistics.median(part[1] for part in self._parts)
         waited = batch_us > 1.05 * statistics.median(part[2] for part in self._parts)
-        shape = self.shapes[self.target]
-        if waited or self.handover_us is None:
-            self.handover_us = max(batch_us - parties.worker_us, 0.0)
-        costs = Costs(home_env_us, parties.workers_total_us / parties.all_worker_envs, self.handover_us,
-                      cores=self.cores, parties=shape.workers + 1)
-        target = best_shape(costs, self.shapes, self.target, MARGIN)
+        shared = self._shared(now)
+        wall_us = statistics.median(part[3] for part in self._parts)
+        costs = self._costs(batch_us, home_env_us, waited, parties, wall_us if shared else batch_us)
+        # on a shared machine the costs carry the caller's waits for a core, which every env at home
+        # may meet as well: that layout is left to a try by whole batches (`_try_every_env_here`)
+        target = best_shape(costs, self.shapes[: self.movable] if shared else self.shapes, self.target, MARGIN)
         if self._probing:
             self._probing = False
             self._probe_wait = (min(2 * self._probe_wait, PROBE_MAX_SECONDS) if target == self.movable
                                 else PROBE_FIRST_SECONDS)
-        shared = self._shared(now)
-        wall_us = statistics.median(part[3] for part in self._parts)
         self.home_slower = costs.home_env_us > APART_SWAP * costs.worker_env_us
+        if self._apart_left_us is not None:
+            return self._judge_apart(now, target, costs, batch_us, wall_us)
+        self._walls = [*self._walls[1 - APART_WINDOWS :], wall_us]
         if target == self.target:
-            if self._keep_apart(now, shared and batch_us >= APART_BATCH_US, wall_us):
+            if self._keep_apart(now, shared and batch_us >= APART_BATCH_US):
                 return False
             return self._try_every_env_here(now, costs, wall_us, shared)
-        self._apart_left_us = None  # the layout changes: a try of the parties' CPUs cannot be judged
+        return self._move(target, now, costs, batch_us)
+
+    def _move(self, target: int, now: float, costs: Costs, batch_us: float) -> bool:
+        """Take ``target``, the model's choice on ``costs`` (a batch took ``batch_us``)."""
+        self._walls = []
+        side = (f"the workers' side {costs.worker_stretch:.1f} times their stepping (apart)" if self.apart
+                else f"a hand-over {costs.handover_us:.1f} us")
         if target == self.movable:
             self._idle_cores()  # the idle-core reading starts now
             self._left = costs
@@ -302,10 +332,34 @@ class LayoutPolicy(_Policy):
         # a move within the spread layouts does not delay the next try; every env at home starts the probes' wait
         changed_at = now if target == self.movable else None
         return self._switch(target, changed_at, f"an env takes {costs.home_env_us:.1f} us in the calling process and "
-                                                f"{costs.worker_env_us:.1f} us in a worker, a hand-over "
-                                                f"{costs.handover_us:.1f} us: a batch took {batch_us:.1f} us, "
+                                                f"{costs.worker_env_us:.1f} us in a worker, {side}: "
+                                                f"a batch took {batch_us:.1f} us, "
                                                 f"{self.home + target}/{self.home + self.movable} envs in the "
                                                 f"calling process are predicted to take {predicted:.1f} us")
+
+    def _costs(self, batch_us: float, home_env_us: float, waited: bool, parties: PartyCosts, lived_us: float) -> Costs:
+        """The model's costs from a window: ``batch_us`` a batch stepped and waited, ``home_env_us``
+        an env in the caller, whether the caller ``waited`` for the workers, their stepping
+        (``parties``), and ``lived_us``: a batch as the caller lives it (on a shared machine its
+        wall time: beside a busy process, the caller of 8 envs of ~80 us with the parties together
+        waits 150-300 us a batch for a core between steps, more the more it waits for its worker).
+
+        Waiting, the caller saw the workers' side whole; not waiting, it saw that side end within
+        its own slice, so what was measured before, in another layout, is at most what fits there.
+        Apart, the workers' side is their stepping stretched by their turns on the neighbour's CPU
+        (`modelicagym.vector.layout.cost_model.Costs.worker_stretch`; before it is measured,
+        `STRETCH_FIRST`); together, their stepping and a hand-over."""
+        shape = self.shapes[self.target]
+        worker_env_us = parties.workers_total_us / parties.all_worker_envs
+        if self.apart and parties.worker_us > 0:
+            seen = batch_us / parties.worker_us
+            known = STRETCH_FIRST if self.worker_stretch is None else self.worker_stretch
+            self.worker_stretch = seen if waited else min(known, seen)
+            return Costs(home_env_us, worker_env_us, 0.0, worker_stretch=self.worker_stretch, cores=self.cores,
+                         parties=shape.workers + 1)
+        seen_us = max(lived_us - parties.worker_us, 0.0)
+        self.handover_us = seen_us if waited or self.handover_us is None else min(self.handover_us, seen_us)
+        return Costs(home_env_us, worker_env_us, self.handover_us, cores=self.cores, parties=shape.workers + 1)
 
     def _try_every_env_here(self, now: float, costs: Costs, wall_us: float, shared: bool) -> bool:
         """Try every env in the calling process, judged by whole batches, unless its own envs' cost
@@ -336,39 +390,72 @@ class LayoutPolicy(_Policy):
             return False
         if MARGIN * batch_us_of(costs, self.shapes[self.movable]) >= wall_us:
             return False
-        self.apart = False
+        self._apart_before_try, self.apart = self.apart, False
         where = "the machine is shared and " if shared else ""
         return self._start_try(self.movable, wall_us, now, f"{where}a batch takes {wall_us:.1f} us with "
                                                            f"{self._names(self.target)}: "
                                                            f"{self._names(self.movable)} is tried")
 
-    def _keep_apart(self, now: float, may: bool, wall_us: float) -> bool:
+    def _keep_apart(self, now: float, may: bool) -> bool:
         """Whether the stepping parties keep to CPUs of their own (`apart`), tried by whole batches
-        as layouts are: once `apart_wait` has passed, the other choice runs for a window and stays
-        if a batch's wall time is shorter by `APART_MARGIN`, else the choice goes back and the next
-        try waits twice as long, and at least 19 times what the try cost (`TRY_SHARE`). ``may``:
-        the machine is shared and the batches long enough (`APART_BATCH_US`); otherwise the parties
-        are together. ``True`` while a try's window runs (no other try meanwhile).
+        as layouts are: once `apart_wait` has passed, a try of the other choice starts
+        (`_judge_apart`); ``True`` when one does. ``may``: the machine is shared and the batches
+        long enough (`APART_BATCH_US`); otherwise the parties are together.
 
         Apart helps beside a busy process that runs wherever a CPU is free (8 envs of ~80 us: 1.08x
         one env together, 1.17-1.22x apart), and hurts beside another pool kept apart, whose parties
         cannot fill each other's idle CPU (two such trainings summed 0.93x two single envs apart,
         1.08x together): only a try can tell them apart."""
-        if self._apart_left_us is not None:
-            left_us, self._apart_left_us = self._apart_left_us, None
-            if APART_MARGIN * wall_us >= left_us:  # lost: back, and the next try waits long enough (`TRY_SHARE`)
-                self.apart = not self.apart
-                self._apart_wait = max(min(2 * self._apart_wait, PROBE_MAX_SECONDS),
-                                       (now - self._apart_tried_at) * (1 / TRY_SHARE - 1))
-            self._apart_tried_at = now
-            return False
         if not may:
-            self.apart = False
+            if self.apart:
+                self.apart, self._walls = False, []
             return False
-        if now - self._apart_tried_at < self._apart_wait:
+        if now - self._apart_tried_at < self._apart_wait or len(self._walls) < APART_WINDOWS:
             return False
-        self.apart, self._apart_left_us, self._apart_tried_at = not self.apart, wall_us, now
+        self._apart_left_us, self._apart_left_target = statistics.fmean(self._walls), self.target
+        self.apart, self._apart_tried_at, self._walls = not self.apart, now, []
+        self._apart_swapped, self._apart_moves = False, 0
         return True
+
+    def _judge_apart(self, now: float, target: int, costs: Costs, batch_us: float, wall_us: float) -> bool:
+        """A window of a try of the other choice of `apart` (``target``: the model's choice on this
+        window's ``costs``; ``True`` when the target changed). The try is of that choice with the
+        layout the model picks for it, as each choice has a layout of its own (beside a busy
+        process, 8 envs of ~80 us: apart, 6 at home; together, 7 or fewer):
+
+        - apart, the calling thread first leaves the neighbour's CPU where it stepped there
+          (`home_slower`: it swaps with a worker, `PartiesApart.keep`);
+        - the layout moves where the model predicts another faster, up to `APART_MOVES` times (the
+          model learns the workers' stretch apart from the first layout it measures there);
+        - then `APART_WINDOWS` windows judge the try by a batch's wall time against the windows
+          before it: kept if shorter by `APART_MARGIN`, else back to the choice and the layout it
+          left, and the next try waits twice as long, and at least 19 times what the try cost
+          (`TRY_SHARE`)."""
+        if target == self.movable:  # every env to the caller: no parties left to place
+            self._apart_left_us = None
+            return self._move(target, now, costs, batch_us)
+        if self.apart and self.home_slower and not self._apart_swapped:
+            self._apart_swapped, self._walls = True, []
+            return False
+        if target != self.target and self._apart_moves < APART_MOVES:
+            self._apart_moves += 1
+            return self._move(target, now, costs, batch_us)
+        self._walls.append(wall_us)
+        if len(self._walls) < APART_WINDOWS:
+            return False
+        left_us, self._apart_left_us = self._apart_left_us, None
+        tried_us, cost = statistics.fmean(self._walls), now - self._apart_tried_at
+        self._apart_tried_at = now
+        if APART_MARGIN * tried_us < left_us:
+            return False
+        self.apart, self._walls = not self.apart, []
+        self._apart_wait = max(min(2 * self._apart_wait, PROBE_MAX_SECONDS), cost * (1 / TRY_SHARE - 1))
+        if self.target == self._apart_left_target:
+            return False
+        tried = "apart" if not self.apart else "together"
+        return self._switch(self._apart_left_target, None, f"the parties {tried} took {tried_us:.1f} us a batch with "
+                                                           f"{self._names(self.target)}, {left_us:.1f} us "
+                                                           f"with {self._names(self._apart_left_target)}")
 
     def _shared(self, now: float) -> bool:
         """Whether other processes keep `FOREIGN_CORES_TO_SHARE` of the pool's CPUs busy, or
