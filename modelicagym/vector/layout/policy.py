@@ -60,6 +60,10 @@ APART_MOVES = 3
 #: apart, the workers' side over their stepping before it is measured: a worker sharing its CPU with
 #: one busy process gets half of it (measured beside one: 3.1-3.9)
 STRETCH_FIRST = 2.0
+#: apart, the workers' stretch is the median of the last this many windows where the caller waited for
+#: them: one window moves it ±20% (beside a busy process, one window's 3.7 among 2.8-3.2 moved 6 envs
+#: at home to 7, where the pool made 1.15-1.18x one env against 1.26x)
+STRETCH_WINDOWS = 5
 #: apart, the calling thread takes a worker's CPU where its envs step this many times slower than the
 #: workers' (it shares its CPU with the neighbour: 150 us against 75 us; apart and alone, within 20%;
 #: 1.3 swapped more often in `bench shared` and was not faster)
@@ -196,9 +200,11 @@ class LayoutPolicy(_Policy):
         #: the hand-over (us; ``None``: none yet): the last measured while the caller waited for the
         #: workers, and at most what a window since left for it within the caller's own slice
         self.handover_us: float | None = None
-        #: apart, the workers' side of a batch over their stepping (``None``: not measured yet), as
-        #: `handover_us` is measured
+        #: apart, the workers' side of a batch over their stepping (``None``: not measured yet): the
+        #: median of the last `STRETCH_WINDOWS` measured while the caller waited for the workers, and at
+        #: most what the window now left for it within the caller's own slice
         self.worker_stretch: float | None = None
+        self._stretches: list[float] = []
         #: the costs measured when every env last moved to the caller
         self._left: Costs | None = None
         #: when the last part was observed (a part's wall time runs from there)
@@ -221,8 +227,9 @@ class LayoutPolicy(_Policy):
         self._apart_swapped, self._apart_moves = False, 0
         #: a batch's wall time in the last windows (at most `APART_WINDOWS`), the layout and parties as now
         self._walls: list[float] = []
-        #: whether the parties were apart before a try of every env in the caller (back with them if it fails)
-        self._apart_before_try = False
+        #: the layout before a try of every env in the caller, and whether the parties were apart (back
+        #: with them if it fails, and where the workers return to on a shared machine)
+        self._target_before_try, self._apart_before_try = 0, False
         self._apart_wait = PROBE_FIRST_SECONDS
         self._apart_tried_at = clock()
         super().__init__(shapes, cores, clock, stall_us)
@@ -254,8 +261,8 @@ class LayoutPolicy(_Policy):
             return False
         if self._left_us is not None:
             changed = self._end_try(statistics.median(part[3] for part in self._parts), now)
-            if self.target == self.movable:  # kept: the workers come back once a core is idle
-                self._left = None
+            if self.target == self.movable:  # every env here, kept or back: no parties left to place
+                self._left, self.apart = None, False
             elif changed:  # failed: back to the layout it left, the parties as they were
                 self.apart = self._apart_before_try
         elif in_caller:
@@ -269,15 +276,24 @@ class LayoutPolicy(_Policy):
         """Every env is in the caller: try the workers again once a core has been idle, or once the
         caller's envs cost so much more than when they moved that the workers, their last costs
         scaled alike, are predicted faster. Where a try of whole batches put every env here
-        (`_try_every_env_here`), the workers' return is such a try too: the model chose them before."""
+        (`_try_every_env_here`), the workers' return is such a try too: the model chose them before.
+        On a shared machine that return needs no idle core, as the try itself needed none: it is of
+        the layout the try left, the parties as they were (beside a busy process, 8 envs of ~80 us
+        kept every env here after one slow window, at 1.1x one env, where 6 here and the parties
+        apart make 1.25x; no core idles there)."""
         if now - self._switched_at < self._probe_wait:
             return False
         idle = self._idle_cores()
         target, why = 0, f"{idle:.1f} idle cores: the workers are tried again"
         if self._left is None:  # here by a try
-            if idle < IDLE_CORES_TO_PROBE or not self._parts:
+            if not self._parts:
                 return False
-            return self._start_try(0, statistics.median(part[3] for part in self._parts), now, why)
+            if self._shared(now):
+                target, self.apart = self._target_before_try, self._apart_before_try
+                why = f"the machine is shared: {self._names(target)} is tried again"
+            elif idle < IDLE_CORES_TO_PROBE:
+                return False
+            return self._start_try(target, statistics.median(part[3] for part in self._parts), now, why)
         if idle < IDLE_CORES_TO_PROBE:
             if not self._parts or self._left.home_env_us <= 0:
                 return False
@@ -347,14 +363,17 @@ class LayoutPolicy(_Policy):
         Waiting, the caller saw the workers' side whole; not waiting, it saw that side end within
         its own slice, so what was measured before, in another layout, is at most what fits there.
         Apart, the workers' side is their stepping stretched by their turns on the neighbour's CPU
-        (`modelicagym.vector.layout.cost_model.Costs.worker_stretch`; before it is measured,
-        `STRETCH_FIRST`); together, their stepping and a hand-over."""
+        (`modelicagym.vector.layout.cost_model.Costs.worker_stretch`: a median over windows,
+        `STRETCH_WINDOWS`; before it is measured, `STRETCH_FIRST`); together, their stepping and a
+        hand-over."""
         shape = self.shapes[self.target]
         worker_env_us = parties.workers_total_us / parties.all_worker_envs
         if self.apart and parties.worker_us > 0:
             seen = batch_us / parties.worker_us
-            known = STRETCH_FIRST if self.worker_stretch is None else self.worker_stretch
-            self.worker_stretch = seen if waited else min(known, seen)
+            if waited:
+                self._stretches = [*self._stretches[1 - STRETCH_WINDOWS :], seen]
+            known = statistics.median(self._stretches) if self._stretches else STRETCH_FIRST
+            self.worker_stretch = known if waited else min(known, seen)
             return Costs(home_env_us, worker_env_us, 0.0, worker_stretch=self.worker_stretch, cores=self.cores,
                          parties=shape.workers + 1)
         seen_us = max(lived_us - parties.worker_us, 0.0)
@@ -390,7 +409,7 @@ class LayoutPolicy(_Policy):
             return False
         if MARGIN * batch_us_of(costs, self.shapes[self.movable]) >= wall_us:
             return False
-        self._apart_before_try, self.apart = self.apart, False
+        self._target_before_try, self._apart_before_try, self.apart = self.target, self.apart, False
         where = "the machine is shared and " if shared else ""
         return self._start_try(self.movable, wall_us, now, f"{where}a batch takes {wall_us:.1f} us with "
                                                            f"{self._names(self.target)}: "
@@ -441,7 +460,7 @@ class LayoutPolicy(_Policy):
             self._apart_moves += 1
             return self._move(target, now, costs, batch_us)
         self._walls.append(wall_us)
-        if len(self._walls) < APART_WINDOWS:
+        if len(self._walls) < APART_WINDOWS and wall_us < self._apart_left_us:
             return False
         left_us, self._apart_left_us = self._apart_left_us, None
         tried_us, cost = statistics.fmean(self._walls), now - self._apart_tried_at
