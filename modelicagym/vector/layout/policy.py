@@ -55,6 +55,11 @@ APART_MARGIN = 1.1
 #: a try of the parties apart (or together) is judged on the mean wall time of this many windows, against
 #: as many before it (one window of 8 heavy envs beside a busy process, ~0.2 s, moves ±12% in one layout)
 APART_WINDOWS = 2
+#: a try of every env in the caller must beat the median wall time of the last this many windows of the
+#: layout it leaves: beside a busy process, one window of 8 heavy envs with the parties apart read 820
+#: us a batch among 470-530, and every env at home (610 us, 1.1x one env where that layout makes
+#: 1.25x) was tried on it and kept
+WALL_WINDOWS = 3
 #: a try of the parties apart (or together) moves the layout at most this many times before it is judged
 APART_MOVES = 3
 #: apart, the workers' side over their stepping before it is measured: a worker sharing its CPU with
@@ -225,11 +230,10 @@ class LayoutPolicy(_Policy):
         #: worker's (`home_slower`), and how often it moved the layout
         self._apart_left_target = 0
         self._apart_swapped, self._apart_moves = False, 0
-        #: a batch's wall time in the last windows (at most `APART_WINDOWS`), the layout and parties as now
+        #: a batch's wall time in the last windows (at most `WALL_WINDOWS`), the layout and parties as now
         self._walls: list[float] = []
-        #: the layout before a try of every env in the caller, and whether the parties were apart (back
-        #: with them if it fails, and where the workers return to on a shared machine)
-        self._target_before_try, self._apart_before_try = 0, False
+        #: whether the parties were apart before a try of every env in the caller (back with them if it fails)
+        self._apart_before_try = False
         self._apart_wait = PROBE_FIRST_SECONDS
         self._apart_tried_at = clock()
         super().__init__(shapes, cores, clock, stall_us)
@@ -261,8 +265,8 @@ class LayoutPolicy(_Policy):
             return False
         if self._left_us is not None:
             changed = self._end_try(statistics.median(part[3] for part in self._parts), now)
-            if self.target == self.movable:  # every env here, kept or back: no parties left to place
-                self._left, self.apart = None, False
+            if self.target == self.movable:  # kept: the workers come back once a core is idle
+                self._left = None
             elif changed:  # failed: back to the layout it left, the parties as they were
                 self.apart = self._apart_before_try
         elif in_caller:
@@ -276,24 +280,15 @@ class LayoutPolicy(_Policy):
         """Every env is in the caller: try the workers again once a core has been idle, or once the
         caller's envs cost so much more than when they moved that the workers, their last costs
         scaled alike, are predicted faster. Where a try of whole batches put every env here
-        (`_try_every_env_here`), the workers' return is such a try too: the model chose them before.
-        On a shared machine that return needs no idle core, as the try itself needed none: it is of
-        the layout the try left, the parties as they were (beside a busy process, 8 envs of ~80 us
-        kept every env here after one slow window, at 1.1x one env, where 6 here and the parties
-        apart make 1.25x; no core idles there)."""
+        (`_try_every_env_here`), the workers' return is such a try too: the model chose them before."""
         if now - self._switched_at < self._probe_wait:
             return False
         idle = self._idle_cores()
         target, why = 0, f"{idle:.1f} idle cores: the workers are tried again"
         if self._left is None:  # here by a try
-            if not self._parts:
+            if idle < IDLE_CORES_TO_PROBE or not self._parts:
                 return False
-            if self._shared(now):
-                target, self.apart = self._target_before_try, self._apart_before_try
-                why = f"the machine is shared: {self._names(target)} is tried again"
-            elif idle < IDLE_CORES_TO_PROBE:
-                return False
-            return self._start_try(target, statistics.median(part[3] for part in self._parts), now, why)
+            return self._start_try(0, statistics.median(part[3] for part in self._parts), now, why)
         if idle < IDLE_CORES_TO_PROBE:
             if not self._parts or self._left.home_env_us <= 0:
                 return False
@@ -328,16 +323,22 @@ class LayoutPolicy(_Policy):
         self.home_slower = costs.home_env_us > APART_SWAP * costs.worker_env_us
         if self._apart_left_us is not None:
             return self._judge_apart(now, target, costs, batch_us, wall_us)
-        self._walls = [*self._walls[1 - APART_WINDOWS :], wall_us]
+        if self.apart and self.home_slower:  # the calling thread swaps CPUs with a worker (`PartiesApart.keep`)
+            self._walls = []  # they were of the CPUs it leaves
+            return False if target == self.target else self._move(target, now, costs, batch_us)
+        self._walls = [*self._walls[1 - WALL_WINDOWS :], wall_us]
         if target == self.target:
             if self._keep_apart(now, shared and batch_us >= APART_BATCH_US):
                 return False
-            return self._try_every_env_here(now, costs, wall_us, shared)
+            return self._try_every_env_here(now, costs, shared)
         return self._move(target, now, costs, batch_us)
+
+    def _switch(self, target: int, now: float | None, why: str) -> bool:
+        self._walls = []  # they were of the layout left
+        return super()._switch(target, now, why)
 
     def _move(self, target: int, now: float, costs: Costs, batch_us: float) -> bool:
         """Take ``target``, the model's choice on ``costs`` (a batch took ``batch_us``)."""
-        self._walls = []
         side = (f"the workers' side {costs.worker_stretch:.1f} times their stepping (apart)" if self.apart
                 else f"a hand-over {costs.handover_us:.1f} us")
         if target == self.movable:
@@ -380,11 +381,12 @@ class LayoutPolicy(_Policy):
         self.handover_us = seen_us if waited or self.handover_us is None else min(self.handover_us, seen_us)
         return Costs(home_env_us, worker_env_us, self.handover_us, cores=self.cores, parties=shape.workers + 1)
 
-    def _try_every_env_here(self, now: float, costs: Costs, wall_us: float, shared: bool) -> bool:
+    def _try_every_env_here(self, now: float, costs: Costs, shared: bool) -> bool:
         """Try every env in the calling process, judged by whole batches, unless its own envs' cost
         rules that out: stepping them all at home, at the cost per env measured now, must be faster
-        by `MARGIN` than a batch's wall time now (8 envs of ~75 us beside a busy process, the
-        parties apart: 592 us at home against 560 us a batch; each try lost 20% for its window).
+        by `MARGIN` than a batch's wall time now (the median of the layout's last `WALL_WINDOWS`
+        windows; 8 envs of ~75 us beside a busy process, the parties apart: 592 us at home against
+        560 us a batch; each try lost 20% for its window).
         A try runs for a window, as a consolidation policy's does; ``shared``: the machine is.
 
         The model sees only what the pool's parties measure, stepping and waiting. Two costs
@@ -399,17 +401,18 @@ class LayoutPolicy(_Policy):
           the other pool's, and neither pool's parties show what that costs the other (64 light
           envs each: 385k and 428k steps/s, where every env in each caller made 575k each).
 
-        A try is judged by the batches' wall time (``wall_us``: from one part to the next, the
+        A try is judged by the batches' wall time (the median of windows: a batch from one part to the next, the
         caller's own code included), not by the time the pool stepped and waited: in a crowd the
         caller also waits for a core between steps, and that wait is what the workers' wake-ups
         cost it (54 of 64 light envs in the caller: 106 us stepped and waited, 166 us a batch).
         Where the caller's code between steps is long (a learner's update), a try rarely wins by
         `MARGIN` and backs off, at most `TRY_SHARE` of the time."""
-        if now - self._switched_at < self._probe_wait:
+        if now - self._switched_at < self._probe_wait or len(self._walls) < WALL_WINDOWS:
             return False
+        wall_us = statistics.median(self._walls)
         if MARGIN * batch_us_of(costs, self.shapes[self.movable]) >= wall_us:
             return False
-        self._target_before_try, self._apart_before_try, self.apart = self.target, self.apart, False
+        self._apart_before_try, self.apart = self.apart, False
         where = "the machine is shared and " if shared else ""
         return self._start_try(self.movable, wall_us, now, f"{where}a batch takes {wall_us:.1f} us with "
                                                            f"{self._names(self.target)}: "
@@ -431,7 +434,7 @@ class LayoutPolicy(_Policy):
             return False
         if now - self._apart_tried_at < self._apart_wait or len(self._walls) < APART_WINDOWS:
             return False
-        self._apart_left_us, self._apart_left_target = statistics.fmean(self._walls), self.target
+        self._apart_left_us, self._apart_left_target = statistics.fmean(self._walls[-APART_WINDOWS:]), self.target
         self.apart, self._apart_tried_at, self._walls = not self.apart, now, []
         self._apart_swapped, self._apart_moves = False, 0
         return True
@@ -449,7 +452,9 @@ class LayoutPolicy(_Policy):
         - then `APART_WINDOWS` windows judge the try by a batch's wall time against the windows
           before it: kept if shorter by `APART_MARGIN`, else back to the choice and the layout it
           left, and the next try waits twice as long, and at least 19 times what the try cost
-          (`TRY_SHARE`)."""
+          (`TRY_SHARE`). A first window no shorter than those before ends the try at once: the
+          second could not bring it under them by the margin (beside a busy process, the parties
+          together took 600 us a batch where apart took 500; the try's cost halved)."""
         if target == self.movable:  # every env to the caller: no parties left to place
             self._apart_left_us = None
             return self._move(target, now, costs, batch_us)
