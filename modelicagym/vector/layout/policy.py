@@ -53,15 +53,23 @@ APART_BATCH_US = 120.0
 #: (at 3%, two heavy pools kept apart on a window's noise: their rates move ±10% from one 0.5 s to the next)
 APART_MARGIN = 1.1
 #: a try of the parties apart (or together) is judged on the mean wall time of this many windows, against
-#: as many before it (one window of 8 heavy envs beside a busy process, ~0.2 s, moves ±12% in one layout)
+#: the median of `WALL_WINDOWS` before it (one window of 8 heavy envs beside a busy process, ~0.2 s,
+#: moves ±12% in one layout)
 APART_WINDOWS = 2
-#: a try of every env in the caller must beat the median wall time of the last this many windows of the
-#: layout it leaves: beside a busy process, one window of 8 heavy envs with the parties apart read 820
-#: us a batch among 470-530, and every env at home (610 us, 1.1x one env where that layout makes
-#: 1.25x) was tried on it and kept
+#: a try of every env in the caller, or of the other choice of the parties apart, must beat the median
+#: wall time of the last this many windows of the layout it leaves: beside a busy process, one window of
+#: 8 heavy envs with the parties apart read 820 us a batch among 470-530, and every env at home (610
+#: us, 1.1x one env where that layout makes 1.25x) was tried on it and kept
 WALL_WINDOWS = 3
 #: a try of the parties apart (or together) moves the layout at most this many times before it is judged
 APART_MOVES = 3
+#: a part whose batches took this many times the wall time of the part before held a pause of the caller's
+#: (an evaluation, a learner's update between rollouts, another candidate's turn in a benchmark): its
+#: window and the next are dropped, and a running try's cost leaves the pause out. A try of the parties
+#: apart charged the 3 s between two of the benchmark's rounds waited 65 s before the next, kept together
+#: at 1.01x one env; the first window after a pause, the kernel still placing the neighbour, read 601 us a
+#: batch where the layout takes 500, and moved it
+PAUSE_FACTOR = 10.0
 #: apart, the workers' side over their stepping before it is measured: a worker sharing its CPU with
 #: one busy process gets half of it (measured beside one: 3.1-3.9)
 STRETCH_FIRST = 2.0
@@ -212,8 +220,11 @@ class LayoutPolicy(_Policy):
         self._stretches: list[float] = []
         #: the costs measured when every env last moved to the caller
         self._left: Costs | None = None
-        #: when the last part was observed (a part's wall time runs from there)
+        #: when the last part was observed (a part's wall time runs from there), and a batch's wall time in it
         self._observed_at: float | None = None
+        self._part_wall_us: float | None = None
+        #: the window running started after a pause (it is dropped)
+        self._after_pause = False
         self._idle_cores = idle_cores or IdleCores(cores)
         self._foreign_cores = foreign_cores or (lambda: None)
         self._probing = False
@@ -257,11 +268,19 @@ class LayoutPolicy(_Policy):
             local_us = local_ns / batches / 1e3
             batch_us = (local_ns + wait_ns) / batches / 1e3
             wall_us = batch_us if since is None else (now - since) / batches * 1e6
+            before_us, self._part_wall_us = self._part_wall_us, wall_us
+            if before_us is not None and wall_us > PAUSE_FACTOR * before_us:
+                self._paused((wall_us - before_us) * batches / 1e6)
+                return False
             # a batch (stepping and waiting), an env in the caller, the caller's own slice, a batch's wall time
             self._parts.append((batch_us, local_us / local_envs, local_us, wall_us))
             self._party_samples += samples
         in_caller = self.target == self.movable and self._left_us is None
         if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
+            return False
+        if self._after_pause:
+            self._after_pause = False
+            self._window()
             return False
         if self._left_us is not None:
             changed = self._end_try(statistics.median(part[3] for part in self._parts), now)
@@ -275,6 +294,14 @@ class LayoutPolicy(_Policy):
             changed = self._decide(now, None if parties is None else parties.costs(self._party_samples))
         self._window()
         return changed
+
+    def _paused(self, seconds: float) -> None:
+        """The caller paused for about ``seconds`` within the last part: this window and the next
+        are dropped (`PAUSE_FACTOR`), and a try running leaves the pause out of its cost (`TRY_SHARE`)."""
+        self._window()
+        self._after_pause = True
+        self._apart_tried_at += seconds if self._apart_left_us is not None else 0.0
+        self._try_started += seconds if self._left_us is not None or self._given_up else 0.0
 
     def _probe(self, now: float) -> bool:
         """Every env is in the caller: try the workers again once a core has been idle, or once the
@@ -432,9 +459,9 @@ class LayoutPolicy(_Policy):
             if self.apart:
                 self.apart, self._walls = False, []
             return False
-        if now - self._apart_tried_at < self._apart_wait or len(self._walls) < APART_WINDOWS:
+        if now - self._apart_tried_at < self._apart_wait or len(self._walls) < WALL_WINDOWS:
             return False
-        self._apart_left_us, self._apart_left_target = statistics.fmean(self._walls[-APART_WINDOWS:]), self.target
+        self._apart_left_us, self._apart_left_target = statistics.median(self._walls), self.target
         self.apart, self._apart_tried_at, self._walls = not self.apart, now, []
         self._apart_swapped, self._apart_moves = False, 0
         return True
@@ -449,8 +476,8 @@ class LayoutPolicy(_Policy):
           (`home_slower`: it swaps with a worker, `PartiesApart.keep`);
         - the layout moves where the model predicts another faster, up to `APART_MOVES` times (the
           model learns the workers' stretch apart from the first layout it measures there);
-        - then `APART_WINDOWS` windows judge the try by a batch's wall time against the windows
-          before it: kept if shorter by `APART_MARGIN`, else back to the choice and the layout it
+        - then `APART_WINDOWS` windows judge the try by a batch's wall time against the median of
+          the `WALL_WINDOWS` before it: kept if shorter by `APART_MARGIN`, else back to the choice and the layout it
           left, and the next try waits twice as long, and at least 19 times what the try cost
           (`TRY_SHARE`). A first window no shorter than those before ends the try at once: the
           second could not bring it under them by the margin (beside a busy process, the parties
