@@ -241,7 +241,9 @@ class LayoutPolicy(_Policy):
         #: worker's (`home_slower`), and how often it moved the layout
         self._apart_left_target = 0
         self._apart_swapped, self._apart_moves = False, 0
-        #: a batch's wall time in the last windows (at most `WALL_WINDOWS`), the layout and parties as now
+        #: a batch's wall time in the last windows (at most `WALL_WINDOWS`) since the parties last changed
+        #: CPUs or every env was at home (the model's moves keep them: two trainings of 64 light envs
+        #: each, whose layouts move every few windows, otherwise never tried every env at home)
         self._walls: list[float] = []
         #: whether the parties were apart before a try of every env in the caller (back with them if it fails)
         self._apart_before_try = False
@@ -360,10 +362,6 @@ class LayoutPolicy(_Policy):
             return self._try_every_env_here(now, costs, shared)
         return self._move(target, now, costs, batch_us)
 
-    def _switch(self, target: int, now: float | None, why: str) -> bool:
-        self._walls = []  # they were of the layout left
-        return super()._switch(target, now, why)
-
     def _move(self, target: int, now: float, costs: Costs, batch_us: float) -> bool:
         """Take ``target``, the model's choice on ``costs`` (a batch took ``batch_us``)."""
         side = (f"the workers' side {costs.worker_stretch:.1f} times their stepping (apart)" if self.apart
@@ -371,7 +369,7 @@ class LayoutPolicy(_Policy):
         if target == self.movable:
             self._idle_cores()  # the idle-core reading starts now
             self._left = costs
-            self.apart = False
+            self.apart, self._walls = False, []
         predicted = batch_us_of(costs, self.shapes[target])
         # a move within the spread layouts does not delay the next try; every env at home starts the probes' wait
         changed_at = now if target == self.movable else None
@@ -439,7 +437,7 @@ class LayoutPolicy(_Policy):
         wall_us = statistics.median(self._walls)
         if MARGIN * batch_us_of(costs, self.shapes[self.movable]) >= wall_us:
             return False
-        self._apart_before_try, self.apart = self.apart, False
+        self._apart_before_try, self.apart, self._walls = self.apart, False, []
         where = "the machine is shared and " if shared else ""
         return self._start_try(self.movable, wall_us, now, f"{where}a batch takes {wall_us:.1f} us with "
                                                            f"{self._names(self.target)}: "
