@@ -63,9 +63,9 @@ APART_WINDOWS = 2
 WALL_WINDOWS = 3
 #: a try of the parties apart (or together) moves the layout at most this many times before it is judged
 APART_MOVES = 3
-#: a part whose batches took this many times the wall time of the part before held a pause of the caller's
-#: (an evaluation, a learner's update between rollouts, another candidate's turn in a benchmark): its
-#: window and the next are dropped, and a running try's cost leaves the pause out. A try of the parties
+#: a part whose batches took this many times the wall time of the part before, workers stepping, held a
+#: pause of the caller's (an evaluation, a learner's update between rollouts, another candidate's turn in
+#: a benchmark): its window and the next are dropped, and a running try's cost leaves the pause out. A try of the parties
 #: apart charged the 3 s between two of the benchmark's rounds waited 65 s before the next, kept together
 #: at 1.01x one env; the first window after a pause, the kernel still placing the neighbour, read 601 us a
 #: batch where the layout takes 500, and moved it
@@ -266,18 +266,19 @@ class LayoutPolicy(_Policy):
         self._account_failed_try()
         now = self._clock()
         since, self._observed_at = self._observed_at, now
+        # every env in the caller, no try running: its probes read idle cores and the parts' medians
+        in_caller = self.target == self.movable and self._left_us is None
         if batches and local_envs:
             local_us = local_ns / batches / 1e3
             batch_us = (local_ns + wait_ns) / batches / 1e3
             wall_us = batch_us if since is None else (now - since) / batches * 1e6
             before_us, self._part_wall_us = self._part_wall_us, wall_us
-            if before_us is not None and wall_us > PAUSE_FACTOR * before_us:
+            if not in_caller and before_us is not None and wall_us > PAUSE_FACTOR * before_us:
                 self._paused((wall_us - before_us) * batches / 1e6)
                 return False
             # a batch (stepping and waiting), an env in the caller, the caller's own slice, a batch's wall time
             self._parts.append((batch_us, local_us / local_envs, local_us, wall_us))
             self._party_samples += samples
-        in_caller = self.target == self.movable and self._left_us is None
         if now - self._window_start < WINDOW_SECONDS or (not in_caller and len(self._parts) < WINDOW_PARTS):
             return False
         if self._after_pause:
