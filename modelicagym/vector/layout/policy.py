@@ -65,10 +65,10 @@ WALL_WINDOWS = 3
 APART_MOVES = 3
 #: a part whose batches took this many times the wall time of the part before, workers stepping, held a
 #: pause of the caller's (an evaluation, a learner's update between rollouts, another candidate's turn in
-#: a benchmark): its window and the next are dropped, and a running try's cost leaves the pause out. A try of the parties
-#: apart charged the 3 s between two of the benchmark's rounds waited 65 s before the next, kept together
-#: at 1.01x one env; the first window after a pause, the kernel still placing the neighbour, read 601 us a
-#: batch where the layout takes 500, and moved it
+#: a benchmark): its window and the next are dropped, and a running try's cost leaves the pause out. A
+#: try of the parties apart charged the 3 s between two of the benchmark's rounds waited 65 s before the
+#: next, kept together at 1.01x one env; the first window after a pause, the kernel still placing the
+#: neighbour, read 601 us a batch where the layout takes 500, and moved it
 PAUSE_FACTOR = 10.0
 #: apart, the workers' side over their stepping before it is measured: a worker sharing its CPU with
 #: one busy process gets half of it (measured beside one: 3.1-3.9)
@@ -213,10 +213,8 @@ class LayoutPolicy(_Policy):
         #: the hand-over (us; ``None``: none yet): the last measured while the caller waited for the
         #: workers, and at most what a window since left for it within the caller's own slice
         self.handover_us: float | None = None
-        #: apart, the workers' side of a batch over their stepping (``None``: not measured yet): the
-        #: median of the last `STRETCH_WINDOWS` measured while the caller waited for the workers, and at
-        #: most what the window now left for it within the caller's own slice
-        self.worker_stretch: float | None = None
+        #: apart, the workers' side of a batch over their stepping, in the last `STRETCH_WINDOWS` windows
+        #: where the caller waited for the workers (the model takes their median, `_costs`)
         self._stretches: list[float] = []
         #: the costs measured when every env last moved to the caller
         self._left: Costs | None = None
@@ -303,8 +301,10 @@ class LayoutPolicy(_Policy):
         are dropped (`PAUSE_FACTOR`), and a try running leaves the pause out of its cost (`TRY_SHARE`)."""
         self._window()
         self._after_pause = True
-        self._apart_tried_at += seconds if self._apart_left_us is not None else 0.0
-        self._try_started += seconds if self._left_us is not None or self._given_up else 0.0
+        if self._apart_left_us is not None:
+            self._apart_tried_at += seconds
+        if self._left_us is not None or self._given_up:
+            self._try_started += seconds
 
     def _probe(self, now: float) -> bool:
         """Every env is in the caller: try the workers again once a core has been idle, or once the
@@ -400,8 +400,8 @@ class LayoutPolicy(_Policy):
             if waited:
                 self._stretches = [*self._stretches[1 - STRETCH_WINDOWS :], seen]
             known = statistics.median(self._stretches) if self._stretches else STRETCH_FIRST
-            self.worker_stretch = known if waited else min(known, seen)
-            return Costs(home_env_us, worker_env_us, 0.0, worker_stretch=self.worker_stretch, cores=self.cores,
+            stretch = known if waited else min(known, seen)  # the workers' side ended within the caller's
+            return Costs(home_env_us, worker_env_us, 0.0, worker_stretch=stretch, cores=self.cores,
                          parties=shape.workers + 1)
         seen_us = max(lived_us - parties.worker_us, 0.0)
         self.handover_us = seen_us if waited or self.handover_us is None else min(self.handover_us, seen_us)
@@ -427,8 +427,8 @@ class LayoutPolicy(_Policy):
           the other pool's, and neither pool's parties show what that costs the other (64 light
           envs each: 385k and 428k steps/s, where every env in each caller made 575k each).
 
-        A try is judged by the batches' wall time (the median of windows: a batch from one part to the next, the
-        caller's own code included), not by the time the pool stepped and waited: in a crowd the
+        A try is judged by the batches' wall time (from one part to the next, the caller's own code
+        included; medians of windows), not by the time the pool stepped and waited: in a crowd the
         caller also waits for a core between steps, and that wait is what the workers' wake-ups
         cost it (54 of 64 light envs in the caller: 106 us stepped and waited, 166 us a batch).
         Where the caller's code between steps is long (a learner's update), a try rarely wins by
@@ -476,9 +476,9 @@ class LayoutPolicy(_Policy):
         - the layout moves where the model predicts another faster, up to `APART_MOVES` times (the
           model learns the workers' stretch apart from the first layout it measures there);
         - then `APART_WINDOWS` windows judge the try by a batch's wall time against the median of
-          the `WALL_WINDOWS` before it: kept if shorter by `APART_MARGIN`, else back to the choice and the layout it
-          left, and the next try waits twice as long, and at least 19 times what the try cost
-          (`TRY_SHARE`). A first window no shorter than those before ends the try at once: the
+          the `WALL_WINDOWS` before it: kept if shorter by `APART_MARGIN`, else back to the choice
+          and the layout it left, and the next try waits twice as long, and at least 19 times what
+          the try cost (`TRY_SHARE`). A first window no shorter than those before ends the try at once: the
           second could not bring it under them by the margin (beside a busy process, the parties
           together took 600 us a batch where apart took 500; the try's cost halved)."""
         if target == self.movable:  # every env to the caller: no parties left to place
